@@ -1,0 +1,20 @@
+# The two commands of the README. Each sets up what it needs (scripts/setup.sh).
+.PHONY: setup demo test benchmark plugins clean
+
+setup:
+	@bash scripts/setup.sh
+
+demo: setup
+	.venv/bin/python examples/demo.py
+
+test: setup
+	.venv/bin/python -m pytest -q
+
+benchmark: setup
+	.venv/bin/python benchmarks/simulation.py
+
+plugins: setup
+	.venv/bin/lagrangian plugins
+
+clean:
+	rm -rf .venv build *.egg-info core/*.egg-info examples/plugins/*/*.egg-info .pytest_cache

@@ -1,0 +1,120 @@
+"""Assembly: from the component graph to coordinates and summed energy terms.
+
+Each domain present in the model builds its coordinates; each component
+then contributes ``T``, ``V``, ``D`` and loads through a :class:`Context`.
+The sums are the model's kinetic energy, potential energy and Rayleigh
+function; ``L = T - V``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+from .component import GROUND, Component, Contribution, Load, t
+from .domain import Context, Coordinate, DomainView, Network
+from .errors import DomainError, LagrangianError, ModelError
+from .graph import ComponentGraph
+from .network import check_topology
+from .registry import Registry
+
+__all__ = ["Assembly", "assemble"]
+
+
+@dataclass
+class Assembly:
+    """The coordinates of a model and the energy terms of its components (SymPy, functions of ``t``)."""
+
+    coordinates: list[Coordinate]
+    views: dict[str, DomainView]
+    contributions: dict[str, Contribution]
+    signals: dict[sp.Function, Any] = field(default_factory=dict)
+
+    @property
+    def T(self) -> sp.Expr:
+        return sp.Add(*(sp.sympify(c.T) for c in self.contributions.values()))
+
+    @property
+    def V(self) -> sp.Expr:
+        return sp.Add(*(sp.sympify(c.V) for c in self.contributions.values()))
+
+    @property
+    def D(self) -> sp.Expr:
+        return sp.Add(*(sp.sympify(c.D) for c in self.contributions.values()))
+
+    @property
+    def loads(self) -> list[tuple[str, Load]]:
+        return [(name, load) for name, c in self.contributions.items() for load in c.loads]
+
+
+def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, Any]) -> Assembly:
+    """Choose coordinates domain by domain, then collect every component's contribution."""
+    components = list(graph.components.values())
+    if not components:
+        raise ModelError("the model has no components: add some with Model.add(kind, name, nodes, **params).")
+    graph.node_domains()
+    whole = graph.graph()
+    roles = {k: d["component"].role for _, _, k, d in whole.edges(keys=True, data=True)}
+    check_topology(whole, GROUND, roles.get)
+
+    views: dict[str, DomainView] = {}
+    for dname in dict.fromkeys(c.domain for c in components):
+        domain = registry.domains.get(dname)
+        if domain is None:
+            raise DomainError(f"no installed plugin provides the domain {dname!r}.")
+        members = [c for c in components if c.domain == dname]
+        opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
+        views[dname] = domain.build(Network(graph.graph(members), members), opts)
+
+    coordinates: list[Coordinate] = []
+    seen: dict[str, str] = {}
+    for dname, view in views.items():
+        for c in view.coordinates:
+            if c.name in seen:
+                raise ModelError(f"coordinate {c.name!r} is introduced by both the {seen[c.name]} and the {dname} domain.")
+            seen[c.name] = dname
+            coordinates.append(c)
+
+    allowed = {c.function.func for c in coordinates}
+    signals: dict[sp.Function, Any] = {}
+    for comp in components:
+        signals.update(comp.signals())
+    contributions = {}
+    for comp in components:
+        ctx = Context(views[comp.domain], views, dict(options), components)
+        try:
+            contribution = comp.contribute(ctx)
+        except LagrangianError:
+            raise
+        except Exception as exc:
+            raise ModelError(
+                f"{comp.kind} {comp.name!r} failed to contribute its energy: {exc.__class__.__name__}: {exc}"
+            ) from exc
+        _check_contribution(comp, contribution, allowed | set(signals))
+        contributions[comp.name] = contribution
+    return Assembly(coordinates, views, contributions, signals)
+
+
+def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
+    where = f"{comp.kind} {comp.name!r}"
+    if not isinstance(c, Contribution):
+        raise ModelError(f"{where}: contribute() returned {type(c).__name__}, not a lagrangian.Contribution.")
+    parts = [("T", c.T), ("V", c.V), ("D", c.D)]
+    for i, load in enumerate(c.loads):
+        if not isinstance(load, Load):
+            raise ModelError(f"{where}: loads[{i}] is not a lagrangian.Load.")
+        parts += [(f"loads[{i}].force", load.force), (f"loads[{i}].velocity", load.velocity)]
+    for label, expr in parts:
+        try:
+            expr = sp.sympify(expr)
+        except sp.SympifyError:
+            raise ModelError(f"{where}: {label} is not a SymPy expression: {expr!r}.") from None
+        if label in ("T", "V", "D") and not isinstance(expr, sp.Expr):
+            raise ModelError(f"{where}: {label} must be a scalar expression.")
+        for f in expr.atoms(AppliedUndef):
+            if f.func not in allowed:
+                raise ModelError(f"{where}: {label} depends on {f}, which is neither a coordinate nor a signal.")

@@ -1,0 +1,271 @@
+"""Components: the things a model is built from.
+
+A component never writes equations of motion.  It declares its parameters and
+terminals and, given a *context* holding the model's coordinates, returns a
+:class:`Contribution`: kinetic energy (or co-energy) ``T``, potential energy
+``V``, Rayleigh dissipation ``D`` and :class:`Load` s (generalized forces by
+virtual power).  The assembly sums contributions into one Lagrangian.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import sympy as sp
+
+from .errors import ParameterError
+
+__all__ = ["t", "GROUND", "Parameter", "Load", "Contribution", "Example", "Component", "dot"]
+
+#: The time symbol every model shares.
+t = sp.Symbol("t", real=True)
+
+#: Name of the reference node shared by all domains.  ``"0"`` and ``"gnd"`` are accepted aliases.
+GROUND = "ground"
+GROUND_ALIASES = frozenset({"ground", "gnd", "0"})
+
+_REQUIRED = object()
+_CHECKS = {
+    "positive": (lambda v: v > 0, "must be positive"),
+    "nonnegative": (lambda v: v >= 0, "must be zero or positive"),
+    "nonzero": (lambda v: v != 0, "must not be zero"),
+    "real": (lambda v: True, ""),
+}
+
+
+def dot(a: sp.Matrix, b: sp.Matrix) -> sp.Expr:
+    """Scalar product of two column matrices.
+
+    >>> dot(sp.Matrix([1, 2]), sp.Matrix([3, 4]))
+    11
+    """
+    return (a.T * b)[0, 0]
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """Declaration of one parameter of a component type.
+
+    ``check`` is one of ``"positive"``, ``"nonnegative"``, ``"nonzero"``,
+    ``"real"``.  ``shape`` is ``"scalar"``, ``"vector"`` (a sequence or
+    matrix, one entry per spatial axis) or ``"signal"`` (a number, a SymPy
+    expression of :data:`t`, or a Python callable of time; callables become
+    undefined functions in the equations and are called numerically).
+
+    >>> Parameter("stiffness", unit="N/m").coerce(4, "k1", "k")
+    4
+    >>> Parameter("mass").coerce(-1, "m1", "m")
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.ParameterError: component 'm1', parameter 'm': must be positive (got -1).
+    """
+
+    doc: str
+    default: Any = _REQUIRED
+    check: str = "positive"
+    shape: str = "scalar"
+    unit: str = ""
+
+    @property
+    def required(self) -> bool:
+        return self.default is _REQUIRED
+
+    def coerce(self, value: Any, component: str, name: str) -> Any:
+        """Turn a user value into a SymPy object, checking it; raise :class:`ParameterError`."""
+        if self.shape == "signal" and callable(value) and not isinstance(value, sp.Basic):
+            return _CallableSignal(value, f"{name}_{component}")
+        if self.shape == "signal" and isinstance(value, (Sequence, sp.MatrixBase)) and not isinstance(value, (str, bytes)):
+            return sp.Matrix([self._scalar(v, component, name, check="real") for v in value])
+        if self.shape == "vector" and value is not None:
+            if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, sp.MatrixBase)):
+                raise ParameterError(component, name, f"expected a vector (a sequence of numbers), got {value!r}.")
+            return sp.Matrix([self._scalar(v, component, name, check="real") for v in value])
+        if value is None:
+            return None
+        return self._scalar(value, component, name, check=self.check)
+
+    def _scalar(self, value: Any, component: str, name: str, check: str) -> sp.Expr:
+        if isinstance(value, bool):
+            raise ParameterError(component, name, f"expected a number or a SymPy expression, got {value!r}.")
+        try:
+            expr = sp.sympify(value, strict=not isinstance(value, str))
+        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            raise ParameterError(
+                component, name, f"expected a number or a SymPy expression, got {value!r} ({exc.__class__.__name__})."
+            ) from None
+        if not isinstance(expr, sp.Expr):
+            raise ParameterError(component, name, f"expected a scalar expression, got {value!r}.")
+        if self.shape != "signal" and t in expr.free_symbols:
+            raise ParameterError(component, name, "depends on time t; only signal parameters may.")
+        check_value(expr, check, component, name)
+        return expr
+
+
+def check_value(expr: Any, check: str, component: str, name: str) -> None:
+    """Check a scalar against a parameter rule; symbolic values are checked by their assumptions."""
+    test, rule = _CHECKS[check]
+    if isinstance(expr, sp.MatrixBase) or isinstance(expr, _CallableSignal) or expr is None:
+        return
+    if expr.is_number:
+        if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo) or not expr.is_real:
+            raise ParameterError(component, name, f"must be a finite real number (got {expr}).")
+        if not test(float(expr)):
+            raise ParameterError(component, name, f"{rule} (got {expr}).")
+        return
+    # symbolic: refuse only what the assumptions prove wrong
+    verdict = {
+        "positive": expr.is_positive,
+        "nonnegative": expr.is_nonnegative,
+        "nonzero": expr.is_nonzero,
+        "real": expr.is_real,
+    }[check]
+    if verdict is False:
+        raise ParameterError(component, name, f"{rule}, but {expr} is declared otherwise.")
+
+
+class _CallableSignal:
+    """A Python callable of time standing in for a signal parameter."""
+
+    def __init__(self, func: Callable[[float], float], label: str):
+        self.func = func
+        self.function = sp.Function(_identifier(label))
+        self.expr = self.function(t)
+
+    def __repr__(self) -> str:
+        return f"<callable {self.function}(t)>"
+
+
+def _identifier(label: str) -> str:
+    out = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in label)
+    return out if out and not out[0].isdigit() else f"f_{out}"
+
+
+@dataclass(frozen=True)
+class Load:
+    """A generalized force given by virtual power: ``force · velocity``.
+
+    ``velocity`` is the velocity (a SymPy expression or column matrix, in
+    terms of the coordinates' time derivatives) of the point or branch the
+    force acts on; the generalized force on coordinate ``q_k`` is
+    ``force · ∂velocity/∂q̇_k``.  ``force`` may depend on velocities.
+    """
+
+    force: Any
+    velocity: Any
+
+
+@dataclass
+class Contribution:
+    """What one component adds to the model (all SymPy, in terms of the context's coordinates).
+
+    ``T``: kinetic energy or co-energy; ``V``: potential energy;
+    ``D``: Rayleigh dissipation function (half the dissipated power for a
+    linear damper); ``loads``: generalized forces by virtual power.
+    """
+
+    T: Any = 0
+    V: Any = 0
+    D: Any = 0
+    loads: list[Load] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Example:
+    """An example instance of a component kind, for documentation and the conformance suite.
+
+    ``nodes`` and ``params`` build the instance itself; ``context`` lists the
+    other components (``(kind, name, nodes, params)``) that make a model of
+    it well-posed; ``options`` are :class:`Model` options.
+    """
+
+    nodes: Any = ()
+    params: Mapping[str, Any] = field(default_factory=dict)
+    context: Sequence[tuple[str, str, Any, Mapping[str, Any]]] = ()
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+
+class Component:
+    """Base class of every component type.
+
+    Subclasses declare, as class attributes:
+
+    1. ``kind``: the unique name users pass to :meth:`Model.add`.
+    2. ``domain``: the registered domain whose coordinates it reads.
+    3. ``terminals``: names of its connection points.  One terminal means
+       the component sits between that node and ``ground`` (a mass is
+       referred to the inertial frame as a capacitor is to ground); two
+       terminals ``(a, b)`` give a branch oriented from ``a`` to ``b``.
+    4. ``parameters``: a mapping of name to :class:`Parameter`.
+    5. ``role``: ``None``, ``"across"`` (an ideal source fixing the across
+       quantity of its branch: a prescribed motion, a voltage source) or
+       ``"through"`` (fixing its through quantity: a current source).
+
+    and implement ``contribute(ctx)`` and the classmethod ``example()``.
+    Parameters are available as attributes (``self.k``).
+    """
+
+    kind: ClassVar[str]
+    domain: ClassVar[str]
+    terminals: ClassVar[tuple[str, ...]] = ("a", "b")
+    parameters: ClassVar[Mapping[str, Parameter]] = {}
+    role: ClassVar[str | None] = None
+
+    def __init__(self, name: str, nodes: tuple[str, ...], params: Mapping[str, Any]):
+        self.name = name
+        self.nodes = nodes
+        unknown = set(params) - set(self.parameters)
+        if unknown:
+            from .errors import closest
+
+            bad = sorted(unknown)[0]
+            raise ParameterError(
+                name,
+                bad,
+                f"{self.kind!r} has no such parameter.{closest(bad, self.parameters)} "
+                f"Its parameters: {', '.join(self.parameters) or '(none)'}.",
+            )
+        values = {}
+        for pname, spec in self.parameters.items():
+            if pname in params:
+                values[pname] = spec.coerce(params[pname], name, pname)
+            elif spec.required:
+                raise ParameterError(name, pname, f"required ({spec.doc}{', ' + spec.unit if spec.unit else ''}).")
+            else:
+                values[pname] = spec.coerce(spec.default, name, pname) if spec.default is not None else None
+        self.params = values
+
+    def __getattr__(self, item: str) -> Any:
+        params = self.__dict__.get("params")
+        if params is not None and item in params:
+            value = params[item]
+            return value.expr if isinstance(value, _CallableSignal) else value
+        raise AttributeError(f"{type(self).__name__!s} {self.__dict__.get('name', '')!r} has no attribute {item!r}")
+
+    def __repr__(self) -> str:
+        return f"<{self.kind} {self.name!r} at {', '.join(self.nodes) or '(global)'}>"
+
+    def branches(self) -> list[tuple[str, str]]:
+        """Edges this component adds to the graph, as ``(a, b)`` node pairs."""
+        if len(self.nodes) == 1:
+            return [(self.nodes[0], GROUND)]
+        if len(self.nodes) == 2:
+            return [tuple(self.nodes)]
+        if not self.nodes:
+            return []
+        raise NotImplementedError(f"{self.kind}: components with more than two terminals must define branches()")
+
+    def signals(self) -> dict[sp.Function, Callable[[float], float]]:
+        """Python callables standing behind the component's signal parameters."""
+        return {v.function: v.func for v in self.params.values() if isinstance(v, _CallableSignal)}
+
+    def contribute(self, ctx: Any) -> Contribution:  # pragma: no cover - abstract
+        """Return this component's :class:`Contribution` for the model context ``ctx``."""
+        raise NotImplementedError
+
+    @classmethod
+    def example(cls) -> Example:  # pragma: no cover - abstract
+        """An :class:`Example` of this kind, used by documentation and the conformance suite."""
+        raise NotImplementedError
+

@@ -1,0 +1,106 @@
+"""Domains: how part of the component graph becomes generalized coordinates.
+
+A domain (registered by a plugin through ``register_domains``) receives the
+sub-network of components that belong to it and returns a
+:class:`DomainView`: the generalized coordinates it introduces, plus
+whatever accessors its components read them through (node positions, branch
+charges, branch flux linkages, ...).  Core code never looks inside a view.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import networkx as nx
+import sympy as sp
+
+from .component import GROUND, Component, t
+
+__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context"]
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """A generalized coordinate: a named function of time.
+
+    >>> c = Coordinate.named("x_cart", "position of node 'cart'")
+    >>> c.function
+    x_cart(t)
+    """
+
+    name: str
+    function: sp.Expr
+    description: str = ""
+
+    @classmethod
+    def named(cls, name: str, description: str = "") -> "Coordinate":
+        return cls(name, sp.Function(name, real=True)(t), description)
+
+
+@dataclass(frozen=True)
+class Option:
+    """A model option a domain accepts, e.g. ``Option(1, "dimension", choices=(1, 2, 3))``."""
+
+    default: Any
+    doc: str
+    choices: Sequence[Any] = ()
+
+
+@dataclass
+class Network:
+    """The part of the component graph that belongs to one domain.
+
+    ``graph`` is a networkx ``MultiGraph`` whose edges are keyed by component
+    name and carry ``a``/``b`` (the branch orientation) and ``component``.
+    It always contains the node ``ground``.
+    """
+
+    graph: nx.MultiGraph
+    components: list[Component]
+    ground: str = GROUND
+
+    @property
+    def nodes(self) -> list[str]:
+        """Non-ground nodes, in insertion order."""
+        return [n for n in self.graph.nodes if n != self.ground]
+
+
+@dataclass
+class DomainView:
+    """What a domain exposes to components: at least its coordinates."""
+
+    coordinates: list[Coordinate] = field(default_factory=list)
+
+
+class Domain:
+    """Base class of a physical domain.
+
+    Subclasses set ``name`` and ``options`` and implement
+    ``build(network, options) -> DomainView``, which must raise a
+    :class:`lagrangian.errors.ModelError` subclass naming the culprit when the
+    network cannot be given coordinates.
+    """
+
+    name: ClassVar[str]
+    options: ClassVar[Mapping[str, Option]] = {}
+
+    def build(self, network: Network, options: Mapping[str, Any]) -> DomainView:  # pragma: no cover
+        raise NotImplementedError
+
+
+@dataclass
+class Context:
+    """Passed to :meth:`Component.contribute`.
+
+    ``view`` is the view of the component's own domain, ``views`` those of
+    every domain in the model (for components that couple domains),
+    ``options`` the model's options and ``components`` all components.
+    """
+
+    view: DomainView
+    views: Mapping[str, DomainView]
+    options: Mapping[str, Any]
+    components: Sequence[Component]
+    t: sp.Symbol = t

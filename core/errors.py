@@ -1,0 +1,141 @@
+"""The exception hierarchy of lagrangian.
+
+Every error the library raises on purpose derives from :class:`LagrangianError`,
+names the component, node, parameter or plugin at fault, and says what would
+fix it.
+
+>>> issubclass(UnknownKindError, ModelError) and issubclass(ModelError, LagrangianError)
+True
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+__all__ = [
+    "LagrangianError",
+    "PluginError",
+    "ModelError",
+    "UnknownKindError",
+    "ParameterError",
+    "UnknownNodeError",
+    "UnknownNameError",
+    "DuplicateNameError",
+    "DanglingNodeError",
+    "DomainError",
+    "TopologyError",
+    "FloatingNetworkError",
+    "NumericalError",
+    "SingularMassMatrixError",
+    "IntegrationError",
+    "closest",
+]
+
+
+def closest(word: str, choices: Iterable[str]) -> str:
+    """A ``" Did you mean 'x'?"`` suffix naming the closest choice, or ``""``.
+
+    >>> closest("sprng", ["spring", "mass"])
+    " Did you mean 'spring'?"
+    """
+    match = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    return f" Did you mean {match[0]!r}?" if match else ""
+
+
+class LagrangianError(Exception):
+    """Base class of every error raised by lagrangian."""
+
+
+class PluginError(LagrangianError):
+    """A plugin failed to load, or registered something invalid.
+
+    ``plugin`` names the plugin at fault.
+    """
+
+    def __init__(self, plugin: str, message: str):
+        self.plugin = plugin
+        super().__init__(f"plugin {plugin!r}: {message}")
+
+
+class ModelError(LagrangianError, ValueError):
+    """The model as described cannot be assembled."""
+
+
+class UnknownKindError(ModelError):
+    """No registered plugin provides the requested component kind."""
+
+    def __init__(self, kind: str, known: Iterable[str]):
+        known = sorted(known)
+        self.kind = kind
+        super().__init__(
+            f"unknown component kind {kind!r}.{closest(kind, known)} "
+            f"Known kinds: {', '.join(known)}. A third-party kind needs its plugin installed "
+            f"(see `lagrangian plugins`)."
+        )
+
+
+class ParameterError(ModelError):
+    """A parameter is missing, unknown, or has an invalid value."""
+
+    def __init__(self, component: str, parameter: str, message: str):
+        self.component = component
+        self.parameter = parameter
+        super().__init__(f"component {component!r}, parameter {parameter!r}: {message}")
+
+
+class UnknownNodeError(ModelError):
+    """A node was referred to that the model does not have."""
+
+    def __init__(self, node: str, known: Iterable[str]):
+        known = sorted(map(str, known))
+        self.node = node
+        super().__init__(
+            f"unknown node {node!r}.{closest(node, known)} Nodes of this model: {', '.join(known)}."
+        )
+
+
+class UnknownNameError(ModelError):
+    """A coordinate, parameter or component name that the model does not have."""
+
+    def __init__(self, what: str, name: str, known: Iterable[str]):
+        known = sorted(map(str, known))
+        self.name = name
+        super().__init__(
+            f"unknown {what} {name!r}.{closest(name, known)} "
+            f"Known: {', '.join(known) if known else '(none)'}."
+        )
+
+
+class DuplicateNameError(ModelError):
+    """Two components were given the same name."""
+
+
+class DanglingNodeError(ModelError):
+    """A declared node has nothing attached to it."""
+
+
+class DomainError(ModelError):
+    """Components of different physical domains meet at one node, or a domain is missing."""
+
+
+class TopologyError(ModelError):
+    """The network cannot be solved as drawn: a loop of ideal across-sources
+    (voltage sources, prescribed motions) or a cut-set of ideal through-sources
+    (current sources)."""
+
+
+class FloatingNetworkError(TopologyError):
+    """Part of the network has no path to the reference node ``ground``."""
+
+
+class NumericalError(LagrangianError, ArithmeticError):
+    """Numerical trouble detected while evaluating or integrating a model."""
+
+
+class SingularMassMatrixError(NumericalError):
+    """The mass matrix (with first-order rows) cannot be solved for the accelerations."""
+
+
+class IntegrationError(NumericalError):
+    """The integrator failed or produced non-finite values."""

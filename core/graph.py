@@ -1,0 +1,102 @@
+"""The component graph: nodes are connection points, components attach to them.
+
+Held in a networkx ``MultiGraph`` whose edges are the components' branches,
+keyed by component name.  Components with no terminals (uniform gravity)
+attach to the model as a whole.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+import networkx as nx
+
+from .component import GROUND, GROUND_ALIASES, Component
+from .errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, UnknownNodeError
+
+__all__ = ["ComponentGraph"]
+
+
+class ComponentGraph:
+    """Components, the nodes they attach to, and the graph that joins them.
+
+    >>> g = ComponentGraph()
+    >>> g.normalize_node("0")
+    'ground'
+    """
+
+    def __init__(self) -> None:
+        self.components: dict[str, Component] = {}
+        self.declared: list[str] = []
+
+    @staticmethod
+    def normalize_node(node: Any) -> str:
+        if not isinstance(node, (str, int)) or isinstance(node, bool) or str(node).strip() == "":
+            raise ModelError(f"node names must be non-empty strings, got {node!r}.")
+        name = str(node)
+        return GROUND if name.lower() in GROUND_ALIASES else name
+
+    def declare(self, node: Any) -> str:
+        name = self.normalize_node(node)
+        if name not in self.declared and name != GROUND:
+            self.declared.append(name)
+        return name
+
+    def add(self, component: Component) -> None:
+        if component.name in self.components:
+            other = self.components[component.name]
+            raise DuplicateNameError(
+                f"component name {component.name!r} is already used by a {other.kind} at "
+                f"{', '.join(other.nodes) or '(global)'}: give the new {component.kind} another name."
+            )
+        self.components[component.name] = component
+
+    def nodes(self) -> list[str]:
+        """All nodes in order of first use, ground first."""
+        seen = {GROUND: None}
+        for name in self.declared:
+            seen.setdefault(name)
+        for comp in self.components.values():
+            for n in comp.nodes:
+                seen.setdefault(n)
+        return list(seen)
+
+    def check_node(self, node: Any) -> str:
+        """The normalized name of an existing node, or :class:`UnknownNodeError`."""
+        name = self.normalize_node(node)
+        if name not in self.nodes():
+            raise UnknownNodeError(name, self.nodes())
+        return name
+
+    def node_domains(self) -> dict[str, str]:
+        """The domain of every non-ground node; raises if domains meet at a node or a node is bare."""
+        domains: dict[str, tuple[str, str]] = {}
+        for comp in self.components.values():
+            for n in comp.nodes:
+                if n == GROUND:
+                    continue
+                if n in domains and domains[n][0] != comp.domain:
+                    dom, other = domains[n]
+                    raise DomainError(
+                        f"node {n!r} joins {comp.kind} {comp.name!r} ({comp.domain}) and component {other!r} ({dom}); "
+                        f"a node belongs to one domain. Couple domains with a transducer component instead."
+                    )
+                domains.setdefault(n, (comp.domain, comp.name))
+        bare = [n for n in self.declared if n not in domains]
+        if bare:
+            raise DanglingNodeError(
+                f"node {bare[0]!r} has nothing attached: attach a component to it or do not declare it."
+            )
+        return {n: d for n, (d, _) in domains.items()}
+
+    def graph(self, components: Iterable[Component] | None = None) -> nx.MultiGraph:
+        """A ``MultiGraph`` of the given components' branches (all components by default)."""
+        g = nx.MultiGraph()
+        g.add_node(GROUND)
+        for comp in self.components.values() if components is None else components:
+            g.add_nodes_from(n for n in comp.nodes)
+            for i, (a, b) in enumerate(comp.branches()):
+                key = comp.name if i == 0 else f"{comp.name}#{i}"
+                g.add_edge(a, b, key=key, a=a, b=b, component=comp)
+        return g

@@ -1,0 +1,68 @@
+"""Hook specifications: the whole interface between lagrangian and its plugins.
+
+A plugin is a module (or any object) with functions marked ``@hookimpl``,
+registered through the entry-point group ``lagrangian``::
+
+    # pyproject.toml of a plugin distribution
+    [project.entry-points.lagrangian]
+    cubic_spring = "lagrangian_cubic_spring"
+
+    # lagrangian_cubic_spring.py
+    from lagrangian import hookimpl
+
+    @hookimpl
+    def register_component_types(register):
+        register(CubicSpring)
+
+Built-in plugins (``lagrangian.plugins.mechanics``, ``lagrangian.plugins.circuits``)
+are registered through the same group, by the same code path.  Hooks use the
+registry-callback style: each receives a ``register`` function and calls it
+once per thing it provides.  An implementation may accept fewer arguments
+than its specification, so specifications can grow without breaking plugins.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import pluggy
+
+if TYPE_CHECKING:
+    from .component import Component
+    from .domain import Domain
+
+__all__ = ["hookspec", "hookimpl", "register_component_types", "register_domains"]
+
+PROJECT = "lagrangian"
+hookspec = pluggy.HookspecMarker(PROJECT)
+hookimpl = pluggy.HookimplMarker(PROJECT)
+
+
+@hookspec
+def register_component_types(register: Callable[[type[Component]], None]) -> None:
+    """Register component types.
+
+    Call ``register(cls)`` once for each subclass of
+    :class:`lagrangian.Component` the plugin provides.  The class's ``kind``
+    is the name users pass to :meth:`lagrangian.Model.add`; it must be unique
+    across all installed plugins (a duplicate is an error naming both
+    plugins).  The class must declare its ``domain`` (a registered domain
+    such as ``"mechanical"`` or ``"electrical"``), its ``terminals``, its
+    ``parameters`` and an ``example()``; it contributes energy through
+    ``contribute(ctx)`` and never writes equations of motion.
+    """
+
+
+@hookspec
+def register_domains(register: Callable[[Domain], None]) -> None:
+    """Register physical domains.
+
+    Call ``register(domain)`` with an instance of a
+    :class:`lagrangian.Domain` subclass.  A domain turns the part of the
+    component graph that belongs to it into generalized coordinates (node
+    positions, loop charges, node flux linkages, ...) and gives components a
+    *view* through which they read those coordinates.  A domain's ``options``
+    become keyword options of :class:`lagrangian.Model` (for example
+    ``Model(formulation="flux")``).
+    """

@@ -1,0 +1,311 @@
+"""The model: a component graph and everything derived from it.
+
+>>> import lagrangian as lg
+>>> m = lg.Model("oscillator")
+>>> _ = m.add("mass", "m1", "cart", m=2)
+>>> _ = m.add("spring", "k1", ("ground", "cart"), k=8)
+>>> m.lagrangian
+x_cart(t)**2*(-4) + Derivative(x_cart(t), t)**2
+>>> m.equations
+[Eq(2*Derivative(x_cart(t), (t, 2)), -8*x_cart(t))]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from .assembly import Assembly, assemble
+from .component import Component, check_value, t
+from .domain import Coordinate
+from .equations import Equations
+from .errors import ModelError, UnknownNameError
+from .graph import ComponentGraph
+from .registry import Registry, default_registry
+from .simulation import NumericModel, Result, initial_state, integrate
+
+__all__ = ["Model"]
+
+
+class Model:
+    """A component graph assembled into one Lagrangian.
+
+    ``Model(name, **options)``: options belong to the installed domains, for
+    example ``dim`` (1, 2 or 3: spatial dimension of mechanical nodes) and
+    ``formulation`` (``"charge"``: loop charges, or ``"flux"``: node flux
+    linkages, for circuits).  ``registry`` selects the plugins (the installed
+    ones by default).
+
+    Everything derived — coordinates, Lagrangian, equations — is computed on
+    first request and cached until the model changes.
+    """
+
+    def __init__(self, name: str = "model", *, registry: Registry | None = None, **options: Any):
+        self.name = name
+        self._registry = registry
+        self._graph = ComponentGraph()
+        self._options = dict(options)
+        self._cache: dict[str, Any] = {}
+        self._numeric: dict[Any, NumericModel] = {}
+        known = self.registry.options()
+        for key, value in options.items():
+            if key not in known:
+                raise UnknownNameError("model option", key, known)
+            domain, opt = known[key]
+            if opt.choices and value not in opt.choices:
+                raise ModelError(
+                    f"model option {key!r} ({opt.doc}, from the {domain} domain) must be one of "
+                    f"{', '.join(map(repr, opt.choices))}, not {value!r}."
+                )
+
+    @property
+    def registry(self) -> Registry:
+        if self._registry is None:
+            self._registry = default_registry()
+        return self._registry
+
+    @property
+    def options(self) -> dict[str, Any]:
+        """Every domain option with its value in this model (defaults included)."""
+        return {k: self._options.get(k, opt.default) for k, (_, opt) in self.registry.options().items()}
+
+    # -- building --------------------------------------------------------------
+    def add(self, kind: str, name: str | None = None, nodes: str | Sequence[str] = (), **params: Any) -> Component:
+        """Add a component of a registered ``kind``; return it.
+
+        ``nodes`` is a node name for one-terminal components or a sequence
+        ``(a, b)``; ``ground`` (also ``"0"``, ``"gnd"``) is the reference.
+        ``params`` are the kind's parameters: numbers, SymPy expressions, or
+        (for signals) Python callables of time.
+        """
+        cls = self.registry.component_type(kind)
+        if name is None:
+            i = 1
+            while f"{kind}{i}" in self._graph.components:
+                i += 1
+            name = f"{kind}{i}"
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"component names must be non-empty strings, got {name!r}.")
+        node_list = (nodes,) if isinstance(nodes, (str, int)) else tuple(nodes)
+        if len(node_list) != len(cls.terminals):
+            want = ", ".join(cls.terminals) or "no nodes"
+            raise ModelError(
+                f"{kind} {name!r} takes {len(cls.terminals)} node(s) ({want}), got {len(node_list)}: {node_list!r}."
+            )
+        normalized = tuple(self._graph.normalize_node(n) for n in node_list)
+        component = cls(name, normalized, params)
+        self._graph.add(component)
+        self._changed()
+        return component
+
+    def node(self, name: str) -> str:
+        """Declare a node before attaching anything to it (a node left bare is an error at assembly)."""
+        out = self._graph.declare(name)
+        self._changed()
+        return out
+
+    def _changed(self) -> None:
+        self._cache.clear()
+        self._numeric.clear()
+
+    @property
+    def components(self) -> dict[str, Component]:
+        """Components by name, in insertion order."""
+        return dict(self._graph.components)
+
+    def component(self, name: str) -> Component:
+        try:
+            return self._graph.components[name]
+        except KeyError:
+            raise UnknownNameError("component", name, self._graph.components) from None
+
+    @property
+    def nodes(self) -> list[str]:
+        """Nodes in order of first use, ``ground`` first."""
+        return self._graph.nodes()
+
+    def check_node(self, node: str) -> str:
+        """The canonical name of ``node``; :class:`UnknownNodeError` with a suggestion if the model has none such."""
+        return self._graph.check_node(node)
+
+    def graph(self):
+        """The component graph as a networkx ``MultiGraph`` (edges keyed by component name)."""
+        return self._graph.graph()
+
+    # -- derived ---------------------------------------------------------------
+    def _get(self, key: str, build):
+        if key not in self._cache:
+            self._cache[key] = build()
+        return self._cache[key]
+
+    @property
+    def assembly(self) -> Assembly:
+        return self._get("assembly", lambda: assemble(self._graph, self.registry, self._options))
+
+    @property
+    def eq(self) -> Equations:
+        return self._get("equations", lambda: Equations(self.assembly))
+
+    @property
+    def coordinates(self) -> list[Coordinate]:
+        """The generalized coordinates, each a named function of ``t`` with a description."""
+        return list(self.assembly.coordinates)
+
+    @property
+    def coordinate_names(self) -> list[str]:
+        return [c.name for c in self.assembly.coordinates]
+
+    @property
+    def first_order(self) -> list[str]:
+        """Coordinates with no inertia whose velocities follow from dissipation (first-order dynamics)."""
+        return [self.eq.names[i] for i in self.eq.first_order]
+
+    @property
+    def kinetic_energy(self) -> sp.Expr:
+        return self.eq.display(self.eq.T)
+
+    @property
+    def potential_energy(self) -> sp.Expr:
+        return self.eq.display(self.eq.V)
+
+    @property
+    def lagrangian(self) -> sp.Expr:
+        """``L = T - V`` in terms of the coordinates ``q(t)`` and their derivatives."""
+        return self.eq.display(self.eq.L)
+
+    @property
+    def rayleigh(self) -> sp.Expr:
+        """The Rayleigh dissipation function ``D``."""
+        return self.eq.display(self.eq.D)
+
+    @property
+    def generalized_forces(self) -> sp.Matrix:
+        """Generalized forces ``Q`` from the components' loads."""
+        return self.eq.Q.applyfunc(self.eq.display)
+
+    @property
+    def mass_matrix(self) -> sp.Matrix:
+        """``M(q, t)`` of ``M q̈ = f``."""
+        return self.eq.mass_matrix
+
+    @property
+    def forcing(self) -> sp.Matrix:
+        """``f(q, q̇, t)`` of ``M q̈ = f``."""
+        return self.eq.forcing
+
+    @property
+    def equations(self) -> list[sp.Eq]:
+        """The equations of motion, one ``Eq(Σ M_ij q̈_j, f_i)`` per coordinate."""
+        return self.eq.as_equalities()
+
+    @property
+    def parameters(self) -> list[sp.Symbol]:
+        """Symbols that need numeric values before simulating, sorted by name."""
+        eq = self.eq
+        inner = set(eq.sym.q) | set(eq.sym.v) | set(eq.sym.a) | {t}
+        free = (eq.A.free_symbols | eq.b.free_symbols | eq.T.free_symbols | eq.V.free_symbols | eq.D.free_symbols) - inner
+        return sorted(free, key=lambda s: s.name)
+
+    def latex(self) -> str:
+        """The Lagrangian, Rayleigh function and equations of motion as LaTeX."""
+        lines = [rf"L = {sp.latex(self.lagrangian)}"]
+        if self.eq.D != 0:
+            lines.append(rf"D = {sp.latex(self.rayleigh)}")
+        lines.append(
+            rf"{sp.latex(self.mass_matrix)} \ddot{{q}} = {sp.latex(self.forcing)},\quad "
+            rf"q = {sp.latex(sp.Matrix([c.function for c in self.coordinates]))}"
+        )
+        return "\n".join(lines)
+
+    def describe(self) -> str:
+        """A plain-text summary: components, coordinates, Lagrangian, equations."""
+        out = [f"model {self.name!r}"]
+        out.append("  components: " + ", ".join(f"{c.name} ({c.kind})" for c in self._graph.components.values()))
+        out.append("  coordinates: " + ", ".join(f"{c.name} — {c.description}" for c in self.coordinates))
+        if self.first_order:
+            out.append("  first-order (no inertia): " + ", ".join(self.first_order))
+        out.append(f"  L = {sp.sstr(self.lagrangian)}")
+        if self.eq.D != 0:
+            out.append(f"  D = {sp.sstr(self.rayleigh)}")
+        for e in self.equations:
+            out.append(f"  {sp.sstr(e.lhs)} = {sp.sstr(e.rhs)}")
+        return "\n".join(out)
+
+    # -- simulation ------------------------------------------------------------
+    def _values(self, params: Mapping[str, float]) -> dict[sp.Symbol, float]:
+        needed = {s.name: s for s in self.parameters}
+        unknown = [k for k in params if k not in needed]
+        if unknown:
+            raise UnknownNameError("parameter", unknown[0], needed)
+        missing = [k for k in needed if k not in params]
+        if missing:
+            raise ModelError(
+                f"model {self.name!r} has symbolic parameters without values: {', '.join(missing)}. "
+                f"Pass them, e.g. simulate(..., params={{{', '.join(f'{k!r}: ...' for k in missing)}}})."
+            )
+        values = {}
+        for k, s in needed.items():
+            try:
+                values[s] = float(params[k])
+            except (TypeError, ValueError):
+                raise ModelError(f"parameter {k!r} must be a number, got {params[k]!r}.") from None
+        subs = {s: sp.Float(v) for s, v in values.items()}
+        for comp in self._graph.components.values():
+            for pname, spec in comp.parameters.items():
+                value = comp.params.get(pname)
+                if isinstance(value, sp.Expr) and value.free_symbols - {t}:
+                    check_value(value.xreplace(subs), spec.check, comp.name, pname)
+        return values
+
+    def numeric(self, params: Mapping[str, float] | None = None) -> NumericModel:
+        """The model's numeric functions for the given parameter values (cached)."""
+        values = self._values(params or {})
+        key = tuple(sorted((s.name, v) for s, v in values.items()))
+        if key not in self._numeric:
+            self._numeric[key] = NumericModel(self.eq, values, self.assembly.signals)
+        return self._numeric[key]
+
+    def simulate(
+        self,
+        t_end: float | tuple[float, float] = 10.0,
+        *,
+        initial: Mapping[str, float] | None = None,
+        velocity: Mapping[str, float] | None = None,
+        params: Mapping[str, float] | None = None,
+        points: int = 1001,
+        t_eval: Sequence[float] | None = None,
+        method: str = "DOP853",
+        rtol: float = 1e-9,
+        atol: float = 1e-12,
+        max_step: float = np.inf,
+    ) -> Result:
+        """Integrate the equations of motion with :func:`scipy.integrate.solve_ivp`.
+
+        ``initial`` and ``velocity`` give coordinates and velocities by name;
+        any not given start at zero and are listed in ``Result.defaulted``
+        (with an :class:`InitialConditionWarning`).  ``params`` gives values
+        to symbolic parameters by name.  Output is on ``points`` evenly spaced
+        times, or on ``t_eval``.
+        """
+        span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
+        if not span[1] > span[0]:
+            raise ModelError(f"the time span must end after it starts, got {span}.")
+        numeric = self.numeric(params)
+        y0, defaulted = initial_state(self.eq, initial or {}, velocity or {})
+        grid = np.linspace(*span, points) if t_eval is None else np.asarray(t_eval, dtype=float)
+        return integrate(
+            numeric,
+            self.eq.names,
+            span,
+            y0,
+            t_eval=grid,
+            method=method,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            model=self.name,
+            defaulted=defaulted,
+        )

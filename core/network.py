@@ -1,0 +1,143 @@
+"""Graph algorithms on the component graph: topology checks, normal trees, loops.
+
+Edges are keyed by component name and carry their orientation ``a → b``.
+Everything here works on networkx ``MultiGraph`` s, so parallel components
+(two capacitors between the same nodes) are handled: each is its own edge.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable
+
+import networkx as nx
+
+from .errors import FloatingNetworkError, TopologyError
+
+__all__ = ["check_topology", "normal_tree", "fundamental_loops", "tree_potentials"]
+
+
+def _edges(graph: nx.MultiGraph):
+    for u, v, key, data in graph.edges(keys=True, data=True):
+        yield u, v, key, data
+
+
+def check_topology(graph: nx.MultiGraph, ground: str, role: Callable[[str], str | None]) -> None:
+    """Raise if part of ``graph`` has no path to ``ground``, if ideal across-sources
+    form a loop, or if ideal through-sources form a cut-set.
+
+    ``role(key)`` gives ``"across"``, ``"through"`` or ``None`` for each edge key.
+
+    >>> g = nx.MultiGraph()
+    >>> g.add_edge("n1", "ground", key="V1", a="n1", b="ground")
+    'V1'
+    >>> g.add_edge("n1", "ground", key="V2", a="n1", b="ground")
+    'V2'
+    >>> check_topology(g, "ground", lambda k: "across")
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.TopologyError: ideal across-sources V1, V2 form a loop (...) ...
+    """
+    for part in nx.connected_components(graph):
+        if ground not in part:
+            names = sorted({k for u, v, k in graph.subgraph(part).edges(keys=True)})
+            raise FloatingNetworkError(
+                f"nodes {', '.join(sorted(map(str, part)))} (components {', '.join(names) or 'none'}) "
+                f"have no path to the reference node 'ground': connect one of them to ground."
+            )
+    forest = nx.MultiGraph()
+    forest.add_nodes_from(graph.nodes)
+    for u, v, key, _ in _edges(graph):
+        if role(key) != "across":
+            continue
+        if nx.has_path(forest, u, v):
+            path = nx.shortest_path(forest, u, v)
+            loop = [key] + [next(iter(forest.get_edge_data(p, q))) for p, q in zip(path, path[1:])]
+            raise TopologyError(
+                f"ideal across-sources {', '.join(sorted(loop))} form a loop ({' - '.join(map(str, path + [path[0]]))}): "
+                f"their values cannot all hold. Remove one, or put an impedance (a resistor, a spring) in the loop."
+            )
+        forest.add_edge(u, v, key=key)
+    rest = nx.MultiGraph()
+    rest.add_nodes_from(graph.nodes)
+    rest.add_edges_from((u, v, k) for u, v, k, _ in _edges(graph) if role(k) != "through")
+    for part in nx.connected_components(rest):
+        if ground not in part:
+            cut = sorted(k for u, v, k, _ in _edges(graph) if role(k) == "through" and ((u in part) != (v in part)))
+            raise TopologyError(
+                f"ideal through-sources {', '.join(cut)} form a cut-set isolating nodes {', '.join(sorted(map(str, part)))}: "
+                f"nothing else carries the flow there. Add a path (an element) between those nodes and the rest."
+            )
+
+
+def normal_tree(graph: nx.MultiGraph, ground: str, priority: Callable[[Hashable], float]) -> set[str]:
+    """Keys of a spanning forest chosen greedily by ``priority`` (lower first; ``inf`` never).
+
+    With priority across-sources < capacitive < resistive < inductive <
+    through-sources this is the *normal tree* of circuit theory.  Ties go to
+    edges touching ``ground``, then to insertion order, so results are
+    deterministic.
+
+    >>> g = nx.MultiGraph()
+    >>> for key, a, b in [("L", "n1", "ground"), ("C", "n1", "ground")]:
+    ...     _ = g.add_edge(a, b, key=key, a=a, b=b)
+    >>> sorted(normal_tree(g, "ground", {"L": 3, "C": 1}.get))
+    ['C']
+    """
+    order = sorted(
+        ((priority(k), 0 if ground in (u, v) else 1, i, u, v, k) for i, (u, v, k, _) in enumerate(_edges(graph))),
+        key=lambda item: item[:3],
+    )
+    uf = nx.utils.UnionFind(graph.nodes)
+    tree = set()
+    for prio, _, _, u, v, k in order:
+        if prio == float("inf"):
+            continue
+        if uf[u] != uf[v]:
+            uf.union(u, v)
+            tree.add(k)
+    return tree
+
+
+def _tree_graph(graph: nx.MultiGraph, tree: set[str]) -> nx.Graph:
+    g = nx.Graph()
+    g.add_nodes_from(graph.nodes)
+    for u, v, k, d in _edges(graph):
+        if k in tree:
+            g.add_edge(u, v, key=k, a=d["a"], b=d["b"])
+    return g
+
+
+def fundamental_loops(graph: nx.MultiGraph, tree: set[str]) -> dict[str, list[tuple[str, int]]]:
+    """For each chord (non-tree edge), its loop as ``[(edge key, ±1), ...]``.
+
+    The loop is oriented along the chord (``a → b``); the sign says whether
+    each edge is traversed along (+1) or against (−1) its own orientation.
+    """
+    tg = _tree_graph(graph, tree)
+    loops = {}
+    for u, v, k, d in _edges(graph):
+        if k in tree:
+            continue
+        a, b = d["a"], d["b"]
+        loop = [(k, 1)]
+        path = nx.shortest_path(tg, b, a)
+        for p, q in zip(path, path[1:]):
+            e = tg.edges[p, q]
+            loop.append((e["key"], 1 if (e["a"], e["b"]) == (p, q) else -1))
+        loops[k] = loop
+    return loops
+
+
+def tree_potentials(graph: nx.MultiGraph, tree: set[str], ground: str) -> dict[str, list[tuple[str, int]]]:
+    """For each node, its potential as a signed sum of tree-branch drops, from ``ground``.
+
+    A branch drop is ``φ_a − φ_b``; so ``φ_node = Σ sign · drop``.
+    """
+    tg = _tree_graph(graph, tree)
+    result = {ground: []}
+    for parent, child in nx.bfs_edges(tg, ground):
+        e = tg.edges[parent, child]
+        # φ_child = φ_parent - drop if child is b (a=parent), + drop if child is a
+        sign = -1 if e["b"] == child else 1
+        result[child] = result[parent] + [(e["key"], sign)]
+    return result

@@ -1,0 +1,195 @@
+"""The plugin manager and the typed registry of what plugins provide.
+
+The registry is built on first use (:func:`default_registry`), never at
+import: the pluggy manager gets the hook specifications, then every plugin of
+the entry-point group ``lagrangian`` (built-ins included), then any plugins
+passed in explicitly.  Each plugin's hooks are called one plugin at a time,
+so anything it registers is recorded with its name, and a duplicate kind, an
+invalid registration or an exception inside a hook becomes a
+:class:`~lagrangian.errors.PluginError` naming the plugin.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.metadata as metadata
+import keyword
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import pluggy
+
+from . import hookspecs
+from .component import Component, Example, Parameter
+from .domain import Domain, Option
+from .errors import PluginError, UnknownKindError
+
+__all__ = ["Registry", "PluginInfo", "default_registry", "ENTRY_POINT_GROUP"]
+
+ENTRY_POINT_GROUP = "lagrangian"
+
+
+@dataclass
+class PluginInfo:
+    """One loaded plugin: its name, the distribution that installed it, and what it provides."""
+
+    name: str
+    distribution: str | None = None
+    version: str | None = None
+    kinds: list[str] = field(default_factory=list)
+    domains: list[str] = field(default_factory=list)
+
+
+class Registry:
+    """Component kinds and domains provided by plugins, keyed by name.
+
+    ``Registry()`` loads the entry-point group ``lagrangian``; ``plugins``
+    adds more at run time (``{"name": module_or_object}``), as tests do.
+
+    >>> reg = Registry()
+    >>> "mass" in reg.kinds and "capacitor" in reg.kinds
+    True
+    >>> reg.component_type("capacitr")
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.UnknownKindError: unknown component kind 'capacitr'. Did you mean 'capacitor'? ...
+    """
+
+    def __init__(self, plugins: Mapping[str, Any] | None = None, *, entry_points: bool = True):
+        self.pm = pluggy.PluginManager(hookspecs.PROJECT)
+        self.pm.add_hookspecs(hookspecs)
+        self.kinds: dict[str, type[Component]] = {}
+        self.domains: dict[str, Domain] = {}
+        self.info: dict[str, PluginInfo] = {}
+        if entry_points:
+            for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
+                dist = getattr(ep, "dist", None)
+                info = PluginInfo(ep.name, dist.name if dist else None, dist.version if dist else None)
+                try:
+                    module = ep.load()
+                except Exception as exc:  # any import failure is the plugin's
+                    raise PluginError(
+                        ep.name,
+                        f"failed to import {ep.value!r} (distribution {info.distribution}): "
+                        f"{exc.__class__.__name__}: {exc}. Reinstall or uninstall that distribution.",
+                    ) from exc
+                self._register_plugin(ep.name, module, info)
+        for name, plugin in (plugins or {}).items():
+            self._register_plugin(name, plugin, PluginInfo(name))
+        self.pm.check_pending()
+        self._collect()
+
+    def _register_plugin(self, name: str, plugin: Any, info: PluginInfo) -> None:
+        if name in self.info:
+            raise PluginError(name, f"a plugin of this name is already registered (from {self.info[name].distribution}).")
+        try:
+            self.pm.register(plugin, name=name)
+        except Exception as exc:
+            raise PluginError(name, f"cannot be registered: {exc}") from exc
+        self.info[name] = info
+
+    def _collect(self) -> None:
+        for hook, accept in (("register_domains", self._add_domain), ("register_component_types", self._add_kind)):
+            caller = getattr(self.pm.hook, hook)
+            for impl in reversed(caller.get_hookimpls()):
+                plugin = impl.plugin_name
+                args = {"register": functools.partial(accept, plugin)}
+                try:
+                    impl.function(**{a: args[a] for a in impl.argnames})
+                except PluginError:
+                    raise
+                except Exception as exc:
+                    raise PluginError(plugin, f"hook {hook} raised {exc.__class__.__name__}: {exc}") from exc
+        for kind, cls in self.kinds.items():
+            if cls.domain not in self.domains:
+                raise PluginError(
+                    self._owner(kind),
+                    f"component kind {kind!r} belongs to domain {cls.domain!r}, which no plugin registers "
+                    f"(registered domains: {', '.join(sorted(self.domains)) or 'none'}).",
+                )
+
+    def _owner(self, kind: str) -> str:
+        return next(p for p, info in self.info.items() if kind in info.kinds)
+
+    def _add_kind(self, plugin: str, cls: Any) -> None:
+        problem = _component_type_problem(cls)
+        if problem:
+            raise PluginError(plugin, f"registered an invalid component type {cls!r}: {problem}")
+        if cls.kind in self.kinds:
+            raise PluginError(
+                plugin,
+                f"component kind {cls.kind!r} is already provided by plugin {self._owner(cls.kind)!r}; "
+                f"kinds must be unique: rename one or uninstall a plugin.",
+            )
+        self.kinds[cls.kind] = cls
+        self.info[plugin].kinds.append(cls.kind)
+
+    def _add_domain(self, plugin: str, domain: Any) -> None:
+        if not isinstance(domain, Domain) or not isinstance(getattr(domain, "name", None), str):
+            raise PluginError(plugin, f"registered {domain!r}, which is not an instance of lagrangian.Domain with a name.")
+        if domain.name in self.domains:
+            owner = next(p for p, info in self.info.items() if domain.name in info.domains)
+            raise PluginError(plugin, f"domain {domain.name!r} is already provided by plugin {owner!r}.")
+        for opt in domain.options.values():
+            if not isinstance(opt, Option):
+                raise PluginError(plugin, f"domain {domain.name!r}: options must be lagrangian.Option instances.")
+        self.domains[domain.name] = domain
+        self.info[plugin].domains.append(domain.name)
+
+    def component_type(self, kind: str) -> type[Component]:
+        """The class registered for ``kind``; :class:`UnknownKindError` with suggestions otherwise."""
+        try:
+            return self.kinds[kind]
+        except KeyError:
+            raise UnknownKindError(kind, self.kinds) from None
+
+    def options(self) -> dict[str, tuple[str, Option]]:
+        """Every model option any domain accepts, as ``{option: (domain, Option)}``."""
+        return {name: (d.name, opt) for d in self.domains.values() for name, opt in d.options.items()}
+
+    def plugins(self) -> list[PluginInfo]:
+        """The loaded plugins, in load order."""
+        return list(self.info.values())
+
+    def describe(self) -> str:
+        """A table of plugins and what each provides (what ``lagrangian plugins`` prints)."""
+        lines = []
+        for info in self.plugins():
+            origin = f"{info.distribution} {info.version}" if info.distribution else "registered at run time"
+            lines.append(f"{info.name}  ({origin})")
+            if info.domains:
+                lines.append(f"    domains: {', '.join(info.domains)}")
+            lines.append(f"    kinds:   {', '.join(info.kinds) or '(none)'}")
+        return "\n".join(lines)
+
+
+def _component_type_problem(cls: Any) -> str | None:
+    if not isinstance(cls, type) or not issubclass(cls, Component):
+        return "it is not a subclass of lagrangian.Component"
+    kind = getattr(cls, "kind", None)
+    if not isinstance(kind, str) or not kind.isidentifier() or keyword.iskeyword(kind):
+        return f"its kind {kind!r} is not a valid identifier"
+    if not isinstance(getattr(cls, "domain", None), str):
+        return "it declares no domain"
+    if not isinstance(cls.terminals, tuple) or not all(isinstance(x, str) for x in cls.terminals):
+        return "terminals must be a tuple of names"
+    if not all(isinstance(p, Parameter) for p in cls.parameters.values()):
+        return "every entry of parameters must be a lagrangian.Parameter"
+    if cls.role not in (None, "across", "through"):
+        return f"role must be None, 'across' or 'through', not {cls.role!r}"
+    if cls.contribute is Component.contribute:
+        return "it does not implement contribute(ctx)"
+    try:
+        example = cls.example()
+    except Exception as exc:
+        return f"example() raised {exc.__class__.__name__}: {exc}"
+    if not isinstance(example, Example):
+        return "example() must return a lagrangian.Example"
+    return None
+
+
+@functools.cache
+def default_registry() -> Registry:
+    """The registry of installed plugins, built on first call and reused."""
+    return Registry()

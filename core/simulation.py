@@ -1,0 +1,241 @@
+"""Numeric code from the equations, integration with scipy, and the result object.
+
+The solve ``A(t, q, q̇) u = b(t, q, q̇)`` (see :mod:`lagrangian.equations`) is
+turned into one NumPy function with common-subexpression elimination; the
+state is ``(q, q̇_inertial)``.  Numerical trouble — a singular mass matrix,
+an integrator failure, non-finite values — raises a
+:class:`~lagrangian.errors.NumericalError` saying where and when.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from .component import t
+from .equations import Equations
+from .errors import IntegrationError, ModelError, SingularMassMatrixError, UnknownNameError
+
+__all__ = ["NumericModel", "Result", "InitialConditionWarning"]
+
+
+class InitialConditionWarning(UserWarning):
+    """Some initial conditions were not given and default to zero."""
+
+
+def _lambdify(args, exprs, signals):
+    modules = [{f.__name__: fn for f, fn in signals.items()}, "numpy"]
+    return sp.lambdify(args, exprs, modules=modules, cse=True)
+
+
+class NumericModel:
+    """Compiled (NumPy) functions of one model with numeric parameter values."""
+
+    def __init__(self, eq: Equations, values: Mapping[sp.Symbol, float], signals: Mapping[Any, Any]):
+        self.eq = eq
+        subs = {s: sp.Float(v) for s, v in values.items()}
+        A = eq.A.xreplace(subs)
+        b = eq.b.xreplace(subs)
+        energies = [eq.T.xreplace(subs), eq.V.xreplace(subs), eq.D.xreplace(subs)]
+        q, v = eq.sym.q, eq.sym.v
+        self.vI = [v[i] for i in eq.inertial]
+        leftover = (A.free_symbols | b.free_symbols) - set(q) - set(self.vI) - {t}
+        if leftover:  # pragma: no cover - caught earlier by Model.simulate
+            raise ModelError(f"parameters without values: {', '.join(sorted(map(str, leftover)))}")
+        for expr in (A, b):
+            for d in expr.atoms(sp.Derivative):
+                raise ModelError(
+                    f"the equations need the time derivative {d} of a callable signal; give that signal as a SymPy expression of t."
+                )
+        self._solve_fn = _lambdify((t, q, self.vI), [A, b], signals)
+        self._energy_fn = _lambdify((t, q, v), energies, signals)
+        self.n = len(q)
+        self.nI = len(eq.inertial)
+
+    def solve(self, time: float, qv: np.ndarray, vI: np.ndarray) -> np.ndarray:
+        """``u = (q̈_inertial, q̇_first_order)`` at one instant."""
+        A, b = self._solve_fn(time, qv, vI)
+        A = np.asarray(A, dtype=float)
+        b = np.asarray(b, dtype=float).reshape(-1)
+        try:
+            return np.linalg.solve(A, b)
+        except np.linalg.LinAlgError:
+            raise SingularMassMatrixError(self._singular_message(time, A)) from None
+
+    def _singular_message(self, time: float, A: np.ndarray) -> str:
+        names = [self.eq.names[i] for i in self.eq.inertial + self.eq.first_order]
+        _, s, vt = np.linalg.svd(A)
+        null = vt[-1]
+        involved = [n for n, w in zip(names, null) if abs(w) > 1e-8]
+        return (
+            f"the mass matrix is singular at t={time:g} (smallest singular value {s[-1]:.3g}); "
+            f"the motion of {', '.join(involved)} is not determined there. Check for coordinates without inertia "
+            f"coupled only through constraints, or choose another formulation."
+        )
+
+    def velocities(self, time: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """All generalized velocities and the inertial accelerations at one state."""
+        qv, vI = y[: self.n], y[self.n :]
+        u = self.solve(time, qv, vI)
+        v = np.empty(self.n)
+        v[self.eq.inertial] = vI
+        v[self.eq.first_order] = u[self.nI :]
+        return v, u[: self.nI]
+
+    def rhs(self, time: float, y: np.ndarray) -> np.ndarray:
+        v, acc = self.velocities(time, y)
+        return np.concatenate([v, acc])
+
+    def energies(self, time: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+        out = self._energy_fn(time, q, v)
+        return tuple(np.broadcast_to(np.asarray(e, dtype=float), time.shape).copy() for e in out)
+
+
+@dataclass
+class Result:
+    """The outcome of :meth:`lagrangian.Model.simulate`.
+
+    ``t`` is the time grid; ``q`` and ``v`` map each coordinate name to its
+    values and velocities; ``T``, ``V``, ``D`` are kinetic energy, potential
+    energy and Rayleigh function over time, and ``E = T + V``.
+    ``defaulted`` lists initial conditions that were not given and set to zero.
+    ``res["x_cart"]`` is the same as ``res.q["x_cart"]``.
+    """
+
+    t: np.ndarray
+    q: dict[str, np.ndarray]
+    v: dict[str, np.ndarray]
+    T: np.ndarray
+    V: np.ndarray
+    D: np.ndarray
+    model: str = ""
+    defaulted: list[str] = field(default_factory=list)
+    nfev: int = 0
+    method: str = ""
+
+    @property
+    def E(self) -> np.ndarray:
+        """Total energy ``T + V``."""
+        return self.T + self.V
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.q)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name in self.q:
+            return self.q[name]
+        raise UnknownNameError("coordinate", name, self.q)
+
+    def velocity(self, name: str) -> np.ndarray:
+        """Values of ``q̇`` for the coordinate ``name``."""
+        if name in self.v:
+            return self.v[name]
+        raise UnknownNameError("coordinate", name, self.v)
+
+    def energy_drift(self) -> float:
+        """Largest relative departure of ``T + V`` from its initial value."""
+        E = self.E
+        scale = max(abs(E[0]), np.max(np.abs(self.T)), np.finfo(float).tiny)
+        return float(np.max(np.abs(E - E[0])) / scale)
+
+    def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
+        """Plot coordinates (all, or ``names``) against time; return the matplotlib ``Axes``.
+
+        ``velocity=True`` plots velocities instead; ``energy=True`` plots T, V and T+V.
+        """
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+        prefix = f"{label}: " if label else ""
+        if energy:
+            for lab, series in (("T", self.T), ("V", self.V), ("T+V", self.E)):
+                ax.plot(self.t, series, label=prefix + lab)
+            ax.set_ylabel("energy")
+        else:
+            for name in names or self.names:
+                series = self.velocity(name) if velocity else self[name]
+                ax.plot(self.t, series, label=prefix + (f"d{name}/dt" if velocity else name))
+            ax.set_ylabel("velocity" if velocity else "coordinate")
+        ax.set_xlabel("t")
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+        return ax
+
+
+def integrate(
+    numeric: NumericModel,
+    names: Sequence[str],
+    t_span: tuple[float, float],
+    y0: np.ndarray,
+    *,
+    t_eval: np.ndarray,
+    method: str,
+    rtol: float,
+    atol: float,
+    max_step: float,
+    model: str,
+    defaulted: list[str],
+) -> Result:
+    from scipy.integrate import solve_ivp
+
+    numeric.rhs(t_span[0], y0)  # fail early, with a clear message, on a singular start
+    sol = solve_ivp(numeric.rhs, t_span, y0, method=method, t_eval=t_eval, rtol=rtol, atol=atol, max_step=max_step)
+    if sol.status < 0:
+        raise IntegrationError(
+            f"{method} failed on model {model!r} at t={sol.t[-1] if sol.t.size else t_span[0]:g}: {sol.message}. "
+            f"The model may be stiff (try method='Radau' or 'BDF') or singular there."
+        )
+    if not np.all(np.isfinite(sol.y)):
+        bad = int(np.argmax(~np.all(np.isfinite(sol.y), axis=0)))
+        raise IntegrationError(f"the solution of model {model!r} became non-finite at t={sol.t[bad]:g}.")
+    n = numeric.n
+    v = np.empty((n, sol.t.size))
+    for k in range(sol.t.size):
+        v[:, k], _ = numeric.velocities(sol.t[k], sol.y[:, k])
+    q = sol.y[:n]
+    T, V, D = numeric.energies(sol.t, q, v)
+    return Result(
+        t=sol.t,
+        q={name: q[i] for i, name in enumerate(names)},
+        v={name: v[i] for i, name in enumerate(names)},
+        T=T,
+        V=V,
+        D=D,
+        model=model,
+        defaulted=defaulted,
+        nfev=sol.nfev,
+        method=method,
+    )
+
+
+def initial_state(eq: Equations, initial: Mapping[str, float], velocity: Mapping[str, float]) -> tuple[np.ndarray, list[str]]:
+    """The state vector ``(q, q̇_inertial)`` from initial values by name; missing ones are zero and reported."""
+    names = eq.names
+    for label, given in (("coordinate", initial), ("coordinate", velocity)):
+        for name in given:
+            if name not in names:
+                raise UnknownNameError(label, name, names)
+    first = [names[i] for i in eq.first_order]
+    for name in velocity:
+        if name in first:
+            raise ModelError(
+                f"coordinate {name!r} is first-order (it has no inertia): its velocity follows from the equations "
+                f"and cannot be given as an initial condition."
+            )
+    inertial = [names[i] for i in eq.inertial]
+    y0 = [float(initial.get(n, 0.0)) for n in names] + [float(velocity.get(n, 0.0)) for n in inertial]
+    if not np.all(np.isfinite(y0)):
+        raise ModelError("initial conditions must be finite numbers.")
+    defaulted = [n for n in names if n not in initial] + [f"{n}'" for n in inertial if n not in velocity]
+    if defaulted:
+        warnings.warn(
+            f"initial conditions not given, set to zero: {', '.join(defaulted)}", InitialConditionWarning, stacklevel=3
+        )
+    return np.array(y0), defaulted

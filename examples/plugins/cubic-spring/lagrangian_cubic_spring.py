@@ -1,0 +1,45 @@
+"""A third-party lagrangian plugin: the cubic hardening (Duffing) spring.
+
+Installed as its own distribution, it registers the kind ``cubic_spring``
+through the entry-point group ``lagrangian``; nothing in lagrangian knows of
+it.  Its force is ``k e + k3 e³`` for an extension ``e``, so its potential
+energy is ``V = ½ k e² + ¼ k3 e⁴``.
+
+>>> import lagrangian as lg
+>>> m = lg.Model("duffing")
+>>> _ = m.add("mass", "m1", "p", m=1)
+>>> _ = m.add("cubic_spring", "s", ("ground", "p"), k=1, k3=0.5)
+>>> m.potential_energy
+0.125*x_p(t)**4 + x_p(t)**2/2
+"""
+
+import sympy as sp
+
+from lagrangian import Component, Contribution, Example, Parameter, dot, hookimpl
+
+__all__ = ["CubicSpring"]
+
+
+class CubicSpring(Component):
+    """Hardening spring: V = ½ k e² + ¼ k3 e⁴ (e: extension along the line between its nodes)."""
+
+    kind = "cubic_spring"
+    domain = "mechanical"
+    parameters = {
+        "k": Parameter("linear stiffness", unit="N/m"),
+        "k3": Parameter("cubic stiffness", check="nonnegative", unit="N/m³"),
+    }
+
+    def contribute(self, ctx) -> Contribution:
+        d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
+        e2 = d[0] ** 2 if ctx.view.dim == 1 else dot(d, d)
+        return Contribution(V=self.k * e2 / 2 + self.k3 * e2**2 / 4)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "p"), {"k": 1, "k3": sp.Rational(1, 2)}, context=[("mass", "m", "p", {"m": 1})])
+
+
+@hookimpl
+def register_component_types(register):
+    register(CubicSpring)

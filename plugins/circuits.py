@@ -1,0 +1,291 @@
+"""Built-in plugin: lumped circuits.
+
+The ``electrical`` domain picks coordinates from a *normal tree* of the
+network (voltage sources, then capacitors, resistors, inductors; current
+sources never), chosen with the model option ``formulation``:
+
+- ``"charge"`` (loop charges; the force–voltage analogy): one coordinate per
+  chord of the tree, named ``q_<chord>``, the charge that has passed through
+  that component; the fundamental loop of each chord carries it.  Inductors
+  give ``T = ½ L q̇²``, capacitors ``V = q²/2C``, resistors ``D = ½ R q̇²``;
+  voltage sources are generalized forces, current sources fix their loop's
+  charge.
+- ``"flux"`` (node flux linkages; the force–current analogy): one coordinate
+  per tree branch, named ``lambda_<node>`` for a branch from a node to
+  ground (the node's flux linkage, whose rate is the node voltage) and
+  ``lambda_<component>`` otherwise (the flux linkage across that
+  component).  Capacitors give ``T = ½ C λ̇²``, inductors ``V = λ²/2L``,
+  resistors ``D = λ̇²/2R``; current sources are generalized forces, voltage
+  sources fix their branch's flux.
+
+Branches follow SPICE's orientation: a component on nodes ``(a, b)``
+carries current from ``a`` to ``b`` through itself, and its voltage is
+``v_a − v_b``; a voltage source makes ``v_a − v_b = E``; a current source
+drives ``I`` from ``a`` through itself to ``b``.
+
+>>> import lagrangian as lg
+>>> m = lg.Model("parallel", formulation="flux")
+>>> for kind, name, value in [("capacitor", "C1", {"C": 1}), ("inductor", "L1", {"L": 1})]:
+...     _ = m.add(kind, name, ("n1", "0"), **value)
+>>> m.coordinate_names
+['lambda_n1']
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import sympy as sp
+
+from lagrangian import (
+    GROUND,
+    Component,
+    Contribution,
+    Coordinate,
+    Domain,
+    DomainView,
+    Example,
+    Load,
+    ModelError,
+    Network,
+    Option,
+    Parameter,
+    hookimpl,
+    t,
+)
+from lagrangian.network import fundamental_loops, normal_tree, tree_potentials
+
+
+@dataclass
+class ElectricalView(DomainView):
+    """Branch quantities of the circuit, in the model's formulation."""
+
+    formulation: str = "charge"
+    branch: dict[str, sp.Expr] = field(default_factory=dict)
+
+    def _get(self, component: Component, wanted: str) -> sp.Expr:
+        if self.formulation != wanted:
+            raise ModelError(
+                f"{component.kind} {component.name!r} asked for the branch {wanted} in the {self.formulation} formulation."
+            )
+        return self.branch[component.name]
+
+    def charge(self, component: Component) -> sp.Expr:
+        """Charge that has passed through ``component`` from ``a`` to ``b`` (charge formulation)."""
+        return self._get(component, "charge")
+
+    def current(self, component: Component) -> sp.Expr:
+        return self.charge(component).diff(t)
+
+    def flux(self, component: Component) -> sp.Expr:
+        """Flux linkage ``λ_a − λ_b`` across ``component`` (flux formulation)."""
+        return self._get(component, "flux")
+
+    def voltage(self, component: Component) -> sp.Expr:
+        return self.flux(component).diff(t)
+
+
+def _integral(component: Component, value: Any, what: str) -> sp.Expr:
+    """∫₀ᵗ value dt, symbolically, or a clear error."""
+    if component.signals() or not isinstance(value, sp.Expr):
+        raise ModelError(
+            f"{component.kind} {component.name!r}: in this formulation its {what} fixes a coordinate and must be "
+            f"integrated symbolically; give it as a SymPy expression of t, not a Python callable, "
+            f"or choose the other formulation."
+        )
+    tau = sp.Dummy("tau", real=True)
+    result = sp.integrate(value.subs(t, tau), (tau, 0, t))
+    if result.has(sp.Integral):
+        raise ModelError(
+            f"{component.kind} {component.name!r}: SymPy cannot integrate its {what} {value} in closed form; "
+            f"choose the other formulation."
+        )
+    return result
+
+
+class ElectricalDomain(Domain):
+    """Lumped circuits, in loop charges or node flux linkages."""
+
+    name = "electrical"
+    options = {
+        "formulation": Option(
+            "charge", "circuit coordinates: loop charges or node flux linkages", choices=("charge", "flux")
+        )
+    }
+
+    def build(self, network: Network, options: dict[str, Any]) -> ElectricalView:
+        formulation = options["formulation"]
+        by_name = {c.name: c for c in network.components}
+
+        def priority(key: str) -> float:
+            comp = by_name[key]
+            if comp.role == "across":
+                return 0
+            if comp.role == "through":
+                return float("inf")
+            return getattr(comp, "tree_priority", 2)
+
+        tree = normal_tree(network.graph, GROUND, priority)
+        view = ElectricalView(formulation=formulation)
+        if formulation == "charge":
+            chords: dict[str, sp.Expr] = {}
+            for chord, loop in fundamental_loops(network.graph, tree).items():
+                comp = by_name[chord]
+                if comp.role == "through":
+                    chords[chord] = _integral(comp, comp.I, "current")
+                    continue
+                path = " → ".join(k for k, _ in loop)
+                coord = Coordinate.named(f"q_{chord}", f"charge through {comp.kind} {chord} (loop {path})")
+                view.coordinates.append(coord)
+                chords[chord] = coord.function
+            for c in network.components:
+                view.branch[c.name] = sp.Integer(0)
+            for chord, loop in fundamental_loops(network.graph, tree).items():
+                for key, sign in loop:
+                    view.branch[key] += sign * chords[chord]
+        else:
+            drops: dict[str, sp.Expr] = {}
+            for u, v, key, data in network.graph.edges(keys=True, data=True):
+                if key not in tree:
+                    continue
+                comp = by_name[key]
+                if comp.role == "across":
+                    drops[key] = _integral(comp, comp.E, "voltage")
+                elif GROUND in (u, v):
+                    node = v if u == GROUND else u
+                    coord = Coordinate.named(f"lambda_{node}", f"flux linkage of node {node!r} (rate: node voltage)")
+                    view.coordinates.append(coord)
+                    drops[key] = coord.function if data["a"] == node else -coord.function
+                else:
+                    coord = Coordinate.named(f"lambda_{key}", f"flux linkage across {comp.kind} {key} (rate: its voltage)")
+                    view.coordinates.append(coord)
+                    drops[key] = coord.function
+            potentials = tree_potentials(network.graph, tree, GROUND)
+            node_flux = {n: sp.Add(*(s * drops[k] for k, s in path)) for n, path in potentials.items()}
+            for u, v, key, data in network.graph.edges(keys=True, data=True):
+                view.branch[key] = node_flux[data["a"]] - node_flux[data["b"]]
+        return view
+
+
+class _Element(Component):
+    domain = "electrical"
+
+
+class Inductor(_Element):
+    """Inductor: magnetic co-energy ½ L i² (charge), or potential λ²/2L (flux)."""
+
+    kind = "inductor"
+    tree_priority = 3
+    parameters = {"L": Parameter("inductance", unit="H")}
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.formulation == "charge":
+            return Contribution(T=self.L * ctx.view.current(self) ** 2 / 2)
+        return Contribution(V=ctx.view.flux(self) ** 2 / (2 * self.L))
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("n1", "0"), {"L": 2}, context=[("capacitor", "C", ("n1", "0"), {"C": 0.5})])
+
+
+class Capacitor(_Element):
+    """Capacitor: potential q²/2C (charge), or electric co-energy ½ C v² (flux)."""
+
+    kind = "capacitor"
+    tree_priority = 1
+    parameters = {"C": Parameter("capacitance", unit="F")}
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.formulation == "charge":
+            return Contribution(V=ctx.view.charge(self) ** 2 / (2 * self.C))
+        return Contribution(T=self.C * ctx.view.voltage(self) ** 2 / 2)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("n1", "0"), {"C": 0.5}, context=[("inductor", "L", ("n1", "0"), {"L": 2})])
+
+
+class Resistor(_Element):
+    """Resistor: Rayleigh dissipation ½ R i² (charge) or v²/2R (flux)."""
+
+    kind = "resistor"
+    tree_priority = 2
+    parameters = {"R": Parameter("resistance", unit="Ω")}
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.formulation == "charge":
+            return Contribution(D=self.R * ctx.view.current(self) ** 2 / 2)
+        return Contribution(D=ctx.view.voltage(self) ** 2 / (2 * self.R))
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            ("n1", "n2"),
+            {"R": 3},
+            context=[("inductor", "L", ("n2", "0"), {"L": 1}), ("capacitor", "C", ("n1", "0"), {"C": 1})],
+        )
+
+
+class VoltageSource(_Element):
+    """Ideal voltage source: v_a − v_b = E(t)."""
+
+    kind = "voltage_source"
+    role = "across"
+    parameters = {"E": Parameter("source voltage", check="real", shape="signal", unit="V")}
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.formulation == "charge":
+            # power delivered to the rest of the circuit: −E · i_ab
+            return Contribution(loads=[Load(-self.E, ctx.view.current(self))])
+        return Contribution()
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            ("n1", "0"),
+            {"E": sp.cos(t)},
+            context=[
+                ("resistor", "R", ("n1", "n2"), {"R": 1}),
+                ("inductor", "L", ("n2", "n3"), {"L": 1}),
+                ("capacitor", "C", ("n3", "0"), {"C": 1}),
+            ],
+        )
+
+
+class CurrentSource(_Element):
+    """Ideal current source driving I(t) from a, through itself, to b."""
+
+    kind = "current_source"
+    role = "through"
+    parameters = {"I": Parameter("source current", check="real", shape="signal", unit="A")}
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.formulation == "flux":
+            # power delivered to the rest of the circuit: −v_ab · I
+            return Contribution(loads=[Load(-self.I, ctx.view.voltage(self))])
+        return Contribution()
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            ("0", "n1"),
+            {"I": sp.sin(t)},
+            context=[
+                ("resistor", "R", ("n1", "0"), {"R": 2}),
+                ("inductor", "L", ("n1", "0"), {"L": 1}),
+                ("capacitor", "C", ("n1", "0"), {"C": 1}),
+            ],
+            options={"formulation": "flux"},
+        )
+
+
+@hookimpl
+def register_domains(register):
+    register(ElectricalDomain())
+
+
+@hookimpl
+def register_component_types(register):
+    for cls in (Inductor, Capacitor, Resistor, VoltageSource, CurrentSource):
+        register(cls)

@@ -1,0 +1,270 @@
+"""Built-in plugin: translational mechanics.
+
+The ``mechanical`` domain gives every mechanical node a position in 1, 2 or 3
+dimensions (model option ``dim``); ``ground`` is the fixed origin.  Node
+coordinates are named ``x_<node>`` (and ``y_<node>``, ``z_<node>``).  A node
+with a prescribed motion has no coordinate: its position is a known function
+of time (a rheonomic constraint).
+
+>>> import lagrangian as lg
+>>> m = lg.Model("pendulum-free", dim=2)
+>>> _ = m.add("mass", "m1", "bob", m=1)
+>>> _ = m.add("gravity", "g", g=9.81)
+>>> m.coordinate_names
+['x_bob', 'y_bob']
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import sympy as sp
+
+from lagrangian import (
+    Component,
+    Contribution,
+    Coordinate,
+    Domain,
+    DomainView,
+    Example,
+    Load,
+    ModelError,
+    Network,
+    Option,
+    Parameter,
+    dot,
+    hookimpl,
+    t,
+)
+
+AXES = "xyz"
+
+
+@dataclass
+class MechanicalView(DomainView):
+    """Positions of mechanical nodes: ``position(node)`` and ``velocity(node)`` are ``dim × 1`` matrices."""
+
+    dim: int = 1
+    positions: dict[str, sp.Matrix] = field(default_factory=dict)
+
+    def position(self, node: str) -> sp.Matrix:
+        return self.positions.get(node, sp.zeros(self.dim, 1))
+
+    def velocity(self, node: str) -> sp.Matrix:
+        return self.position(node).diff(t)
+
+
+class MechanicalDomain(Domain):
+    """Point positions in 1, 2 or 3 dimensions."""
+
+    name = "mechanical"
+    options = {"dim": Option(1, "spatial dimension of mechanical nodes", choices=(1, 2, 3))}
+
+    def build(self, network: Network, options: dict[str, Any]) -> MechanicalView:
+        dim = options["dim"]
+        prescribed = {c.nodes[0]: c for c in network.components if c.role == "across"}
+        view = MechanicalView(dim=dim)
+        for node in network.nodes:
+            if node in prescribed:
+                view.positions[node] = prescribed[node].prescribed_position(dim)
+                continue
+            coords = [Coordinate.named(f"{AXES[i]}_{node}", f"{AXES[i]} position of node {node!r}") for i in range(dim)]
+            view.coordinates.extend(coords)
+            view.positions[node] = sp.Matrix([c.function for c in coords])
+        return view
+
+
+def _vector(value: Any, dim: int, component: Component, pname: str) -> sp.Matrix:
+    """A parameter as a ``dim × 1`` matrix: scalars are accepted in one dimension."""
+    if isinstance(value, sp.MatrixBase):
+        if value.shape != (dim, 1):
+            raise ModelError(
+                f"{component.kind} {component.name!r}: parameter {pname!r} has {value.shape[0]} entries "
+                f"but the model's mechanical dimension is {dim}."
+            )
+        return sp.Matrix(value)
+    if dim != 1:
+        raise ModelError(
+            f"{component.kind} {component.name!r}: parameter {pname!r} must be a vector of {dim} entries "
+            f"in a {dim}-dimensional model (got the scalar {value})."
+        )
+    return sp.Matrix([value])
+
+
+class Mass(Component):
+    """Point mass: T = ½ m |v|²."""
+
+    kind = "mass"
+    domain = "mechanical"
+    terminals = ("node",)
+    parameters = {"m": Parameter("mass", unit="kg")}
+
+    @property
+    def gravitational_mass(self) -> tuple[str, sp.Expr]:
+        """``(node, m)``: what uniform gravity acts on."""
+        return self.nodes[0], self.m
+
+    def contribute(self, ctx) -> Contribution:
+        v = ctx.view.velocity(self.nodes[0])
+        return Contribution(T=self.m * dot(v, v) / 2)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example("p", {"m": 2}, context=[("spring", "k", ("ground", "p"), {"k": 3})])
+
+
+class Spring(Component):
+    """Linear spring along the line between its nodes: V = ½ k (|r_b − r_a| − ℓ₀)².
+
+    In one dimension the signed extension ``x_b − x_a − ℓ₀`` is used; with
+    ``rest_length = 0`` (the default) the spring is a zero-length spring
+    ``V = ½ k |r_b − r_a|²`` in any dimension.
+    """
+
+    kind = "spring"
+    domain = "mechanical"
+    parameters = {
+        "k": Parameter("stiffness", unit="N/m"),
+        "rest_length": Parameter("rest length", default=0, check="nonnegative", unit="m"),
+    }
+
+    def extension(self, ctx) -> sp.Expr:
+        d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
+        if ctx.view.dim == 1:
+            return d[0] - self.rest_length
+        if self.rest_length == 0:
+            return sp.sqrt(dot(d, d))
+        return sp.sqrt(dot(d, d)) - self.rest_length
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.dim > 1 and self.rest_length == 0:
+            d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
+            return Contribution(V=self.k * dot(d, d) / 2)
+        return Contribution(V=self.k * self.extension(ctx) ** 2 / 2)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "p"), {"k": 5, "rest_length": 0.5}, context=[("mass", "m", "p", {"m": 1})])
+
+
+class Damper(Component):
+    """Linear viscous damper along the line between its nodes: D = ½ c (d/dt |r_b − r_a|)²."""
+
+    kind = "damper"
+    domain = "mechanical"
+    parameters = {"c": Parameter("damping coefficient", unit="N s/m", check="nonnegative")}
+
+    def contribute(self, ctx) -> Contribution:
+        d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
+        dv = d.diff(t)
+        rate = dv[0] if ctx.view.dim == 1 else dot(d, dv) / sp.sqrt(dot(d, d))
+        return Contribution(D=self.c * rate**2 / 2)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            ("ground", "p"),
+            {"c": 0.4},
+            context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 2})],
+        )
+
+
+class Gravity(Component):
+    """Uniform gravity acting on every mass of the model: V = −Σ m g (u · r).
+
+    ``direction`` defaults to minus the last axis (−x in 1-D, −y in 2-D, −z in 3-D).
+    """
+
+    kind = "gravity"
+    domain = "mechanical"
+    terminals = ()
+    parameters = {
+        "g": Parameter("gravitational acceleration", default=9.81, unit="m/s²"),
+        "direction": Parameter("direction of gravity (normalized)", default=None, shape="vector"),
+    }
+
+    def contribute(self, ctx) -> Contribution:
+        dim = ctx.view.dim
+        if self.direction is None:
+            u = sp.zeros(dim, 1)
+            u[dim - 1] = -1
+        else:
+            u = _vector(self.direction, dim, self, "direction")
+            norm = sp.sqrt(dot(u, u))
+            if norm == 0:
+                raise ModelError(f"gravity {self.name!r}: direction must not be the zero vector.")
+            u = u / norm
+        V = 0
+        for comp in ctx.components:
+            held = getattr(comp, "gravitational_mass", None)
+            if held is not None:
+                node, mass = held
+                V -= mass * self.g * dot(u, ctx.view.position(node))
+        return Contribution(V=V)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example((), {"g": 9.81}, context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 2})])
+
+
+class Force(Component):
+    """Applied force on a node: a number, a SymPy expression of t, or a Python callable of t."""
+
+    kind = "force"
+    domain = "mechanical"
+    terminals = ("node",)
+    role = "through"
+    parameters = {"F": Parameter("force (vector in 2-D/3-D)", check="real", shape="signal", unit="N")}
+
+    def contribute(self, ctx) -> Contribution:
+        F = _vector(self.F, ctx.view.dim, self, "F")
+        return Contribution(loads=[Load(F, ctx.view.velocity(self.nodes[0]))])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            "p",
+            {"F": sp.sin(2 * t)},
+            context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 2})],
+        )
+
+
+class PrescribedMotion(Component):
+    """A node moved along a given path ``position(t)`` (a rheonomic constraint); the node has no coordinate."""
+
+    kind = "prescribed_motion"
+    domain = "mechanical"
+    terminals = ("node",)
+    role = "across"
+    parameters = {"position": Parameter("position as a function of t (vector in 2-D/3-D)", check="real", shape="signal", unit="m")}
+
+    def prescribed_position(self, dim: int) -> sp.Matrix:
+        if not isinstance(self.position, (sp.Expr, sp.MatrixBase)) or self.signals():
+            raise ModelError(
+                f"prescribed_motion {self.name!r}: the position must be a SymPy expression of t "
+                f"(it is differentiated symbolically), not a Python callable."
+            )
+        return _vector(self.position, dim, self, "position")
+
+    def contribute(self, ctx) -> Contribution:
+        return Contribution()
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            "support",
+            {"position": t / 2},
+            context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("support", "p"), {"k": 2})],
+        )
+
+
+@hookimpl
+def register_domains(register):
+    register(MechanicalDomain())
+
+
+@hookimpl
+def register_component_types(register):
+    for cls in (Mass, Spring, Damper, Gravity, Force, PrescribedMotion):
+        register(cls)
