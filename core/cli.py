@@ -27,6 +27,7 @@ def _kinds(registry) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``lagrangian COMMAND``; return the exit status."""
     parser = argparse.ArgumentParser(prog="lagrangian", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("plugins", help="list installed plugins and the component kinds each provides")

@@ -5,7 +5,7 @@
 >>> _ = m.add("mass", "m1", "cart", m=2)
 >>> _ = m.add("spring", "k1", ("ground", "cart"), k=8)
 >>> m.lagrangian
-x_cart(t)**2*(-4) + Derivative(x_cart(t), t)**2
+-4*x_cart(t)**2 + Derivative(x_cart(t), t)**2
 >>> m.equations
 [Eq(2*Derivative(x_cart(t), (t, 2)), -8*x_cart(t))]
 """

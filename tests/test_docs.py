@@ -1,0 +1,41 @@
+"""Every docstring example in the package runs, and every public object is documented."""
+
+import doctest
+import importlib
+import pkgutil
+
+import pytest
+
+import lagrangian
+import lagrangian.plugins
+
+MODULES = sorted(
+    {m.name for m in pkgutil.walk_packages(lagrangian.__path__, "lagrangian.") if not m.name.endswith("__main__")}
+    | {"lagrangian"}
+)
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_doctests_pass(name):
+    module = importlib.import_module(name)
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.failed == 0
+
+
+@pytest.mark.parametrize("name", MODULES)
+def test_public_objects_have_docstrings(name):
+    module = importlib.import_module(name)
+    assert module.__doc__, f"module {name} has no docstring"
+    for attr in getattr(module, "__all__", []):
+        obj = getattr(module, attr)
+        if callable(obj):
+            assert obj.__doc__, f"{name}.{attr} has no docstring"
+
+
+def test_package_has_examples():
+    """The core modules carry at least a dozen runnable examples between them."""
+    finder = doctest.DocTestFinder()
+    count = sum(
+        len(test.examples) for name in MODULES for test in finder.find(importlib.import_module(name))
+    )
+    assert count >= 12
