@@ -1,0 +1,50 @@
+"""Every example script runs as a user would run it and prints what it promises."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def run(script: str, *args: str, cwd: Path) -> str:
+    proc = subprocess.run(
+        [sys.executable, str(EXAMPLES / script), *args], capture_output=True, text=True, cwd=cwd, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
+def test_demo_prints_both_models_agreement_and_writes_chart(tmp_path):
+    out = run("demo.py", "--out", str(tmp_path / "chart.png"), cwd=tmp_path)
+    assert "model 'mass-spring-damper'" in out and "model 'series-RLC'" in out
+    assert "L = " in out and "Derivative(q_L(t), (t, 2))" in out
+    gap = float(re.search(r"max \|x\(t\) − q\(t\)\|\s+= (\S+)", out).group(1))
+    exact = re.search(r"max \|x − exact\| = (\S+), max \|q − exact\| = (\S+)", out)
+    assert gap < 1e-9
+    assert float(exact.group(1)) < 1e-6 and float(exact.group(2)) < 1e-6
+    png = (tmp_path / "chart.png").read_bytes()
+    assert png.startswith(b"\x89PNG") and len(png) > 10_000
+
+
+def test_two_mass_chain_finds_golden_ratio_frequencies(tmp_path):
+    out = run("two_mass_chain.py", cwd=tmp_path)
+    freqs = [float(x) for x in re.search(r"normal-mode frequencies: \[([^\]]+)\]", out).group(1).split()]
+    assert freqs == pytest.approx([(5**0.5 - 1) / 2, (5**0.5 + 1) / 2], rel=1e-7)  # printed to 8 decimals
+
+
+def test_parallel_rlc_amplitude_matches_impedance(tmp_path):
+    out = run("parallel_rlc_flux.py", cwd=tmp_path)
+    sim, z = map(float, re.search(r"simulated (\S+) V, \|Z\|·I = (\S+) V", out).groups())
+    assert sim == pytest.approx(z, rel=1e-4)
+
+
+def test_duffing_plugin_periods_match_quadrature(tmp_path):
+    out = run("duffing_plugin.py", cwd=tmp_path)
+    pairs = re.findall(r"period simulated (\S+), quadrature (\S+)", out)
+    assert len(pairs) == 3
+    for sim, quad in pairs:
+        assert float(sim) == pytest.approx(float(quad), rel=1e-5)
