@@ -83,7 +83,9 @@ class Parameter:
                 raise ParameterError(component, name, f"expected a vector (a sequence of numbers), got {value!r}.")
             return sp.Matrix([self._scalar(v, component, name, check="real") for v in value])
         if value is None:
-            return None
+            if self.default is None:
+                return None
+            raise ParameterError(component, name, f"required ({self.doc}), got None.")
         return self._scalar(value, component, name, check=self.check)
 
     def _scalar(self, value: Any, component: str, name: str, check: str) -> sp.Expr:

@@ -55,7 +55,7 @@ class Model:
             if key not in known:
                 raise UnknownNameError("model option", key, known)
             domain, opt = known[key]
-            if opt.choices and value not in opt.choices:
+            if opt.choices and not any(value == c and type(value) is type(c) for c in opt.choices):
                 raise ModelError(
                     f"model option {key!r} ({opt.doc}, from the {domain} domain) must be one of "
                     f"{', '.join(map(repr, opt.choices))}, not {value!r}."
@@ -290,8 +290,11 @@ class Model:
         to symbolic parameters by name.  Output is on ``points`` evenly spaced
         times, or on ``t_eval``.
         """
-        span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
-        if not span[1] > span[0]:
+        try:
+            span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
+        except (TypeError, ValueError):
+            raise ModelError(f"t_end must be a number or a pair (t0, t1), got {t_end!r}.") from None
+        if len(span) != 2 or not np.all(np.isfinite(span)) or not span[1] > span[0]:
             raise ModelError(f"the time span must end after it starts, got {span}.")
         numeric = self.numeric(params)
         y0, defaulted = initial_state(self.eq, initial or {}, velocity or {})

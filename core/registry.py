@@ -23,7 +23,7 @@ import pluggy
 from . import hookspecs
 from .component import Component, Example, Parameter
 from .domain import Domain, Option
-from .errors import PluginError, UnknownKindError
+from .errors import PluginError, UnknownKindError, closest
 
 __all__ = ["Registry", "PluginInfo", "default_registry", "ENTRY_POINT_GROUP"]
 
@@ -87,12 +87,17 @@ class Registry:
             self.pm.register(plugin, name=name)
         except Exception as exc:
             raise PluginError(name, f"cannot be registered: {exc}") from exc
+        for caller in self.pm.get_hookcallers(plugin) or []:
+            if not caller.has_spec():
+                self.pm.unregister(plugin)
+                known = ", ".join(n for n in dir(hookspecs) if n.startswith("register_"))
+                raise PluginError(name, f"implements unknown hook {caller.name!r}.{closest(caller.name, known.split(', '))} Known hooks: {known}.")
         self.info[name] = info
 
     def _collect(self) -> None:
         for hook, accept in (("register_domains", self._add_domain), ("register_component_types", self._add_kind)):
             caller = getattr(self.pm.hook, hook)
-            for impl in reversed(caller.get_hookimpls()):
+            for impl in caller.get_hookimpls():  # registration order
                 plugin = impl.plugin_name
                 args = {"register": functools.partial(accept, plugin)}
                 try:

@@ -139,9 +139,9 @@ class Result:
         raise UnknownNameError("coordinate", name, self.v)
 
     def energy_drift(self) -> float:
-        """Largest relative departure of ``T + V`` from its initial value."""
+        """Largest departure of ``T + V`` from its initial value, relative to the largest of |E(0)|, T and |V|."""
         E = self.E
-        scale = max(abs(E[0]), np.max(np.abs(self.T)), np.finfo(float).tiny)
+        scale = max(abs(E[0]), np.max(np.abs(self.T)), np.max(np.abs(self.V)), np.finfo(float).tiny)
         return float(np.max(np.abs(E - E[0])) / scale)
 
     def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
@@ -185,14 +185,22 @@ def integrate(
 ) -> Result:
     from scipy.integrate import solve_ivp
 
-    numeric.rhs(t_span[0], y0)  # fail early, with a clear message, on a singular start
+    start = numeric.rhs(t_span[0], y0)  # fail early, with a clear message, on a singular start
+    if not np.all(np.isfinite(start)):
+        bad = [f"{names[i]}'" if i < numeric.n else f"{names[numeric.eq.inertial[i - numeric.n]]}''" for i in np.flatnonzero(~np.isfinite(start))]
+        raise IntegrationError(
+            f"the equations of model {model!r} are not finite at the initial state ({', '.join(bad)} evaluate to "
+            f"{start[~np.isfinite(start)][0]}): the start is a singular configuration of some component "
+            f"(e.g. a 2-D spring or damper of zero length). Start elsewhere."
+        )
     sol = solve_ivp(numeric.rhs, t_span, y0, method=method, t_eval=t_eval, rtol=rtol, atol=atol, max_step=max_step)
+    sol_t = np.asarray(sol.t, dtype=float)
     if sol.status < 0:
         raise IntegrationError(
-            f"{method} failed on model {model!r} at t={sol.t[-1] if sol.t.size else t_span[0]:g}: {sol.message}. "
+            f"{method} failed on model {model!r} at t={sol_t[-1] if sol_t.size else t_span[0]:g}: {sol.message}. "
             f"The model may be stiff (try method='Radau' or 'BDF') or singular there."
         )
-    if not np.all(np.isfinite(sol.y)):
+    if not np.all(np.isfinite(sol.y)) or sol_t.size != t_eval.size:
         bad = int(np.argmax(~np.all(np.isfinite(sol.y), axis=0)))
         raise IntegrationError(f"the solution of model {model!r} became non-finite at t={sol.t[bad]:g}.")
     n = numeric.n
@@ -230,9 +238,18 @@ def initial_state(eq: Equations, initial: Mapping[str, float], velocity: Mapping
                 f"and cannot be given as an initial condition."
             )
     inertial = [names[i] for i in eq.inertial]
-    y0 = [float(initial.get(n, 0.0)) for n in names] + [float(velocity.get(n, 0.0)) for n in inertial]
-    if not np.all(np.isfinite(y0)):
-        raise ModelError("initial conditions must be finite numbers.")
+
+    def number(given: Mapping[str, float], name: str, what: str) -> float:
+        value = given.get(name, 0.0)
+        try:
+            out = float(value)
+        except (TypeError, ValueError):
+            raise ModelError(f"initial {what} of {name!r} must be a number, got {value!r}.") from None
+        if not np.isfinite(out):
+            raise ModelError(f"initial {what} of {name!r} must be finite, got {value!r}.")
+        return out
+
+    y0 = [number(initial, n, "value") for n in names] + [number(velocity, n, "velocity") for n in inertial]
     defaulted = [n for n in names if n not in initial] + [f"{n}'" for n in inertial if n not in velocity]
     if defaulted:
         warnings.warn(

@@ -1,0 +1,284 @@
+"""Conformance suite: every installed component kind, built from its own ``example()``.
+
+Parametrized over ``lg.default_registry().kinds`` — built-ins and third-party
+plugins alike — so a new plugin is checked without writing a test for it:
+its contribution is made of SymPy scalars in the model's coordinates (and
+signals), its kinetic energy is a nonnegative quadratic form in velocities,
+its Rayleigh function is nonnegative, the example model derives square
+equations and simulates for one time unit with finite results, and the kind
+is documented.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+import lagrangian as lg
+
+KINDS = sorted(lg.default_registry().kinds)
+N_STATES = 4
+
+
+def test_the_suite_covers_builtins_and_the_third_party_plugin():
+    assert {"mass", "spring", "damper", "gravity", "force", "prescribed_motion"} <= set(KINDS)
+    assert {"inductor", "capacitor", "resistor", "voltage_source", "current_source"} <= set(KINDS)
+    assert "cubic_spring" in KINDS
+
+
+def build(kind: str, registry: lg.Registry | None = None) -> tuple[lg.Model, lg.Example]:
+    cls = (registry or lg.default_registry()).component_type(kind)
+    ex = cls.example()
+    assert isinstance(ex, lg.Example)
+    m = lg.Model(f"example-{kind}", registry=registry, **dict(ex.options))
+    m.add(kind, kind, ex.nodes, **dict(ex.params))
+    for other_kind, name, nodes, params in ex.context:
+        m.add(other_kind, name, nodes, **dict(params))
+    return m, ex
+
+
+@pytest.fixture(scope="module", params=KINDS, ids=KINDS)
+def example(request):
+    """(kind, model built from the kind's example) — built once per kind."""
+    kind = request.param
+    m, ex = build(kind)
+    m.eq  # noqa: B018 - derive once; failures show up in every test of this kind
+    return kind, m
+
+
+def random_states(m: lg.Model, rng: np.random.Generator, n: int = N_STATES) -> list[dict]:
+    eq = m.eq
+    states = []
+    for _ in range(n):
+        subs = {s: sp.Float(rng.uniform(-2, 2)) for s in [*eq.sym.q, *eq.sym.v]}
+        subs[lg.t] = sp.Float(rng.uniform(0, 3))
+        states.append(subs)
+    return states
+
+
+def _numeric(expr) -> float:
+    value = complex(sp.N(expr))
+    assert abs(value.imag) < 1e-12, expr
+    return value.real
+
+
+# --- the contribution --------------------------------------------------------
+
+
+def test_every_component_contributes_sympy_scalars_in_coordinates(example):
+    check_contribution(*example)
+
+
+def check_contribution(kind, m):
+    allowed = {c.function.func for c in m.coordinates} | set(m.assembly.signals)
+    assert set(m.assembly.contributions) == set(m.components)
+    for name, c in m.assembly.contributions.items():
+        assert isinstance(c, lg.Contribution), name
+        for label in ("T", "V", "D"):
+            expr = sp.sympify(getattr(c, label))
+            assert isinstance(expr, sp.Expr), (name, label, expr)
+            assert not isinstance(expr, sp.MatrixBase)
+            undefined = {f.func for f in expr.atoms(AppliedUndef)}
+            assert undefined <= allowed, (name, label, undefined - allowed)
+            # no accelerations, and nothing but t and the (numeric) example parameters
+            assert not any(d.derivative_count > 1 for d in expr.atoms(sp.Derivative)), (name, label)
+            assert expr.free_symbols <= {lg.t}, (name, label, expr.free_symbols)
+        for load in c.loads:
+            assert isinstance(load, lg.Load)
+    # the kind under test is not a no-op: it adds energy, dissipation, a load or fixes coordinates
+    own = m.assembly.contributions[kind]
+    cls = type(m.component(kind))
+    assert own.T != 0 or own.V != 0 or own.D != 0 or own.loads or cls.role == "across" or cls.role == "through"
+
+
+def test_kinetic_energy_is_a_nonnegative_quadratic_form_in_velocities(example):
+    check_kinetic(*example)
+
+
+def check_kinetic(kind, m):
+    eq = m.eq
+    v = eq.sym.v
+    rng = np.random.default_rng(sum(map(ord, kind)))
+    states = random_states(m, rng)
+    contributions = [eq.symbolic(c.T) for c in m.assembly.contributions.values()] + [eq.T]
+    for T in contributions:
+        H = sp.hessian(T, v) if v else sp.Matrix()
+        # quadratic at most: the Hessian does not depend on the velocities
+        assert not (H.free_symbols & set(v)), T
+        for state in states:
+            assert _numeric(T.xreplace(state)) >= -1e-12, (T, state)
+            if H.shape[0]:
+                Hn = np.array(H.xreplace(state).evalf(), dtype=float)
+                assert np.allclose(Hn, Hn.T)
+                assert np.linalg.eigvalsh(Hn).min() >= -1e-10, (T, Hn)
+    # and the model's mass matrix is the Hessian of the total T
+    assert sp.simplify(eq.M - sp.hessian(eq.T, v)) == sp.zeros(len(v), len(v))
+
+
+def test_rayleigh_function_is_nonnegative(example):
+    check_rayleigh(*example)
+
+
+def check_rayleigh(kind, m):
+    eq = m.eq
+    rng = np.random.default_rng(1 + sum(map(ord, kind)))
+    for state in random_states(m, rng):
+        for c in [*m.assembly.contributions.values()]:
+            assert _numeric(eq.symbolic(c.D).xreplace(state)) >= -1e-12, (c.D, state)
+        assert _numeric(eq.D.xreplace(state)) >= -1e-12
+
+
+# --- the example model -------------------------------------------------------
+
+
+def test_example_model_derives_square_equations(example):
+    check_equations(*example)
+
+
+def check_equations(kind, m):
+    n = len(m.coordinates)
+    assert n >= 1
+    assert len(m.coordinate_names) == len(set(m.coordinate_names)) == n
+    assert m.mass_matrix.shape == (n, n)
+    assert m.forcing.shape == (n, 1)
+    assert len(m.equations) == n
+    assert m.eq.A.shape == (n, n)
+    assert m.parameters == []  # examples are fully numeric
+    # every first-order coordinate is also a coordinate
+    assert set(m.first_order) <= set(m.coordinate_names)
+
+
+def test_example_model_simulates_with_finite_results(example):
+    check_simulation(*example)
+
+
+def check_simulation(kind, m):
+    eq = m.eq
+    initial = {name: 0.1 * (i + 1) for i, name in enumerate(eq.names)}
+    velocity = {eq.names[i]: -0.05 * (i + 1) for i in eq.inertial}
+    res = m.simulate(1.0, initial=initial, velocity=velocity, points=21, rtol=1e-7, atol=1e-9)
+    assert res.defaulted == []
+    assert res.t[0] == 0.0 and res.t[-1] == pytest.approx(1.0)
+    assert set(res.q) == set(res.v) == set(eq.names)
+    for name in eq.names:
+        assert res.q[name].shape == res.t.shape
+        assert np.all(np.isfinite(res.q[name])), name
+        assert np.all(np.isfinite(res.v[name])), name
+        assert res.q[name][0] == pytest.approx(initial[name])
+    for series in (res.T, res.V, res.D):
+        assert series.shape == res.t.shape and np.all(np.isfinite(series))
+    assert np.all(res.T >= -1e-12) and np.all(res.D >= -1e-12)
+    # something actually moved
+    assert any(not np.allclose(res.q[name], res.q[name][0]) for name in eq.names)
+
+
+# --- the kind itself ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_kind_is_documented_and_consistent(kind):
+    cls = lg.default_registry().component_type(kind)
+    assert issubclass(cls, lg.Component)
+    assert cls.kind == kind
+    doc = cls.__dict__.get("__doc__")
+    assert isinstance(doc, str) and doc.strip(), f"{kind}: class needs a docstring"
+    assert cls.domain in lg.default_registry().domains
+    assert cls.parameters, f"{kind}: declares no parameters"
+    for pname, p in cls.parameters.items():
+        assert isinstance(p, lg.Parameter), (kind, pname)
+        assert pname.isidentifier()
+        assert isinstance(p.doc, str) and p.doc.strip(), f"{kind}.{pname}: parameter needs a doc"
+    ex = cls.example()
+    nodes = (ex.nodes,) if isinstance(ex.nodes, str) else tuple(ex.nodes)
+    assert len(nodes) == len(cls.terminals)
+    assert set(ex.params) <= set(cls.parameters)
+    assert {p for p, spec in cls.parameters.items() if spec.required} <= set(ex.params)
+    for item in ex.context:
+        assert len(item) == 4 and item[0] in lg.default_registry().kinds
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_example_is_reproducible(kind):
+    """``example()`` builds the same model twice (no hidden state), with the same Lagrangian."""
+    a, _ = build(kind)
+    b, _ = build(kind)
+    assert a.coordinate_names == b.coordinate_names
+    assert sp.simplify(a.lagrangian - b.lagrangian) == 0
+    assert f"{kind} ({kind})" in a.describe()
+
+
+# --- the suite itself rejects what it should -----------------------------------
+
+
+def _kind(kind: str, contribute, doc: str = "A deliberately broken kind."):
+    def example(cls):
+        return lg.Example("p", {"a": 1}, context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 1})])
+
+    return type(
+        kind,
+        (lg.Component,),
+        {
+            "__doc__": doc,
+            "kind": kind,
+            "domain": "mechanical",
+            "terminals": ("node",),
+            "parameters": {"a": lg.Parameter("coefficient")},
+            "contribute": contribute,
+            "example": classmethod(example),
+        },
+    )
+
+
+def _v(self, ctx):
+    return ctx.view.velocity(self.nodes[0])[0]
+
+
+BROKEN = {
+    # negative kinetic energy (an "anti-mass" that still leaves the total mass positive)
+    "anti_mass": (_kind("anti_mass", lambda self, ctx: lg.Contribution(T=-self.a * _v(self, ctx) ** 2 / 4)), check_kinetic),
+    # quartic in velocity: not a quadratic form
+    "quartic_mass": (_kind("quartic_mass", lambda self, ctx: lg.Contribution(T=_v(self, ctx) ** 4)), check_kinetic),
+    # negative dissipation
+    "anti_damper": (_kind("anti_damper", lambda self, ctx: lg.Contribution(D=-self.a * _v(self, ctx) ** 2)), check_rayleigh),
+    # an energy in a function that is neither coordinate nor signal
+    "stray_function": (
+        _kind("stray_function", lambda self, ctx: lg.Contribution(V=sp.Function("stray")(lg.t) ** 2)),
+        None,  # assembly itself refuses it
+    ),
+    # a free symbol the example never gives a value
+    "stray_symbol": (_kind("stray_symbol", lambda self, ctx: lg.Contribution(V=sp.Symbol("s") * _v(self, ctx))), check_contribution),
+    # blows up within the time unit: V = -a x^4 pushes x to infinity
+    "runaway": (
+        _kind("runaway", lambda self, ctx: lg.Contribution(V=-1e4 * self.a * ctx.view.position(self.nodes[0])[0] ** 4)),
+        check_simulation,
+    ),
+}
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+@pytest.mark.parametrize("name", sorted(BROKEN))
+def test_suite_rejects_a_broken_kind(name):
+    cls, check = BROKEN[name]
+    reg = lg.Registry(plugins={"broken": _plugin(cls)})
+    if check is None:
+        with pytest.raises(lg.ModelError, match=name):
+            build(name, reg)[0].eq  # noqa: B018
+        return
+    m, _ = build(name, reg)
+    with pytest.raises((AssertionError, lg.LagrangianError)):
+        check(name, m)
+
+
+def _plugin(cls):
+    import types
+
+    plugin = types.ModuleType("broken")
+
+    @lg.hookimpl
+    def register_component_types(register):
+        register(cls)
+
+    plugin.register_component_types = register_component_types
+    return plugin
