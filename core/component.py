@@ -9,6 +9,7 @@ virtual power).  The assembly sums contributions into one Lagrangian.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -92,17 +93,32 @@ class Parameter:
         if isinstance(value, bool):
             raise ParameterError(component, name, f"expected a number or a SymPy expression, got {value!r}.")
         try:
-            expr = sp.sympify(value, strict=not isinstance(value, str))
-        except (sp.SympifyError, SyntaxError, TypeError) as exc:
+            expr = _parse(value) if isinstance(value, str) else sp.sympify(value, strict=True)
+        except (sp.SympifyError, SyntaxError, TypeError, ValueError) as exc:
             raise ParameterError(
                 component, name, f"expected a number or a SymPy expression, got {value!r} ({exc.__class__.__name__})."
             ) from None
         if not isinstance(expr, sp.Expr):
             raise ParameterError(component, name, f"expected a scalar expression, got {value!r}.")
+        if any(s.name == "t" and s != t for s in expr.free_symbols):
+            raise ParameterError(component, name, "uses a symbol named t that is not lagrangian.t: build time expressions from lagrangian.t.")
         if self.shape != "signal" and t in expr.free_symbols:
             raise ParameterError(component, name, "depends on time t; only signal parameters may.")
         check_value(expr, check, component, name)
         return expr
+
+
+def _parse(text: str) -> sp.Expr:
+    """Parse a string parameter: every name is a plain symbol, except called names (SymPy functions), ``pi`` and ``t`` (time).
+
+    >>> _parse("E*beta + sin(t)")
+    E*beta + sin(t)
+    """
+    names = set(re.findall(r"\b([A-Za-z_][A-Za-z0-9_]*)\b(?!\s*\()", text))  # names not called
+    local = {n: sp.Symbol(n) for n in names}
+    local.pop("pi", None)
+    local["t"] = t
+    return sp.sympify(text, locals=local)
 
 
 def check_value(expr: Any, check: str, component: str, name: str) -> None:

@@ -207,7 +207,7 @@ class Model:
         eq = self.eq
         inner = set(eq.sym.q) | set(eq.sym.v) | set(eq.sym.a) | {t}
         free = (eq.A.free_symbols | eq.b.free_symbols | eq.T.free_symbols | eq.V.free_symbols | eq.D.free_symbols) - inner
-        return sorted(free, key=lambda s: s.name)
+        return sorted(free, key=lambda s: (s.name, str(s.assumptions0)))
 
     def latex(self) -> str:
         """The Lagrangian, Rayleigh function and equations of motion as LaTeX."""
@@ -236,7 +236,9 @@ class Model:
 
     # -- simulation ------------------------------------------------------------
     def _values(self, params: Mapping[str, float]) -> dict[sp.Symbol, float]:
-        needed = {s.name: s for s in self.parameters}
+        needed: dict[str, list[sp.Symbol]] = {}
+        for s in self.parameters:  # symbols of one name but different assumptions share the value
+            needed.setdefault(s.name, []).append(s)
         unknown = [k for k in params if k not in needed]
         if unknown:
             raise UnknownNameError("parameter", unknown[0], needed)
@@ -247,11 +249,12 @@ class Model:
                 f"Pass them, e.g. simulate(..., params={{{', '.join(f'{k!r}: ...' for k in missing)}}})."
             )
         values = {}
-        for k, s in needed.items():
+        for k, symbols in needed.items():
             try:
-                values[s] = float(params[k])
+                value = float(params[k])
             except (TypeError, ValueError):
                 raise ModelError(f"parameter {k!r} must be a number, got {params[k]!r}.") from None
+            values.update(dict.fromkeys(symbols, value))
         subs = {s: sp.Float(v) for s, v in values.items()}
         for comp in self._graph.components.values():
             for pname, spec in comp.parameters.items():

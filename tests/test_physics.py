@@ -807,3 +807,29 @@ def test_duffing_period_from_amplitude_matches_quadrature(A):
     assert len(crossings) == 6
     measured = (crossings[-1] - crossings[0]) / 2.5  # six crossings span 2.5 periods
     assert measured == pytest.approx(period, rel=1e-9)
+
+
+# --- parameters written as strings -----------------------------------------------
+
+
+def test_string_parameters_are_plain_symbols_and_t_is_time():
+    """'E' is a symbol (not Euler's number), 'beta' a symbol (not the beta function), 't' is lagrangian.t;
+    a symbol 'k' written as a string and one built with assumptions share one value."""
+    m = lg.Model("strings")
+    m.add("mass", "m1", "p", m="beta")
+    m.add("spring", "k1", ("ground", "p"), k=sp.Symbol("k", positive=True))
+    m.add("spring", "k2", ("ground", "p"), k="k")
+    m.add("force", "F", "p", F="E*sin(2*t)")
+    assert {s.name for s in m.parameters} == {"E", "beta", "k"}
+    assert m.generalized_forces[0] == sp.Symbol("E") * sp.sin(2 * lg.t)
+    # beta x'' + 2k x = E sin(2t), from rest: x = E/(beta(w^2 - 4)) (sin 2t - (2/w) sin wt), w^2 = 2k/beta
+    beta, k, E = 2.0, 9.0, 0.5
+    w = np.sqrt(2 * k / beta)
+    res = m.simulate(5, initial={"x_p": 0}, velocity={"x_p": 0}, params={"beta": beta, "k": k, "E": E})
+    exact = E / (beta * (w**2 - 4)) * (np.sin(2 * res.t) - 2 / w * np.sin(w * res.t))
+    assert np.max(np.abs(res["x_p"] - exact)) < 1e-7 * np.max(np.abs(exact))
+
+
+def test_a_foreign_time_symbol_is_refused():
+    with pytest.raises(lg.ParameterError, match="lagrangian.t"):
+        lg.Model().add("force", "F", "p", F=sp.sin(sp.Symbol("t")))
