@@ -12,7 +12,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -284,6 +284,7 @@ class Model:
         rtol: float = 1e-9,
         atol: float = 1e-12,
         max_step: float = np.inf,
+        progress: bool | Callable[[float, float], None] = False,
     ) -> Result:
         """Integrate the equations of motion with :func:`scipy.integrate.solve_ivp`.
 
@@ -291,7 +292,17 @@ class Model:
         any not given start at zero and are listed in ``Result.defaulted``
         (with an :class:`InitialConditionWarning`).  ``params`` gives values
         to symbolic parameters by name.  Output is on ``points`` evenly spaced
-        times, or on ``t_eval``.
+        times, or on ``t_eval``.  ``progress=True`` reports progress on
+        standard error every 5 % of the time span; a callable
+        ``progress(t, t_end)`` is called instead.
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("free fall")
+        >>> _ = m.add("mass", "m", "p", m=1)
+        >>> _ = m.add("gravity", "g", g=10)
+        >>> res = m.simulate(1, initial={"x_p": 0}, velocity={"x_p": 0}, points=3)
+        >>> [round(float(x), 9) for x in res["x_p"]]  # x = -g t²/2
+        [0.0, -1.25, -5.0]
         """
         try:
             span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
@@ -314,4 +325,5 @@ class Model:
             max_step=max_step,
             model=self.name,
             defaulted=defaulted,
+            progress=progress,
         )

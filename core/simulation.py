@@ -9,8 +9,9 @@ an integrator failure, non-finite values — raises a
 
 from __future__ import annotations
 
+import sys
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -182,6 +183,7 @@ def integrate(
     max_step: float,
     model: str,
     defaulted: list[str],
+    progress: bool | Callable[[float, float], None] = False,
 ) -> Result:
     from scipy.integrate import solve_ivp
 
@@ -193,8 +195,13 @@ def integrate(
             f"{start[~np.isfinite(start)][0]}): the start is a singular configuration of some component "
             f"(e.g. a 2-D spring or damper of zero length). Start elsewhere."
         )
-    sol = solve_ivp(numeric.rhs, t_span, y0, method=method, t_eval=t_eval, rtol=rtol, atol=atol, max_step=max_step)
+    rhs = numeric.rhs if not progress else _reporting(numeric.rhs, t_span, model, progress)
+    sol = solve_ivp(rhs, t_span, y0, method=method, t_eval=t_eval, rtol=rtol, atol=atol, max_step=max_step)
     sol_t = np.asarray(sol.t, dtype=float)
+    if callable(progress):
+        progress(sol_t[-1] if sol_t.size else t_span[0], t_span[1])
+    elif progress:
+        print(f"\rsimulating {model!r}: done, {sol.nfev} evaluations{' ' * 20}", file=sys.stderr)
     if sol.status < 0:
         raise IntegrationError(
             f"{method} failed on model {model!r} at t={sol_t[-1] if sol_t.size else t_span[0]:g}: {sol.message}. "
@@ -221,6 +228,25 @@ def integrate(
         nfev=sol.nfev,
         method=method,
     )
+
+
+def _reporting(rhs, t_span, model: str, progress):
+    """Wrap ``rhs`` so that progress through ``t_span`` is reported every 5 %."""
+    t0, t1 = t_span
+    report = progress if callable(progress) else None
+    state = {"next": 0.0}
+
+    def wrapped(time, y):
+        fraction = (time - t0) / (t1 - t0)
+        if fraction >= state["next"]:
+            state["next"] = fraction + 0.05
+            if report is not None:
+                report(time, t1)
+            else:
+                print(f"\rsimulating {model!r}: {100 * fraction:5.1f} % (t = {time:.4g} of {t1:.4g})", end="", file=sys.stderr, flush=True)
+        return rhs(time, y)
+
+    return wrapped
 
 
 def initial_state(eq: Equations, initial: Mapping[str, float], velocity: Mapping[str, float]) -> tuple[np.ndarray, list[str]]:

@@ -833,3 +833,14 @@ def test_string_parameters_are_plain_symbols_and_t_is_time():
 def test_a_foreign_time_symbol_is_refused():
     with pytest.raises(lg.ParameterError, match="lagrangian.t"):
         lg.Model().add("force", "F", "p", F=sp.sin(sp.Symbol("t")))
+
+
+def test_progress_is_reported_monotonically_up_to_the_end():
+    m = lg.Model("progress")
+    m.add("mass", "m", "p", m=1)
+    m.add("spring", "k", ("ground", "p"), k=1)
+    seen = []
+    m.simulate(10, initial={"x_p": 1}, velocity={"x_p": 0}, progress=lambda now, end: seen.append((now, end)))
+    times = [now for now, _ in seen]
+    assert len(seen) >= 10 and times == sorted(times)
+    assert seen[-1] == (10.0, 10.0)
