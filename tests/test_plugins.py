@@ -551,11 +551,12 @@ def test_cli_plugins():
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     headers = [line for line in lines if not line.startswith(" ")]
-    assert headers == [
+    assert {
         "circuits  (lagrangian 0.1.0)",
         "cubic_spring  (lagrangian-cubic-spring 0.1.0)",
         "mechanics  (lagrangian 0.1.0)",
-    ]
+    } <= set(headers)
+    assert headers == sorted(headers)  # entry points load in name order
     text = proc.stdout
     for kinds in BUILTIN_KINDS.values():
         assert f"kinds:   {', '.join(kinds)}" in text
