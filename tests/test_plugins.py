@@ -623,7 +623,7 @@ def test_hookspecs_are_the_documented_interface():
 @pytest.mark.parametrize("hook", sorted(hookspec_functions()))
 def test_every_hookspec_is_implemented_by_a_builtin_plugin(registry, hook):
     builtin = {p.name for p in registry.plugins() if p.distribution == "lagrangian"}
-    assert builtin == set(BUILTIN_KINDS)
+    assert set(BUILTIN_KINDS) <= builtin
     implementers = {impl.plugin_name for impl in getattr(registry.pm.hook, hook).get_hookimpls()}
     assert implementers & builtin, f"no built-in plugin implements {hook}"
 
