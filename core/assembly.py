@@ -62,13 +62,13 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     check_topology(whole, GROUND, roles.get)
 
     views: dict[str, DomainView] = {}
-    for dname in dict.fromkeys(c.domain for c in components):
+    for dname in dict.fromkeys(d for c in components for d in c.domains):
         domain = registry.domains.get(dname)
         if domain is None:
             raise DomainError(f"no installed plugin provides the domain {dname!r}.")
-        members = [c for c in components if c.domain == dname]
+        members = [c for c in components if dname in c.domains]
         opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
-        views[dname] = domain.build(Network(graph.graph(members), members), opts)
+        views[dname] = domain.build(Network(graph.graph(members, domain=dname), members), opts)
 
     coordinates: list[Coordinate] = []
     seen: dict[str, str] = {}

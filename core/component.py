@@ -216,7 +216,11 @@ class Component:
        referred to the inertial frame as a capacitor is to ground); two
        terminals ``(a, b)`` give a branch oriented from ``a`` to ``b``.
     4. ``parameters``: a mapping of name to :class:`Parameter`.
-    5. ``role``: ``None``, ``"across"`` (an ideal source fixing the across
+    5. ``terminal_domains`` (optional): the domain of each terminal, for a
+       component that couples domains (a transducer); ``domain`` is then the
+       domain whose view ``ctx.view`` is, and ``ctx.views`` has the others.
+       Its branches are ``branches()``; each belongs to the domain of its nodes.
+    6. ``role``: ``None``, ``"across"`` (an ideal source fixing the across
        quantity of its branch: a prescribed motion, a voltage source) or
        ``"through"`` (fixing its through quantity: a current source).
 
@@ -229,6 +233,7 @@ class Component:
     terminals: ClassVar[tuple[str, ...]] = ("a", "b")
     parameters: ClassVar[Mapping[str, Parameter]] = {}
     role: ClassVar[str | None] = None
+    terminal_domains: ClassVar[tuple[str, ...] | None] = None
 
     def __init__(self, name: str, nodes: tuple[str, ...], params: Mapping[str, Any]):
         self.name = name
@@ -263,6 +268,15 @@ class Component:
 
     def __repr__(self) -> str:
         return f"<{self.kind} {self.name!r} at {', '.join(self.nodes) or '(global)'}>"
+
+    def node_domain(self, index: int) -> str:
+        """The domain of terminal ``index``."""
+        return self.terminal_domains[index] if self.terminal_domains else self.domain
+
+    @property
+    def domains(self) -> tuple[str, ...]:
+        """Every domain this component touches, its own first."""
+        return tuple(dict.fromkeys((self.domain, *(self.terminal_domains or ()))))
 
     def branches(self) -> list[tuple[str, str]]:
         """Edges this component adds to the graph, as ``(a, b)`` node pairs."""

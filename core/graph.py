@@ -73,16 +73,17 @@ class ComponentGraph:
         """The domain of every non-ground node; raises if domains meet at a node or a node is bare."""
         domains: dict[str, tuple[str, str]] = {}
         for comp in self.components.values():
-            for n in comp.nodes:
+            for i, n in enumerate(comp.nodes):
                 if n == GROUND:
                     continue
-                if n in domains and domains[n][0] != comp.domain:
+                mine = comp.node_domain(i)
+                if n in domains and domains[n][0] != mine:
                     dom, other = domains[n]
                     raise DomainError(
-                        f"node {n!r} joins {comp.kind} {comp.name!r} ({comp.domain}) and component {other!r} ({dom}); "
+                        f"node {n!r} joins {comp.kind} {comp.name!r} ({mine}) and component {other!r} ({dom}); "
                         f"a node belongs to one domain. Couple domains with a transducer component instead."
                     )
-                domains.setdefault(n, (comp.domain, comp.name))
+                domains.setdefault(n, (mine, comp.name))
         bare = [n for n in self.declared if n not in domains]
         if bare:
             raise DanglingNodeError(
@@ -90,13 +91,21 @@ class ComponentGraph:
             )
         return {n: d for n, (d, _) in domains.items()}
 
-    def graph(self, components: Iterable[Component] | None = None) -> nx.MultiGraph:
-        """A ``MultiGraph`` of the given components' branches (all components by default)."""
+    def graph(self, components: Iterable[Component] | None = None, domain: str | None = None) -> nx.MultiGraph:
+        """A ``MultiGraph`` of the given components' branches (all components by default).
+
+        Edges are keyed by component name (``name#i`` for a component's
+        branch ``i > 0``).  With ``domain``, only nodes and branches of that
+        domain are included.
+        """
         g = nx.MultiGraph()
         g.add_node(GROUND)
         for comp in self.components.values() if components is None else components:
-            g.add_nodes_from(n for n in comp.nodes)
+            node_domain = {n: comp.node_domain(i) for i, n in enumerate(comp.nodes)}
+            g.add_nodes_from(n for n in comp.nodes if domain is None or node_domain[n] == domain)
             for i, (a, b) in enumerate(comp.branches()):
+                if domain is not None and domain not in {node_domain.get(a, domain), node_domain.get(b, domain)}:
+                    continue
                 key = comp.name if i == 0 else f"{comp.name}#{i}"
                 g.add_edge(a, b, key=key, a=a, b=b, component=comp)
         return g

@@ -107,10 +107,11 @@ class Registry:
                 except Exception as exc:
                     raise PluginError(plugin, f"hook {hook} raised {exc.__class__.__name__}: {exc}") from exc
         for kind, cls in self.kinds.items():
-            if cls.domain not in self.domains:
+            missing = [d for d in (cls.domain, *(cls.terminal_domains or ())) if d not in self.domains]
+            if missing:
                 raise PluginError(
                     self._owner(kind),
-                    f"component kind {kind!r} belongs to domain {cls.domain!r}, which no plugin registers "
+                    f"component kind {kind!r} belongs to domain {missing[0]!r}, which no plugin registers "
                     f"(registered domains: {', '.join(sorted(self.domains)) or 'none'}).",
                 )
 
@@ -181,6 +182,10 @@ def _component_type_problem(cls: Any) -> str | None:
         return "terminals must be a tuple of names"
     if not all(isinstance(p, Parameter) for p in cls.parameters.values()):
         return "every entry of parameters must be a lagrangian.Parameter"
+    if cls.terminal_domains is not None and (
+        not isinstance(cls.terminal_domains, tuple) or len(cls.terminal_domains) != len(cls.terminals)
+    ):
+        return "terminal_domains must be a tuple with one domain per terminal"
     if cls.role not in (None, "across", "through"):
         return f"role must be None, 'across' or 'through', not {cls.role!r}"
     if cls.contribute is Component.contribute:

@@ -64,26 +64,28 @@ class ElectricalView(DomainView):
     formulation: str = "charge"
     branch: dict[str, sp.Expr] = field(default_factory=dict)
 
-    def _get(self, component: Component, wanted: str) -> sp.Expr:
+    def _get(self, component: Component, wanted: str, branch: int) -> sp.Expr:
         if self.formulation != wanted:
             raise ModelError(
                 f"{component.kind} {component.name!r} asked for the branch {wanted} in the {self.formulation} formulation."
             )
-        return self.branch[component.name]
+        return self.branch[component.name if branch == 0 else f"{component.name}#{branch}"]
 
-    def charge(self, component: Component) -> sp.Expr:
-        """Charge that has passed through ``component`` from ``a`` to ``b`` (charge formulation)."""
-        return self._get(component, "charge")
+    def charge(self, component: Component, branch: int = 0) -> sp.Expr:
+        """Charge that has passed through ``component`` (its ``branch``) from ``a`` to ``b`` (charge formulation)."""
+        return self._get(component, "charge", branch)
 
-    def current(self, component: Component) -> sp.Expr:
-        return self.charge(component).diff(t)
+    def current(self, component: Component, branch: int = 0) -> sp.Expr:
+        """Current through ``component`` from ``a`` to ``b`` (charge formulation)."""
+        return self.charge(component, branch).diff(t)
 
-    def flux(self, component: Component) -> sp.Expr:
+    def flux(self, component: Component, branch: int = 0) -> sp.Expr:
         """Flux linkage ``λ_a − λ_b`` across ``component`` (flux formulation)."""
-        return self._get(component, "flux")
+        return self._get(component, "flux", branch)
 
-    def voltage(self, component: Component) -> sp.Expr:
-        return self.flux(component).diff(t)
+    def voltage(self, component: Component, branch: int = 0) -> sp.Expr:
+        """Voltage ``v_a − v_b`` across ``component`` (flux formulation)."""
+        return self.flux(component, branch).diff(t)
 
 
 def _integral(component: Component, value: Any, what: str) -> sp.Expr:
@@ -116,10 +118,10 @@ class ElectricalDomain(Domain):
 
     def build(self, network: Network, options: dict[str, Any]) -> ElectricalView:
         formulation = options["formulation"]
-        by_name = {c.name: c for c in network.components}
+        by_key = {k: d["component"] for _, _, k, d in network.graph.edges(keys=True, data=True)}
 
         def priority(key: str) -> float:
-            comp = by_name[key]
+            comp = by_key[key]
             if comp.role == "across":
                 return 0
             if comp.role == "through":
@@ -130,8 +132,9 @@ class ElectricalDomain(Domain):
         view = ElectricalView(formulation=formulation)
         if formulation == "charge":
             chords: dict[str, sp.Expr] = {}
-            for chord, loop in fundamental_loops(network.graph, tree).items():
-                comp = by_name[chord]
+            loops = fundamental_loops(network.graph, tree)
+            for chord, loop in loops.items():
+                comp = by_key[chord]
                 if comp.role == "through":
                     chords[chord] = _integral(comp, comp.I, "current")
                     continue
@@ -139,9 +142,9 @@ class ElectricalDomain(Domain):
                 coord = Coordinate.named(f"q_{chord}", f"charge through {comp.kind} {chord} (loop {path})")
                 view.coordinates.append(coord)
                 chords[chord] = coord.function
-            for c in network.components:
-                view.branch[c.name] = sp.Integer(0)
-            for chord, loop in fundamental_loops(network.graph, tree).items():
+            for key in by_key:
+                view.branch[key] = sp.Integer(0)
+            for chord, loop in loops.items():
                 for key, sign in loop:
                     view.branch[key] += sign * chords[chord]
         else:
@@ -149,7 +152,7 @@ class ElectricalDomain(Domain):
             for u, v, key, data in network.graph.edges(keys=True, data=True):
                 if key not in tree:
                     continue
-                comp = by_name[key]
+                comp = by_key[key]
                 if comp.role == "across":
                     drops[key] = _integral(comp, comp.E, "voltage")
                 elif GROUND in (u, v):
