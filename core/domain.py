@@ -69,9 +69,18 @@ class Network:
 
 @dataclass
 class DomainView:
-    """What a domain exposes to components: at least its coordinates."""
+    """What a domain exposes to components: at least its coordinates.
+
+    ``branch_value(key)`` gives the integral quantity of a branch (edge key
+    of the component graph) — a position difference, a charge, a flux
+    linkage — in terms of the coordinates; analogies identify branches of
+    two domains through it.
+    """
 
     coordinates: list[Coordinate] = field(default_factory=list)
+
+    def branch_value(self, key: str) -> sp.Expr:
+        raise NotImplementedError(f"{type(self).__name__} does not define branch quantities")
 
 
 class Domain:

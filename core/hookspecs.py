@@ -29,10 +29,18 @@ from typing import TYPE_CHECKING
 import pluggy
 
 if TYPE_CHECKING:
+    from .analogy import Analogy, AnalogueBuilder
     from .component import Component
     from .domain import Domain
 
-__all__ = ["hookspec", "hookimpl", "register_component_types", "register_domains"]
+__all__ = [
+    "hookspec",
+    "hookimpl",
+    "register_component_types",
+    "register_domains",
+    "register_analogies",
+    "register_analogues",
+]
 
 PROJECT = "lagrangian"
 hookspec = pluggy.HookspecMarker(PROJECT)
@@ -65,4 +73,35 @@ def register_domains(register: Callable[[Domain], None]) -> None:
     *view* through which they read those coordinates.  A domain's ``options``
     become keyword options of :class:`lagrangian.Model` (for example
     ``Model(formulation="flux")``).
+    """
+
+
+@hookspec
+def register_analogies(register: Callable[[Analogy], None]) -> None:
+    """Register analogies between two domains.
+
+    Call ``register(Analogy(name, source, target, dual=..., options=..., inverse_options=...))``.
+    An analogy maps a model of its ``source`` domain onto one of its
+    ``target`` domain and back: ``dual=False`` keeps the graph (nodes map
+    to nodes: the force–current analogy), ``dual=True`` maps through the
+    planar dual graph (nodes become meshes: the force–voltage analogy).
+    ``options`` are model options of the target model, ``inverse_options``
+    those of the source model when mapping back.
+    """
+
+
+@hookspec
+def register_analogues(register: Callable[[str, str, AnalogueBuilder], None]) -> None:
+    """Declare the analogues of component kinds.
+
+    Call ``register(kind, analogy, build)`` for each component kind and
+    analogy name the plugin can map.  ``build(component, ports)`` returns a
+    list of :class:`lagrangian.analogy.Element` for the other domain;
+    ``ports.branch(i)`` gives the target nodes ``(a, b)`` standing for the
+    component's branch ``i`` (for a dual analogy, the two meshes on either
+    side of it, oriented so that the target branch's rate equals the source
+    branch's rate), ``ports.ground`` the target reference node.  An element
+    that stands for branch ``i`` says so (``Element(..., branch=i)``): its
+    branch quantity (charge, flux linkage, position difference) is then
+    identified with the source branch's, which is how coordinates map.
     """

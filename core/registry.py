@@ -61,6 +61,8 @@ class Registry:
         self.pm.add_hookspecs(hookspecs)
         self.kinds: dict[str, type[Component]] = {}
         self.domains: dict[str, Domain] = {}
+        self.analogies: dict[str, Any] = {}
+        self.analogues: dict[tuple[str, str], Any] = {}
         self.info: dict[str, PluginInfo] = {}
         if entry_points:
             for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
@@ -95,7 +97,13 @@ class Registry:
         self.info[name] = info
 
     def _collect(self) -> None:
-        for hook, accept in (("register_domains", self._add_domain), ("register_component_types", self._add_kind)):
+        hooks = (
+            ("register_domains", self._add_domain),
+            ("register_component_types", self._add_kind),
+            ("register_analogies", self._add_analogy),
+            ("register_analogues", self._add_analogue),
+        )
+        for hook, accept in hooks:
             caller = getattr(self.pm.hook, hook)
             for impl in caller.get_hookimpls():  # registration order
                 plugin = impl.plugin_name
@@ -142,6 +150,22 @@ class Registry:
                 raise PluginError(plugin, f"domain {domain.name!r}: options must be lagrangian.Option instances.")
         self.domains[domain.name] = domain
         self.info[plugin].domains.append(domain.name)
+
+    def _add_analogy(self, plugin: str, analogy: Any) -> None:
+        from .analogy import Analogy
+
+        if not isinstance(analogy, Analogy):
+            raise PluginError(plugin, f"registered {analogy!r}, which is not a lagrangian.analogy.Analogy.")
+        if analogy.name in self.analogies:
+            raise PluginError(plugin, f"analogy {analogy.name!r} is already registered.")
+        self.analogies[analogy.name] = analogy
+
+    def _add_analogue(self, plugin: str, kind: Any, analogy: Any = None, build: Any = None) -> None:
+        if not isinstance(kind, str) or not isinstance(analogy, str) or not callable(build):
+            raise PluginError(plugin, "register_analogues: call register(kind, analogy_name, build) with a callable build.")
+        if (kind, analogy) in self.analogues:
+            raise PluginError(plugin, f"the {analogy} analogue of {kind!r} is already declared by plugin {self.analogues[kind, analogy][0]!r}.")
+        self.analogues[kind, analogy] = (plugin, build)
 
     def component_type(self, kind: str) -> type[Component]:
         """The class registered for ``kind``; :class:`UnknownKindError` with suggestions otherwise."""

@@ -57,6 +57,8 @@ class NumericModel:
         self._energy_fn = _lambdify((t, q, v), energies, signals)
         self.n = len(q)
         self.nI = len(eq.inertial)
+        self.values = dict(values)
+        self.signals = dict(signals)
 
     def solve(self, time: float, qv: np.ndarray, vI: np.ndarray) -> np.ndarray:
         """``u = (q̈_inertial, q̇_first_order)`` at one instant."""
@@ -118,6 +120,7 @@ class Result:
     defaulted: list[str] = field(default_factory=list)
     nfev: int = 0
     method: str = ""
+    evaluator: Callable[[Any, "Result"], np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def E(self) -> np.ndarray:
@@ -138,6 +141,22 @@ class Result:
         if name in self.v:
             return self.v[name]
         raise UnknownNameError("coordinate", name, self.v)
+
+    def quantity(self, expr: Any) -> np.ndarray:
+        """Any expression in the coordinates ``q(t)``, their rates and ``t``, evaluated along the result.
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("osc")
+        >>> _ = m.add("mass", "m", "p", m=1)
+        >>> _ = m.add("spring", "k", ("ground", "p"), k=4)
+        >>> res = m.simulate(1, initial={"x_p": 1}, velocity={"x_p": 0}, points=3)
+        >>> x = m.coordinates[0].function
+        >>> np.allclose(res.quantity(4 * x), 4 * res["x_p"])  # the spring's force
+        True
+        """
+        if self.evaluator is None:
+            raise ModelError("this result is not attached to a model; quantities cannot be evaluated.")
+        return self.evaluator(expr, self)
 
     def energy_drift(self) -> float:
         """Largest departure of ``T + V`` from its initial value, relative to the largest of |E(0)|, T and |V|."""
@@ -211,12 +230,26 @@ def integrate(
         bad = int(np.argmax(~np.all(np.isfinite(sol.y), axis=0)))
         raise IntegrationError(f"the solution of model {model!r} became non-finite at t={sol.t[bad]:g}.")
     n = numeric.n
-    v = np.empty((n, sol.t.size))
-    for k in range(sol.t.size):
-        v[:, k], _ = numeric.velocities(sol.t[k], sol.y[:, k])
+    v = np.empty((n, sol_t.size))
+    v[numeric.eq.inertial] = sol.y[n:]
+    if numeric.eq.first_order:  # their rates come from the solve, point by point
+        for k in range(sol_t.size):
+            v[:, k], _ = numeric.velocities(sol_t[k], sol.y[:, k])
     q = sol.y[:n]
     T, V, D = numeric.energies(sol.t, q, v)
+    def evaluate(expr: Any, res: Result) -> np.ndarray:
+        plain = numeric.eq.symbolic(sp.sympify(expr))
+        bad = plain.free_symbols - set(numeric.eq.sym.q) - set(numeric.eq.sym.v) - {t} - set(numeric.values)
+        if bad:
+            raise ModelError(f"cannot evaluate {expr}: {', '.join(sorted(map(str, bad)))} are not coordinates, rates or parameters.")
+        plain = plain.xreplace({s: sp.Float(v) for s, v in numeric.values.items()})
+        fn = _lambdify((t, numeric.eq.sym.q, numeric.eq.sym.v), plain, numeric.signals)
+        q = np.array([res.q[n] for n in names])
+        v = np.array([res.v[n] for n in names])
+        return np.broadcast_to(np.asarray(fn(res.t, q, v), dtype=float), res.t.shape).copy()
+
     return Result(
+        evaluator=evaluate,
         t=sol.t,
         q={name: q[i] for i, name in enumerate(names)},
         v={name: v[i] for i, name in enumerate(names)},
@@ -249,7 +282,9 @@ def _reporting(rhs, t_span, model: str, progress):
     return wrapped
 
 
-def initial_state(eq: Equations, initial: Mapping[str, float], velocity: Mapping[str, float]) -> tuple[np.ndarray, list[str]]:
+def initial_state(
+    eq: Equations, initial: Mapping[str, float], velocity: Mapping[str, float], *, warn: bool = True
+) -> tuple[np.ndarray, list[str]]:
     """The state vector ``(q, q̇_inertial)`` from initial values by name; missing ones are zero and reported."""
     names = eq.names
     for label, given in (("coordinate", initial), ("coordinate", velocity)):
@@ -277,7 +312,7 @@ def initial_state(eq: Equations, initial: Mapping[str, float], velocity: Mapping
 
     y0 = [number(initial, n, "value") for n in names] + [number(velocity, n, "velocity") for n in inertial]
     defaulted = [n for n in names if n not in initial] + [f"{n}'" for n in inertial if n not in velocity]
-    if defaulted:
+    if defaulted and warn:
         warnings.warn(
             f"initial conditions not given, set to zero: {', '.join(defaulted)}", InitialConditionWarning, stacklevel=3
         )

@@ -55,6 +55,7 @@ from lagrangian import (
     t,
 )
 from lagrangian.network import fundamental_loops, normal_tree, tree_potentials
+from lagrangian.spice import SpiceElement, spice_expression, spice_waveform
 
 
 @dataclass
@@ -63,6 +64,10 @@ class ElectricalView(DomainView):
 
     formulation: str = "charge"
     branch: dict[str, sp.Expr] = field(default_factory=dict)
+
+    def branch_value(self, key: str) -> sp.Expr:
+        """The branch charge (charge formulation) or flux linkage (flux formulation) of edge ``key``."""
+        return self.branch[key]
 
     def _get(self, component: Component, wanted: str, branch: int) -> sp.Expr:
         if self.formulation != wanted:
@@ -175,6 +180,13 @@ class _Element(Component):
     domain = "electrical"
 
 
+def _source(component: Component, letter: str, value: Any) -> SpiceElement:
+    wave = spice_waveform(value)
+    if wave is not None:
+        return SpiceElement(letter, component.nodes, wave)
+    return SpiceElement("B", component.nodes, f"{letter}={spice_expression(value)}")
+
+
 class Inductor(_Element):
     """Inductor: magnetic co-energy ½ L i² (charge), or potential λ²/2L (flux)."""
 
@@ -186,6 +198,10 @@ class Inductor(_Element):
         if ctx.view.formulation == "charge":
             return Contribution(T=self.L * ctx.view.current(self) ** 2 / 2)
         return Contribution(V=ctx.view.flux(self) ** 2 / (2 * self.L))
+
+    def spice(self, ctx) -> list[SpiceElement]:
+        i = ctx.view.current(self) if ctx.view.formulation == "charge" else ctx.view.flux(self) / self.L
+        return [SpiceElement("L", self.nodes, self.L, state=("i", i))]
 
     @classmethod
     def example(cls) -> Example:
@@ -204,6 +220,10 @@ class Capacitor(_Element):
             return Contribution(V=ctx.view.charge(self) ** 2 / (2 * self.C))
         return Contribution(T=self.C * ctx.view.voltage(self) ** 2 / 2)
 
+    def spice(self, ctx) -> list[SpiceElement]:
+        v = ctx.view.charge(self) / self.C if ctx.view.formulation == "charge" else ctx.view.voltage(self)
+        return [SpiceElement("C", self.nodes, self.C, state=("v", v))]
+
     @classmethod
     def example(cls) -> Example:
         return Example(("n1", "0"), {"C": 0.5}, context=[("inductor", "L", ("n1", "0"), {"L": 2})])
@@ -220,6 +240,9 @@ class Resistor(_Element):
         if ctx.view.formulation == "charge":
             return Contribution(D=self.R * ctx.view.current(self) ** 2 / 2)
         return Contribution(D=ctx.view.voltage(self) ** 2 / (2 * self.R))
+
+    def spice(self, ctx) -> list[SpiceElement]:
+        return [SpiceElement("R", self.nodes, self.R)]
 
     @classmethod
     def example(cls) -> Example:
@@ -242,6 +265,9 @@ class VoltageSource(_Element):
             # power delivered to the rest of the circuit: −E · i_ab
             return Contribution(loads=[Load(-self.E, ctx.view.current(self))])
         return Contribution()
+
+    def spice(self, ctx) -> list[SpiceElement]:
+        return [_source(self, "V", self.E)]
 
     @classmethod
     def example(cls) -> Example:
@@ -269,6 +295,9 @@ class CurrentSource(_Element):
             return Contribution(loads=[Load(-self.I, ctx.view.voltage(self))])
         return Contribution()
 
+    def spice(self, ctx) -> list[SpiceElement]:
+        return [_source(self, "I", self.I)]
+
     @classmethod
     def example(cls) -> Example:
         return Example(
@@ -292,3 +321,67 @@ def register_domains(register):
 def register_component_types(register):
     for cls in (Inductor, Capacitor, Resistor, VoltageSource, CurrentSource):
         register(cls)
+
+
+# -- analogies: circuit → mechanism (the inverse direction; mechanics declares the forward one) ---------
+
+from lagrangian.analogy import AnalogyError, Element  # noqa: E402
+
+
+def _anchored(build):
+    """Mark a builder whose element must attach to the reference in a dual mapping."""
+    build.anchored = True
+    return build
+
+
+def _grounded(component, a: str, b: str, what: str) -> tuple[str, int]:
+    """The non-ground node of (a, b) and the sign of its position relative to the branch quantity."""
+    if b == GROUND:
+        return a, 1
+    if a == GROUND:
+        return b, -1
+    raise AnalogyError(
+        f"{component.kind} {component.name!r} between {a!r} and {b!r} would be {what} between two moving points; "
+        f"a {what} is referred to the fixed frame. Use the other analogy."
+    )
+
+
+def _mass(c, p, value):
+    node, sign = _grounded(c, *p.branch(), "a mass")
+    return [Element("mass", f"m_{c.name}", node, {"m": value}, sign=sign)]
+
+
+def _forces(c, p, F):
+    a, b = p.branch()
+    return [
+        Element("force", f"F_{c.name}_{n}", n, {"F": s * F}, branch=None) for n, s in ((a, 1), (b, -1)) if n != GROUND
+    ]
+
+
+def _motion(c, p, value, what):
+    node, sign = _grounded(c, *p.branch(), "a prescribed motion")
+    return [Element("prescribed_motion", f"X_{c.name}", node, {"position": sign * _integral(c, value, what)}, branch=None)]
+
+
+INVERSE_FORCE_CURRENT = {
+    "capacitor": lambda c, p: _mass(c, p, c.C),
+    "inductor": lambda c, p: [Element("spring", f"k_{c.name}", p.branch(), {"k": 1 / c.L})],
+    "resistor": lambda c, p: [Element("damper", f"c_{c.name}", p.branch(), {"c": 1 / c.R})],
+    "current_source": lambda c, p: _forces(c, p, -c.I),  # drives I into b: a force +I on b
+    "voltage_source": lambda c, p: _motion(c, p, c.E, "voltage"),
+}
+
+INVERSE_FORCE_VOLTAGE = {
+    "inductor": _anchored(lambda c, p: _mass(c, p, c.L)),
+    "capacitor": lambda c, p: [Element("spring", f"k_{c.name}", p.branch(), {"k": 1 / c.C})],
+    "resistor": lambda c, p: [Element("damper", f"c_{c.name}", p.branch(), {"c": c.R})],
+    "voltage_source": lambda c, p: _forces(c, p, -c.E),  # delivers −E·i_ab = −E (v_a − v_b)
+    "current_source": _anchored(lambda c, p: _motion(c, p, c.I, "current")),
+}
+
+
+@hookimpl
+def register_analogues(register):
+    for analogy, table in (("force-voltage", INVERSE_FORCE_VOLTAGE), ("force-current", INVERSE_FORCE_CURRENT)):
+        for kind, build in table.items():
+            register(kind, analogy, build)

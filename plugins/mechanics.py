@@ -47,6 +47,14 @@ class MechanicalView(DomainView):
 
     dim: int = 1
     positions: dict[str, sp.Matrix] = field(default_factory=dict)
+    edges: dict[str, tuple[str, str]] = field(default_factory=dict)
+
+    def branch_value(self, key: str) -> sp.Expr:
+        """``x_a − x_b`` of the branch ``key`` (one dimension only)."""
+        if self.dim != 1:
+            raise ModelError("branch quantities of mechanical branches are defined in one dimension only (dim=1).")
+        a, b = self.edges[key]
+        return self.position(a)[0] - self.position(b)[0]
 
     def position(self, node: str) -> sp.Matrix:
         return self.positions.get(node, sp.zeros(self.dim, 1))
@@ -65,6 +73,7 @@ class MechanicalDomain(Domain):
         dim = options["dim"]
         prescribed = {c.nodes[0]: c for c in network.components if c.role == "across"}
         view = MechanicalView(dim=dim)
+        view.edges = {k: (d["a"], d["b"]) for _, _, k, d in network.graph.edges(keys=True, data=True)}
         for node in network.nodes:
             if node in prescribed:
                 view.positions[node] = prescribed[node].prescribed_position(dim)
@@ -268,3 +277,118 @@ def register_domains(register):
 def register_component_types(register):
     for cls in (Mass, Spring, Damper, Gravity, Force, PrescribedMotion):
         register(cls)
+
+
+# -- analogies ------------------------------------------------------------------------------------
+# Force–voltage: mass → inductor, spring → capacitor (C = 1/k), damper → resistor, force → voltage
+# source, prescribed motion → current source; velocity ↔ loop current, displacement ↔ charge.
+# Force–current: mass → capacitor, spring → inductor (L = 1/k), damper → resistor (R = 1/c),
+# force → current source, prescribed motion → voltage source; velocity ↔ node voltage,
+# displacement ↔ flux linkage.  Builders get the target nodes of each branch from ``ports``.
+
+from lagrangian.analogy import Analogy, AnalogyError, Element  # noqa: E402
+
+
+def _no_rest_length(spring) -> None:
+    if spring.rest_length != 0:
+        raise AnalogyError(
+            f"spring {spring.name!r} has a rest length; its analogue is a linear element about zero: "
+            f"measure positions from the rest configuration (rest_length=0)."
+        )
+
+
+def _starts_at_zero(motion) -> sp.Expr:
+    X = motion.prescribed_position(1)[0]
+    if X.subs(t, 0) != 0:
+        raise AnalogyError(
+            f"prescribed_motion {motion.name!r} starts at {X.subs(t, 0)}, not 0: its analogue source integrates "
+            f"from zero; shift the coordinates so that it starts at 0."
+        )
+    return X.diff(t)
+
+
+def _damping(damper, invert: bool):
+    if damper.c == 0:
+        raise AnalogyError(f"damper {damper.name!r} has c = 0 and contributes nothing: remove it.")
+    return 1 / damper.c if invert else damper.c
+
+
+def _weight(mass, ports) -> sp.Expr:
+    """The total 1-D gravitational force on a mass from every gravity component of the model."""
+    total = sp.Integer(0)
+    for g in ports.model.components.values():
+        if isinstance(g, Gravity):
+            u = -1 if g.direction is None else sp.sign(_vector(g.direction, 1, g, "direction")[0])
+            total += mass.m * g.g * u
+    return total
+
+
+def _mass_force_voltage(mass, ports) -> list:
+    """An inductor, in series with a voltage source for its weight when the model has gravity."""
+    a, b = ports.branch()
+    weight = _weight(mass, ports)
+    if weight == 0:
+        return [Element("inductor", f"L_{mass.name}", (a, b), {"L": mass.m})]
+    mid = f"{a}_{mass.name}"
+    return [
+        Element("inductor", f"L_{mass.name}", (a, mid), {"L": mass.m}),
+        Element("voltage_source", f"V_{mass.name}_weight", (b, mid), {"E": weight}, branch=None),
+    ]
+
+
+def _mass_force_current(mass, ports) -> list:
+    """A capacitor, with a current source for its weight in parallel when the model has gravity."""
+    a, b = ports.branch()
+    weight = _weight(mass, ports)
+    out = [Element("capacitor", f"C_{mass.name}", (a, b), {"C": mass.m})]
+    if weight != 0:
+        out.append(Element("current_source", f"I_{mass.name}_weight", (b, a), {"I": weight}, branch=None))
+    return out
+
+
+FORCE_VOLTAGE = {
+    "mass": _mass_force_voltage,
+    "spring": lambda c, p: (_no_rest_length(c), [Element("capacitor", f"C_{c.name}", p.branch(), {"C": 1 / c.k})])[1],
+    "damper": lambda c, p: [Element("resistor", f"R_{c.name}", p.branch(), {"R": _damping(c, False)})],
+    "force": lambda c, p: [Element("voltage_source", f"V_{c.name}", p.branch()[::-1], {"E": c.F}, branch=None)],
+    "prescribed_motion": lambda c, p: [
+        Element("current_source", f"I_{c.name}", p.branch(), {"I": _starts_at_zero(c)}, branch=None)
+    ],
+    "gravity": lambda c, p: [],  # carried by each mass's analogue (_weight)
+}
+
+FORCE_CURRENT = {
+    "mass": _mass_force_current,
+    "spring": lambda c, p: (_no_rest_length(c), [Element("inductor", f"L_{c.name}", p.branch(), {"L": 1 / c.k})])[1],
+    "damper": lambda c, p: [Element("resistor", f"R_{c.name}", p.branch(), {"R": _damping(c, True)})],
+    "force": lambda c, p: [Element("current_source", f"I_{c.name}", p.branch()[::-1], {"I": c.F}, branch=None)],
+    "prescribed_motion": lambda c, p: [
+        Element("voltage_source", f"V_{c.name}", p.branch(), {"E": _starts_at_zero(c)}, branch=None)
+    ],
+    "gravity": lambda c, p: [],  # carried by each mass's analogue (_weight)
+}
+
+
+@hookimpl
+def register_analogies(register):
+    register(
+        Analogy(
+            "force-voltage", "mechanical", "electrical", dual=True,
+            options={"formulation": "charge"}, inverse_options={"dim": 1},
+            doc="mass ↔ inductor, spring ↔ capacitor (C = 1/k), damper ↔ resistor, force ↔ voltage; velocity ↔ current",
+        )
+    )
+    register(
+        Analogy(
+            "force-current", "mechanical", "electrical", dual=False,
+            options={"formulation": "flux"}, inverse_options={"dim": 1},
+            doc="mass ↔ capacitor, spring ↔ inductor (L = 1/k), damper ↔ conductance 1/c, force ↔ current; velocity ↔ voltage",
+        )
+    )
+
+
+@hookimpl
+def register_analogues(register):
+    for analogy, table in (("force-voltage", FORCE_VOLTAGE), ("force-current", FORCE_CURRENT)):
+        for kind, build in table.items():
+            register(kind, analogy, build)

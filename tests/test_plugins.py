@@ -94,7 +94,7 @@ def test_cubic_spring_is_loaded_from_its_distribution(registry):
     assert "cubic_spring" in info
     assert info["cubic_spring"].distribution == "lagrangian-cubic-spring"
     assert info["cubic_spring"].version == metadata.version("lagrangian-cubic-spring")
-    assert info["cubic_spring"].kinds == ["cubic_spring"]
+    assert info["cubic_spring"].kinds == ["cubic_spring", "cubic_capacitor"]
     assert info["cubic_spring"].domains == []  # it reuses the mechanical domain
     cls = registry.component_type("cubic_spring")
     assert cls.__module__ == "lagrangian_cubic_spring"
@@ -612,7 +612,7 @@ def hookspec_functions():
 
 def test_hookspecs_are_the_documented_interface():
     specs = hookspec_functions()
-    assert set(specs) == {"register_component_types", "register_domains"}
+    assert set(specs) == {"register_component_types", "register_domains", "register_analogies", "register_analogues"}
     assert set(specs) <= set(hookspecs.__all__)
     for name, func in specs.items():
         doc = inspect.getdoc(func)

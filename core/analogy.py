@@ -1,0 +1,277 @@
+"""Analogies: a model of one domain mapped onto another, and back.
+
+An :class:`Analogy` (registered by a plugin) names a source and a target
+domain and says whether it keeps the graph (``dual=False``: nodes map to
+nodes, as in the force–current analogy) or goes through the planar dual
+graph (``dual=True``: nodes become meshes and meshes nodes, as in the
+force–voltage analogy).  Plugins declare, per component kind, how it maps
+(``register_analogues``).  :func:`map_model` builds the analogue model and a
+record of which element came from which component and how every coordinate
+of the analogue is expressed in the original's.
+
+The identification that makes it exact: an element that stands for branch
+``i`` of a component carries the same *branch quantity* (charge, flux
+linkage, position difference) as that branch.  Solving those identities for
+the analogue's coordinates gives the coordinate map; substituting it into
+the analogue's Lagrangian gives back the original's (tests check this
+symbolically).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import networkx as nx
+import sympy as sp
+
+from .component import GROUND, Component, t
+from .errors import ModelError, UnknownNameError
+
+if TYPE_CHECKING:
+    from .model import Model
+
+__all__ = ["Analogy", "Element", "Ports", "Mapped", "AnalogyError", "map_model", "dual_branches"]
+
+
+class AnalogyError(ModelError):
+    """A model cannot be mapped through the requested analogy."""
+
+
+@dataclass(frozen=True)
+class Analogy:
+    """An analogy between two domains (see the module docstring)."""
+
+    name: str
+    source: str
+    target: str
+    dual: bool
+    options: Mapping[str, Any] = field(default_factory=dict)
+    inverse_options: Mapping[str, Any] = field(default_factory=dict)
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class Element:
+    """One component of the analogue model: ``Model.add(kind, name, nodes, **params)``.
+
+    ``branch`` is the index of the source component's branch this element
+    stands for (its branch quantity is identified with ``sign`` times that
+    branch's), or ``None`` for elements that stand for no branch (sources).
+    """
+
+    kind: str
+    name: str
+    nodes: Any
+    params: Mapping[str, Any]
+    branch: int | None = 0
+    sign: int = 1
+
+
+AnalogueBuilder = Callable[[Component, "Ports"], list[Element]]
+
+
+@dataclass
+class Ports:
+    """Target nodes standing for a component's branches, handed to analogue builders."""
+
+    component: Component
+    branches: dict[str, tuple[str, str]]
+    ground: str = GROUND
+    model: Any = None
+
+    def branch(self, index: int = 0, component: Component | None = None) -> tuple[str, str]:
+        """Target ``(a, b)`` for branch ``index`` of ``component`` (this one by default)."""
+        comp = component or self.component
+        key = comp.name if index == 0 else f"{comp.name}#{index}"
+        return self.branches[key]
+
+
+@dataclass
+class Mapped:
+    """The result of :func:`map_model`.
+
+    ``model`` is the analogue; ``origin`` maps each of its component names to
+    the source component it came from; ``coordinates`` maps each of its
+    coordinate functions to an expression in the source model's coordinates;
+    ``analogy`` and ``direction`` (``"forward"`` source → target, or
+    ``"inverse"``) say how it was made.
+    """
+
+    model: Model
+    source: Model
+    analogy: Analogy
+    direction: str
+    origin: dict[str, str]
+    coordinates: dict[sp.Expr, sp.Expr]
+
+    def to_source(self, expr: Any) -> sp.Expr:
+        """Rewrite an expression in the analogue's coordinates in terms of the source model's."""
+        return sp.sympify(expr).subs(self.coordinates).doit()
+
+    def initial(self, initial: Mapping[str, float], velocity: Mapping[str, float], params=None) -> tuple[dict, dict]:
+        """Initial coordinates and velocities of the analogue from those of the source model."""
+        src = self.source
+        funcs = {c.name: c.function for c in src.coordinates}
+        at0: dict[Any, float] = {t: 0.0}
+        for name, f in funcs.items():
+            at0[f.diff(t)] = float(velocity.get(name, 0.0))
+        for name, f in funcs.items():
+            at0[f] = float(initial.get(name, 0.0))
+        values = {s: v for s, v in src._values(params or {}).items()}
+        first = set(self.model.first_order)
+        q0, v0 = {}, {}
+        for c in self.model.coordinates:
+            expr = self.coordinates[c.function].xreplace(values)
+            q0[c.name] = float(expr.subs(at0))
+            if c.name not in first:
+                v0[c.name] = float(expr.diff(t).subs(at0))
+        return q0, v0
+
+
+def _planar_dual(graph: nx.MultiGraph, ground_faces: Callable[[list[set[str]]], int]) -> tuple[dict[str, tuple[str, str]], list]:
+    """Dual branches ``{edge key: (face_right, face_left)}`` named ``m1, m2, ...`` (the chosen face is ground)."""
+    simple = nx.Graph()
+    for u, v, k, d in graph.edges(keys=True, data=True):
+        mid = ("edge", k)
+        simple.add_edge(d["a"], mid)
+        simple.add_edge(mid, d["b"])
+    planar, embedding = nx.check_planarity(simple)
+    if not planar:
+        raise AnalogyError(
+            "the network is not planar, so it has no dual graph and no force–voltage analogue: "
+            "use the force–current analogy, which keeps the topology."
+        )
+    face_of: dict[tuple, int] = {}
+    faces: list[list] = []
+    for u, v in embedding.edges():
+        if (u, v) in face_of:
+            continue
+        nodes = embedding.traverse_face(u, v)
+        for i, n in enumerate(nodes):
+            face_of[(n, nodes[(i + 1) % len(nodes)])] = len(faces)
+        faces.append(nodes)
+    edge_faces = {}
+    for u, v, k, d in graph.edges(keys=True, data=True):
+        mid = ("edge", k)
+        edge_faces[k] = (face_of[(d["a"], mid)], face_of[(mid, d["a"])])
+    face_edges = [set() for _ in faces]
+    for k, (r, l) in edge_faces.items():
+        face_edges[r].add(k)
+        face_edges[l].add(k)
+    ground = ground_faces(face_edges)
+    order = [ground] + [i for i in range(len(faces)) if i != ground]
+    names = {f: (GROUND if f == ground else f"m{n}") for n, f in enumerate(order)}
+    return {k: (names[r], names[l]) for k, (r, l) in edge_faces.items()}, face_edges
+
+
+def dual_branches(graph: nx.MultiGraph, must_touch_ground: set[str] = frozenset()) -> dict[str, tuple[str, str]]:
+    """For each edge of a planar ``graph``, the two dual nodes (meshes) on either side of it.
+
+    The mesh adjacent to every edge of ``must_touch_ground`` (and to the most
+    edges among those that qualify) becomes ``ground``; a current from the
+    first dual node to the second equals the rate ``a → b`` across the edge.
+
+    Three elements in parallel become three in series (one loop of three meshes):
+
+    >>> g = nx.MultiGraph()
+    >>> for k in ("m", "k", "c"):
+    ...     _ = g.add_edge("p", "ground", key=k, a="p", b="ground")
+    >>> loop = nx.MultiGraph(list(dual_branches(g, {"m"}).values()))
+    >>> sorted(d for _, d in loop.degree()), len(nx.cycle_basis(nx.Graph(loop)))
+    ([2, 2, 2], 1)
+    """
+
+    def choose(face_edges: list[set[str]]) -> int:
+        ok = [i for i, edges in enumerate(face_edges) if must_touch_ground <= edges]
+        if not ok:
+            raise AnalogyError(
+                f"no mesh of the network touches all of {', '.join(sorted(must_touch_ground))}, which must all "
+                f"attach to the reference in the analogue: use the other analogy."
+            )
+        return max(ok, key=lambda i: (len(face_edges[i]), -i))
+
+    return _planar_dual(graph, choose)[0]
+
+
+def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
+    """Map ``model`` through the analogy called ``analogy`` (either direction, chosen by the model's domain).
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("msd")
+    >>> _ = m.add("mass", "m", "p", m=2)
+    >>> _ = m.add("spring", "k", ("ground", "p"), k=8)
+    >>> circuit = map_model(m, "force-current")
+    >>> sorted(c.kind for c in circuit.model.components.values())
+    ['capacitor', 'inductor']
+    >>> circuit.coordinates
+    {lambda_p(t): x_p(t)}
+    """
+    from .model import Model
+
+    registry = model.registry
+    if analogy not in registry.analogies:
+        raise UnknownNameError("analogy", analogy, registry.analogies)
+    an = registry.analogies[analogy]
+    domains = {d for c in model.components.values() for d in c.domains}
+    if domains == {an.source}:
+        direction, target, options = "forward", an.target, dict(an.options)
+    elif domains == {an.target}:
+        direction, target, options = "inverse", an.source, dict(an.inverse_options)
+    else:
+        raise AnalogyError(
+            f"the {analogy} analogy maps {an.source} models to {an.target} models and back; model {model.name!r} has "
+            f"components of the domains {', '.join(sorted(domains))}."
+        )
+    missing = [c for c in model.components.values() if (c.kind, analogy) not in registry.analogues]
+    if missing:
+        kinds = sorted({c.kind for c in missing})
+        raise AnalogyError(
+            f"no plugin declares a {analogy} analogue for {', '.join(kinds)} (component {missing[0].name!r}); "
+            f"a plugin adds one with the register_analogues hook."
+        )
+    source_view = model.assembly.views[an.source if direction == "forward" else an.target]
+    graph = model.graph()
+    if an.dual:
+        anchored = {
+            c.name
+            for c in model.components.values()
+            if getattr(registry.analogues[c.kind, analogy][1], "anchored", False)
+        }
+        ports = dual_branches(graph, anchored)
+    else:
+        ports = {k: (d["a"], d["b"]) for _, _, k, d in graph.edges(keys=True, data=True)}
+
+    target_model = Model(name or f"{model.name} ({analogy} analogue)", registry=registry, **options)
+    origin: dict[str, str] = {}
+    identities: list[tuple[str, str, int]] = []
+    for comp in model.components.values():
+        build = registry.analogues[comp.kind, analogy][1]
+        try:
+            elements = build(comp, Ports(comp, ports, GROUND, model))
+        except ModelError:
+            raise
+        except Exception as exc:
+            raise AnalogyError(f"the {analogy} analogue of {comp.kind} {comp.name!r} failed: {exc.__class__.__name__}: {exc}") from exc
+        for el in elements:
+            target_model.add(el.kind, el.name, el.nodes, **dict(el.params))
+            origin[el.name] = comp.name
+            if el.branch is not None:
+                identities.append((el.name, comp.name if el.branch == 0 else f"{comp.name}#{el.branch}", el.sign))
+
+    target_view = target_model.assembly.views[target]
+    unknowns = [c.function for c in target_model.coordinates]
+    plain = {f: sp.Dummy(str(f.func)) for f in unknowns}
+    equations = [
+        target_view.branch_value(el).xreplace(plain) - sign * source_view.branch_value(src)
+        for el, src, sign in identities
+    ]
+    solution = sp.linsolve(equations, [plain[f] for f in unknowns])
+    if not solution or solution == sp.EmptySet:
+        raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has no consistent coordinate map.")
+    (values,) = solution
+    free = set().union(*(v.free_symbols for v in values)) & set(plain.values())
+    if free:
+        raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has coordinates no source branch determines.")
+    return Mapped(target_model, model, an, direction, origin, dict(zip(unknowns, values)))

@@ -1,0 +1,413 @@
+"""SPICE netlists from circuit models, and transient runs in ngspice through PySpice.
+
+A component that has a SPICE equivalent implements ``spice(ctx)`` returning
+a list of :class:`SpiceElement`; this module numbers the nodes, writes the
+netlist text (and the PySpice ``Circuit`` holding it), sets element initial
+conditions from the model's initial state (SPICE ``uic``), runs ngspice's
+shared library through PySpice, and reads back the *state quantities* —
+capacitor voltages and inductor currents — that the elements declared, so
+they can be compared with the model quantity by quantity.
+
+ngspice facts this relies on (see the project's notes): accuracy comes from
+the step cap, not the tolerances; with ``uic`` there is no row at t = 0;
+branch currents are positive from n+ to n− through the element; the shared
+library is one instance per process and not thread-safe, so runs are
+serialized with a lock, and every run removes its circuit and plots.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import re
+import threading
+import time as _time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import sympy as sp
+
+from .component import GROUND, t
+from .domain import Context
+from .errors import LagrangianError, ModelError, NumericalError
+
+if TYPE_CHECKING:
+    from .model import Model
+
+__all__ = [
+    "SpiceElement",
+    "Netlist",
+    "SpiceRun",
+    "NgspiceError",
+    "NgspiceMissingError",
+    "netlist",
+    "run_transient",
+    "spice_expression",
+    "spice_waveform",
+]
+
+_LOCK = threading.Lock()
+
+
+class NgspiceMissingError(LagrangianError):
+    """ngspice's shared library (or PySpice) cannot be loaded."""
+
+
+class NgspiceError(NumericalError):
+    """ngspice rejected the netlist or failed to converge; the message carries ngspice's own words."""
+
+
+@dataclass(frozen=True)
+class SpiceElement:
+    """One SPICE element contributed by a component.
+
+    ``prefix`` is the SPICE letter (``R``, ``L``, ``C``, ``V``, ``I``, ``B``,
+    ``K``); ``nodes`` are model node names; ``value`` is the rest of the line
+    (``"0.25"``, ``"SIN(0 1 0.5)"``, ``"V=sin(2*time)"``); ``state``, for
+    energy-storing elements, is ``("v", voltage)`` or ``("i", current)``: the
+    quantity (a SymPy expression in the model's coordinates) that becomes the
+    element's ``ic=`` and is read back from ngspice.
+    """
+
+    prefix: str
+    nodes: tuple[str, ...]
+    value: str
+    state: tuple[str, sp.Expr] | None = None
+    suffix: str = ""
+
+
+@dataclass
+class Netlist:
+    """A SPICE netlist generated from a model, with the record of where everything came from.
+
+    ``text`` is the netlist; ``elements`` maps SPICE element name to component
+    name; ``nodes`` maps model node to SPICE node; ``probes`` maps each state
+    quantity label (``"v(C1)"``, ``"i(L1)"``) to ``(kind, spice names...)``;
+    ``quantities`` maps the same labels to SymPy expressions in the model's
+    coordinates.
+    """
+
+    text: str
+    elements: dict[str, str]
+    nodes: dict[str, str]
+    probes: dict[str, tuple[str, ...]]
+    quantities: dict[str, sp.Expr]
+    initial: dict[str, float] = field(default_factory=dict)
+
+    def pyspice_circuit(self):
+        """The same netlist as a PySpice ``Circuit`` (elements as raw SPICE lines)."""
+        from PySpice.Spice.Netlist import Circuit
+
+        lines = self.text.splitlines()
+        circuit = Circuit(lines[0].removeprefix(".title ").strip())
+        circuit.raw_spice = "\n".join(
+            line for line in lines[1:] if line.strip() and not line.lower().startswith((".end", ".tran"))
+        )
+        return circuit
+
+
+@dataclass
+class SpiceRun:
+    """Output of one ngspice transient: time points and the netlist's state quantities on them."""
+
+    time: np.ndarray
+    quantities: dict[str, np.ndarray]
+    wall: float
+    messages: list[str] = field(default_factory=list)
+
+
+# -- expressions and waveforms -------------------------------------------------------------------
+
+
+class _SpicePrinter(sp.printing.str.StrPrinter):
+    def _print_Symbol(self, expr):
+        if expr == t:
+            return "time"
+        raise ModelError(f"the expression still has the symbol {expr}: give it a value (params=...).")
+
+    def _print_Pow(self, expr, rational=False):
+        base, exp = expr.as_base_exp()
+        if exp == sp.Rational(1, 2):
+            return f"sqrt({self._print(base)})"
+        return f"pow({self._print(base)},{self._print(exp)})"
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+    def _print_Rational(self, expr):
+        return repr(float(expr))
+
+    def _print_Integer(self, expr):
+        return str(int(expr))
+
+    def _print_Piecewise(self, expr):
+        out = self._print(expr.args[-1].expr) if expr.args[-1].cond == True else "0"  # noqa: E712
+        for piece in reversed(expr.args[:-1] if expr.args[-1].cond == True else expr.args):  # noqa: E712
+            out = f"(({self._print(piece.cond)}) ? ({self._print(piece.expr)}) : ({out}))"
+        return out
+
+    def _print_Heaviside(self, expr):
+        return f"u({self._print(expr.args[0])})"
+
+    def _print_log(self, expr):
+        return f"ln({self._print(expr.args[0])})"
+
+    def _print_And(self, expr):
+        return " && ".join(f"({self._print(a)})" for a in expr.args)
+
+    def _print_Or(self, expr):
+        return " || ".join(f"({self._print(a)})" for a in expr.args)
+
+    def _print_BooleanTrue(self, expr):
+        return "1"
+
+    def _print_Function(self, expr):
+        name = expr.func.__name__
+        if name not in {"sin", "cos", "tan", "exp", "sqrt", "abs", "sinh", "cosh", "tanh", "atan", "asin", "acos"}:
+            raise ModelError(f"ngspice has no function {name!r} (in {expr}); give the signal as an elementary expression of t.")
+        return f"{name}({', '.join(self._print(a) for a in expr.args)})"
+
+    _print_Abs = lambda self, expr: f"abs({self._print(expr.args[0])})"  # noqa: E731
+
+
+def _fmt(x: Any) -> str:
+    return f"{float(x):.15g}"
+
+
+def spice_expression(expr: Any) -> str:
+    """An expression of :data:`t` as ngspice behavioural-source text (``time`` for t).
+
+    >>> spice_expression(3 * sp.sin(2 * t) + t**2)
+    'pow(time,2) + 3*sin(2*time)'
+    """
+    return _SpicePrinter().doprint(sp.sympify(expr))
+
+
+def spice_waveform(expr: Any) -> str | None:
+    """A standard SPICE source waveform for ``expr`` (``DC``, ``SIN``), or ``None`` if there is none.
+
+    >>> spice_waveform(2)
+    'DC 2'
+    >>> spice_waveform(0.5 + 2 * sp.cos(3 * t))
+    'SIN(0.5 2 0.477464829275686 0 0 90)'
+    """
+    expr = sp.sympify(expr)
+    if not expr.has(t):
+        return f"DC {_fmt(expr)}"
+    c, a, w, p = (sp.Wild(n, exclude=[t]) for n in "cawp")
+    for trig, shift in ((sp.sin, 0.0), (sp.cos, 90.0)):
+        m = expr.match(c + a * trig(w * t + p))
+        if m and m[w] != 0 and all(m[x].is_number for x in (c, a, w, p)):
+            amp, omega, phase = float(m[a]), float(m[w]), float(m[p]) * 180 / np.pi + shift
+            if omega < 0:  # sin(-wt + p) = -sin(wt - p); cos(-wt + p) = cos(wt - p)
+                omega, phase = -omega, -phase + (2 * shift if shift else 180.0)
+            return f"SIN({_fmt(m[c])} {_fmt(amp)} {_fmt(omega / (2 * np.pi))} 0 0 {_fmt(phase)})"
+    return None
+
+
+# -- netlist ---------------------------------------------------------------------------------------
+
+
+def _node_namer(nodes: Sequence[str]) -> dict[str, str]:
+    names: dict[str, str] = {GROUND: "0"}
+    used = {"0"}
+    for node in nodes:
+        if node == GROUND:
+            continue
+        base = re.sub(r"[^a-z0-9_]", "_", str(node).lower()) or "n"
+        if base in {"time", "0", "gnd"} or not base[0].isalpha():
+            base = f"n_{base}"
+        name, i = base, 1
+        while name in used:
+            i += 1
+            name = f"{base}_{i}"
+        names[node] = name
+        used.add(name)
+    return names
+
+
+def _element_name(prefix: str, component: str, used: set[str]) -> str:
+    base = re.sub(r"[^a-z0-9_]", "_", component.lower())
+    name = base if base.startswith(prefix.lower()) else f"{prefix.lower()}_{base}"
+    out, i = name, 1
+    while out in used:
+        i += 1
+        out = f"{name}_{i}"
+    used.add(out)
+    return out
+
+
+def _number(value: Any, subs: Mapping, component: str) -> str:
+    value = sp.sympify(value).xreplace(subs)
+    if not value.is_number:
+        raise ModelError(f"component {component!r}: its SPICE value {value} is not a number; give parameter values (params=...).")
+    return _fmt(value)
+
+
+def netlist(
+    model: Model,
+    *,
+    initial: Mapping[str, float] | None = None,
+    velocity: Mapping[str, float] | None = None,
+    params: Mapping[str, float] | None = None,
+    t_end: float = 1.0,
+    step: float | None = None,
+    max_step: float | None = None,
+) -> Netlist:
+    """The SPICE netlist of a circuit model, with element initial conditions from its initial state.
+
+    Every component must implement ``spice(ctx)``; the ``.tran`` line uses
+    ``step`` (default ``t_end/1000``) and the step cap ``max_step`` (default
+    ``step/10``) with ``uic``.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rc")
+    >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=1)
+    >>> _ = m.add("resistor", "R1", ("in", "out"), R=1e3)
+    >>> _ = m.add("capacitor", "C1", ("out", "0"), C=1e-6)
+    >>> print(netlist(m, t_end=5e-3).text)
+    .title rc
+    v1 in 0 DC 1
+    r1 in out 1000
+    c1 out 0 1e-06 ic=0
+    .tran 5e-06 0.005 0 5e-07 uic
+    .end
+    """
+    from .simulation import initial_state
+
+    values = model._values(params or {})
+    subs = {s: sp.Float(v) for s, v in values.items()}
+    eq = model.eq
+    y0, _ = initial_state(eq, initial or {}, velocity or {}, warn=False)
+    numeric = model.numeric(params)
+    v_all, _ = numeric.velocities(0.0, y0)
+    point = {**dict(zip(eq.sym.q, y0[: numeric.n])), **dict(zip(eq.sym.v, v_all)), t: 0.0}
+
+    asm = model.assembly
+    nodes = _node_namer(model.nodes)
+    lines = [f".title {model.name}"]
+    elements: dict[str, str] = {}
+    probes: dict[str, tuple[str, ...]] = {}
+    quantities: dict[str, sp.Expr] = {}
+    used: set[str] = set()
+    ics: dict[str, float] = {}
+    for comp in model.components.values():
+        spice = getattr(comp, "spice", None)
+        if spice is None:
+            raise ModelError(
+                f"{comp.kind} {comp.name!r} has no SPICE equivalent (its kind does not implement spice(ctx)); "
+                f"map a mechanism to its circuit analogue first (lagrangian.analogy)."
+            )
+        ctx = Context(asm.views[comp.domain], asm.views, model.options, list(model.components.values()))
+        for el in spice(ctx):
+            name = _element_name(el.prefix, comp.name, used)
+            if not name.startswith(el.prefix.lower()):
+                name = f"{el.prefix.lower()}{name}"
+            elements[name] = comp.name
+            text = _number(el.value, subs, comp.name) if isinstance(el.value, (sp.Basic, int, float)) else el.value
+            line = f"{name} {' '.join(nodes[n] for n in el.nodes)} {text}".rstrip()
+            if el.state is not None:
+                kind, expr = el.state
+                expr = sp.sympify(expr).xreplace(subs)
+                label = f"{kind}({comp.name})"
+                value = float(eq.symbolic(expr).xreplace(point))
+                ics[label] = value
+                line += f" ic={_fmt(value)}"
+                quantities[label] = expr
+                probes[label] = ("i", name) if kind == "i" else ("v", *(nodes[n] for n in el.nodes[:2]))
+            lines.append(line + el.suffix)
+    step = step or t_end / 1000
+    max_step = max_step or step / 10
+    lines.append(f".tran {_fmt(step)} {_fmt(t_end)} 0 {_fmt(max_step)} uic")
+    lines.append(".end")
+    return Netlist("\n".join(lines), elements, nodes, probes, quantities, ics)
+
+
+# -- running ngspice -----------------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def _quiet_pyspice():
+    logger = logging.getLogger("PySpice")
+    level = logger.level
+    logger.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logger.setLevel(level)
+
+
+def _shared():
+    try:
+        from PySpice.Spice.NgSpice.Shared import NgSpiceShared
+    except ImportError as exc:  # pragma: no cover - PySpice is a dependency
+        raise NgspiceMissingError(f"PySpice is not importable ({exc}); install it with `pip install PySpice`.") from exc
+    try:
+        return NgSpiceShared.new_instance()
+    except OSError as exc:
+        raise NgspiceMissingError(
+            f"ngspice's shared library cannot be loaded ({exc}). Install it from the system's package manager: "
+            f"Debian/Ubuntu `apt-get install libngspice0-dev` (or run `make setup`), Fedora `dnf install libngspice-devel`, "
+            f"macOS `brew install libngspice`; or point NGSPICE_LIBRARY_PATH at libngspice.so."
+        ) from exc
+
+
+def _errors(lines: Sequence[str]) -> list[str]:
+    return [ln for ln in lines if re.match(r"\s*(error|doanalyses|run simulation|.*timestep too small)", ln, re.I)]
+
+
+def run_transient(net: Netlist | str, probes: Mapping[str, tuple[str, ...]] | None = None) -> SpiceRun:
+    """Run the netlist's ``.tran`` in ngspice; return its time points and the probed quantities.
+
+    ``probes`` defaults to the netlist's own (its state quantities); a probe
+    is ``("v", node)``, ``("v", node_a, node_b)`` or ``("i", element)``.
+    Raises :class:`NgspiceError` with ngspice's messages when it rejects the
+    netlist or fails to converge, and :class:`NgspiceMissingError` when the
+    library is missing.
+    """
+    text = net.text if isinstance(net, Netlist) else net
+    probes = dict(net.probes if probes is None and isinstance(net, Netlist) else probes or {})
+    with _LOCK, _quiet_pyspice():
+        ng = _shared()
+        ng.clear_output()
+        try:
+            ng.load_circuit(text)
+            bad = _errors(ng._stderr) + _errors(ng._stdout)
+            if bad:
+                raise NgspiceError("ngspice rejected the netlist: " + " | ".join(bad))
+            start = _time.perf_counter()
+            try:
+                ng.run()
+            except Exception as exc:
+                msgs = _errors(ng._stderr) + _errors(ng._stdout)
+                raise NgspiceError("ngspice failed: " + (" | ".join(msgs) or str(exc))) from None
+            wall = _time.perf_counter() - start
+            msgs = _errors(ng._stderr)
+            if msgs:
+                raise NgspiceError("ngspice failed: " + " | ".join(msgs))
+            vectors = {name.lower(): np.asarray(vec._data, dtype=float) for name, vec in ng.plot(None, ng.last_plot).items()}
+        except Exception as exc:
+            if isinstance(exc, LagrangianError):
+                raise
+            raise NgspiceError(f"ngspice failed: {exc.__class__.__name__}: {exc}") from exc
+        finally:
+            with contextlib.suppress(Exception):
+                ng.remove_circuit()
+            with contextlib.suppress(Exception):
+                ng.destroy()
+    time = vectors.pop("time")
+
+    def read(probe: tuple[str, ...]) -> np.ndarray:
+        kind, *names = probe
+        if kind == "i":
+            return vectors[f"{names[0]}#branch"]
+        v = [np.zeros_like(time) if n == "0" else vectors[n] for n in names]
+        return v[0] - v[1] if len(v) == 2 else v[0]
+
+    try:
+        out = {label: read(probe) for label, probe in probes.items()}
+    except KeyError as exc:
+        raise NgspiceError(f"ngspice's output has no vector {exc.args[0]!r} (it has {', '.join(sorted(vectors))}).") from None
+    return SpiceRun(time, out, wall)
