@@ -28,6 +28,11 @@ def test_demo_prints_both_models_agreement_and_writes_chart(tmp_path):
     assert float(exact.group(1)) < 1e-6 and float(exact.group(2)) < 1e-6
     png = (tmp_path / "chart.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 10_000
+    # ngspice agrees with the circuit and with the mechanism's derived analogue to < 1e-6 of the peak
+    rel = [float(x) for x in re.findall(r"^\s+[iv]\(\w+\)\s.*\s(\S+)$", out, re.M)]
+    assert len(rel) == 4 and max(rel) < 1e-6
+    for suffix in ("circuit", "mechanism"):
+        assert (tmp_path / f"chart-ngspice-{suffix}.png").read_bytes().startswith(b"\x89PNG")
 
 
 def test_two_mass_chain_finds_golden_ratio_frequencies(tmp_path):
