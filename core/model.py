@@ -286,7 +286,7 @@ class Model:
         max_step: float = np.inf,
         progress: bool | Callable[[float, float], None] = False,
     ) -> Result:
-        """Integrate the equations of motion with :func:`scipy.integrate.solve_ivp`.
+        """Integrate the equations of motion with :func:`scipy.integrate.solve_ivp`, or solve them exactly.
 
         ``initial`` and ``velocity`` give coordinates and velocities by name;
         any not given start at zero and are listed in ``Result.defaulted``
@@ -296,6 +296,15 @@ class Model:
         standard error every 5 % of the time span; a callable
         ``progress(t, t_end)`` is called instead.
 
+        ``method`` is a :func:`~scipy.integrate.solve_ivp` method, or
+        ``"exact"``: the exact solution of a linear time-invariant model by
+        matrix exponentials (:func:`lagrangian.linear.simulate_exact`; there
+        are no tolerances, so ``rtol``, ``atol`` and ``max_step`` do not
+        apply).  A model that is not linear time-invariant, or an input that
+        is not a sum of products of polynomials, exponentials, sines and
+        cosines of ``t`` (piecewise ones included), is refused with a
+        :class:`ModelError` naming the term.
+
         >>> import lagrangian as lg
         >>> m = lg.Model("free fall")
         >>> _ = m.add("mass", "m", "p", m=1)
@@ -304,6 +313,13 @@ class Model:
         >>> [round(float(x), 9) for x in res["x_p"]]  # x = -g t²/2
         [0.0, -1.25, -5.0]
         """
+        if method == "exact":
+            from .linear import simulate_exact
+
+            return simulate_exact(
+                self, t_end, initial=initial, velocity=velocity, params=params,
+                points=points, t_eval=t_eval, progress=progress,
+            )
         try:
             span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
         except (TypeError, ValueError):

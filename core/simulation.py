@@ -94,6 +94,19 @@ class NumericModel:
         v, acc = self.velocities(time, y)
         return np.concatenate([v, acc])
 
+    def evaluate(self, expr: Any, res: Result) -> np.ndarray:
+        """An expression in ``q(t)``, ``q̇(t)``, ``t`` and parameters, along a result of this model."""
+        eq = self.eq
+        plain = eq.symbolic(sp.sympify(expr))
+        bad = plain.free_symbols - set(eq.sym.q) - set(eq.sym.v) - {t} - set(self.values)
+        if bad:
+            raise ModelError(f"cannot evaluate {expr}: {', '.join(sorted(map(str, bad)))} are not coordinates, rates or parameters.")
+        plain = plain.xreplace({s: sp.Float(v) for s, v in self.values.items()})
+        fn = _lambdify((t, eq.sym.q, eq.sym.v), plain, self.signals)
+        q = np.array([res.q[n] for n in eq.names])
+        v = np.array([res.v[n] for n in eq.names])
+        return np.broadcast_to(np.asarray(fn(res.t, q, v), dtype=float), res.t.shape).copy()
+
     def energies(self, time: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
         out = self._energy_fn(time, q, v)
         return tuple(np.broadcast_to(np.asarray(e, dtype=float), time.shape).copy() for e in out)
@@ -237,19 +250,8 @@ def integrate(
             v[:, k], _ = numeric.velocities(sol_t[k], sol.y[:, k])
     q = sol.y[:n]
     T, V, D = numeric.energies(sol.t, q, v)
-    def evaluate(expr: Any, res: Result) -> np.ndarray:
-        plain = numeric.eq.symbolic(sp.sympify(expr))
-        bad = plain.free_symbols - set(numeric.eq.sym.q) - set(numeric.eq.sym.v) - {t} - set(numeric.values)
-        if bad:
-            raise ModelError(f"cannot evaluate {expr}: {', '.join(sorted(map(str, bad)))} are not coordinates, rates or parameters.")
-        plain = plain.xreplace({s: sp.Float(v) for s, v in numeric.values.items()})
-        fn = _lambdify((t, numeric.eq.sym.q, numeric.eq.sym.v), plain, numeric.signals)
-        q = np.array([res.q[n] for n in names])
-        v = np.array([res.v[n] for n in names])
-        return np.broadcast_to(np.asarray(fn(res.t, q, v), dtype=float), res.t.shape).copy()
-
     return Result(
-        evaluator=evaluate,
+        evaluator=numeric.evaluate,
         t=sol.t,
         q={name: q[i] for i, name in enumerate(names)},
         v={name: v[i] for i, name in enumerate(names)},

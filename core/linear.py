@@ -1,0 +1,815 @@
+"""Exact solution of linear time-invariant models by the matrix exponential.
+
+Many models are linear networks with constant parameters: masses, linear
+springs and dampers, inductors, capacitors, resistors, driven by sources that
+are known functions of time.  Their solve ``A u = b`` (see
+:mod:`lagrangian.equations`) has a constant ``A`` and a ``b`` affine in the
+state ``y = (q, q̇_inertial)``, so the state obeys
+
+    ẏ = F y + G s(t)
+
+with constant ``F`` and ``G`` and the inputs ``s(t)`` — the part of ``b``
+that does not depend on the state.  :func:`state_space` detects this form (or
+says which term of which equation breaks it) and :func:`simulate_exact`
+solves it exactly on the output grid:
+
+- an input that is a combination of constants, powers of ``t``, ``exp(α t)``,
+  ``sin``/``cos(ω t + φ)`` and their products is the output ``s = C w`` of a
+  linear autonomous *exosystem* ``ẇ = S w`` (a rotation block per frequency,
+  a nilpotent chain per power of ``t``); the augmented matrix
+  ``Z = [[F, G C], [0, S]]`` gives the exact step ``(y, w) ↦ e^{Z h} (y, w)``
+  with the input's contribution included (Van Loan);
+- a piecewise input (``Piecewise``, ``Heaviside``, ``sign``, ``Abs``,
+  ``Min``/``Max``, ``floor``, ``Mod``: pulses, steps, square waves) is split
+  at its switching times, found symbolically, and solved piece by piece;
+- on a uniform grid one ``e^{Z h}`` per piece serves every step.
+
+Anything else — a nonlinear or time-varying term, an input given as a
+Python callable — is refused with a :class:`~lagrangian.errors.ModelError`
+that names the equation and the term, and points to ``Model.simulate``.
+
+>>> import numpy as np
+>>> import lagrangian as lg
+>>> from lagrangian.linear import simulate_exact, state_space
+>>> m = lg.Model("oscillator")
+>>> _ = m.add("mass", "m1", "p", m=1)
+>>> _ = m.add("spring", "k1", ("ground", "p"), k=4)
+>>> _ = m.add("force", "F", "p", F=3 * lg.t)
+>>> ss = state_space(m)
+>>> ss.states
+['x_p', "x_p'"]
+>>> ss.F
+array([[ 0.,  1.],
+       [-4.,  0.]])
+>>> ss.g.T
+Matrix([[0, 3.0*t]])
+>>> res = simulate_exact(m, 2.0, initial={"x_p": 1}, velocity={"x_p": 0}, points=5)
+>>> exact = np.cos(2 * res.t) + 3 * (res.t / 4 - np.sin(2 * res.t) / 8)   # x'' + 4x = 3t
+>>> bool(np.max(np.abs(res["x_p"] - exact)) < 1e-14)
+True
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+from scipy.linalg import expm
+from sympy.core.function import AppliedUndef
+from sympy.core.relational import Relational
+
+from .component import t
+from .errors import IntegrationError, ModelError, SingularMassMatrixError
+from .simulation import Result, initial_state
+
+__all__ = ["StateSpace", "state_space", "simulate_exact"]
+
+_EPS = np.finfo(float).eps
+#: Functions that switch an input between expressions; their switching times split the time axis.
+_SWITCHES = (sp.Piecewise, sp.Heaviside, sp.sign, sp.Abs, sp.Min, sp.Max, sp.floor, sp.ceiling, sp.frac, sp.Mod)
+_MAX_PIECES = 200_000
+_ADVICE = "use model.simulate(...) (numerical integration) instead"
+_USE = "Use model.simulate(...) (numerical integration) instead"
+
+
+# ---------------------------------------------------------------------------
+# The state-space form
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class StateSpace:
+    """The first-order linear form ``ẏ = F y + g(t)`` of a linear time-invariant model.
+
+    ``y = (q, q̇_inertial)``: every coordinate, then the velocities of the
+    inertial ones; ``states`` names them (a velocity as ``"x_p'"``).
+    ``g = G s(t)``: ``inputs`` is the column ``s(t)`` of state-free terms of
+    the equations (sources, applied forces, prescribed motions, gravity),
+    ``G`` the constant matrix through which they enter; ``g`` is the product,
+    a SymPy column in ``t``.
+
+    The first ``n`` rows of ``ẏ`` are the velocities of all coordinates,
+    first-order ones included, so ``q̇ = F[:n] y + G[:n] s(t)``
+    (:meth:`velocities`).
+    """
+
+    F: np.ndarray
+    G: np.ndarray
+    inputs: sp.Matrix
+    states: list[str]
+    names: list[str]
+    inertial: list[str]
+    first_order: list[str]
+    equations: list[str] = field(default_factory=list)
+    _pieces: dict = field(default_factory=dict, repr=False, compare=False)
+    _propagators: dict = field(default_factory=dict, repr=False, compare=False)
+    _input_fn: Any = field(default=None, repr=False, compare=False)
+    _cuts: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def g(self) -> sp.Matrix:
+        """The input column ``g(t) = G s(t)`` of ``ẏ = F y + g(t)``."""
+        if not self.inputs:
+            return sp.zeros(len(self.states), 1)
+        return sp.Matrix(self.G) * self.inputs
+
+    def velocities(self, y: np.ndarray, s: np.ndarray) -> np.ndarray:
+        """Velocities of all coordinates from states ``y`` (``len(states) × N``) and input values ``s`` (``len(inputs) × N``)."""
+        n = len(self.names)
+        out = self.F[:n] @ y
+        if self.G.shape[1]:
+            out = out + self.G[:n] @ s
+        return out
+
+    def input_values(self, times: np.ndarray) -> np.ndarray:
+        """The inputs ``s(t)`` at ``times``, as a ``len(inputs) × len(times)`` array."""
+        times = np.asarray(times, dtype=float)
+        if not self.inputs:
+            return np.zeros((0, times.size))
+        if self._input_fn is None:
+            self._input_fn = sp.lambdify(t, list(self.inputs), modules="numpy")
+        with np.errstate(all="ignore"):
+            values = self._input_fn(times)
+        return np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape) for v in values])
+
+
+def state_space(model, params: Mapping[str, float] | None = None) -> StateSpace:
+    """The linear state-space form of ``model`` with the given parameter values (cached until the model changes).
+
+    Raises :class:`~lagrangian.errors.ModelError` naming the equation and the
+    term when the model is not linear time-invariant: a coefficient of an
+    acceleration (or first-order velocity) that depends on the state or on
+    ``t``, or a term of the forcing that is nonlinear in the state or has a
+    time-varying coefficient.  Inputs (state-free terms) may be any function
+    of ``t`` here; :func:`simulate_exact` says which ones it can solve exactly.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rc")
+    >>> _ = m.add("voltage_source", "V1", ("n1", "0"), E=1)
+    >>> _ = m.add("resistor", "R1", ("n1", "n2"), R=2)
+    >>> _ = m.add("capacitor", "C1", ("n2", "0"), C=0.5)
+    >>> ss = state_space(m)
+    >>> ss.states, ss.first_order, ss.F, ss.g.T     # R q' + q/C = E:  q' = -q + 1/2
+    (['q_R1'], ['q_R1'], array([[-1.]]), Matrix([[0.5]]))
+    """
+    values = model._values(params or {})
+    key = ("state_space", tuple(sorted((s.name, v) for s, v in values.items())))
+    return model._get(key, lambda: _build(model, values))
+
+
+def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
+    eq = model.eq
+    subs = {s: sp.Float(v) for s, v in values.items()}
+    A = eq.A.xreplace(subs)
+    b = eq.b.xreplace(subs)
+    names = eq.names
+    n, inertial, first = len(names), list(eq.inertial), list(eq.first_order)
+    nI = len(inertial)
+    state = list(eq.sym.q) + [eq.sym.v[i] for i in inertial]
+    state_set = set(state)
+    state_names = names + [f"{names[i]}'" for i in inertial]
+    unknowns = [f"{names[i]}''" for i in inertial] + [f"{names[i]}'" for i in first]
+    where = f"model {model.name!r} is not linear time-invariant, so it has no exact solution by the matrix exponential"
+
+    def show(expr) -> str:
+        text = sp.sstr(eq.display(expr))
+        return text if len(text) <= 160 else text[:157] + "..."
+
+    def time_varying(expr) -> bool:
+        return bool(expr.atoms(AppliedUndef, sp.Derivative) or _dependence(expr, {t}))
+
+    for i in range(n):
+        for j in range(A.shape[1]):
+            entry = A[i, j]
+            dep = _dependence(entry, state_set)
+            if dep:
+                raise ModelError(
+                    f"{where}: in the equation of {names[i]}, the coefficient of {unknowns[j]} depends on "
+                    f"{_state_list(dep, eq)} (nonlinear): {show(entry)}. {_USE}."
+                )
+            if time_varying(entry):
+                raise ModelError(
+                    f"{where}: in the equation of {names[i]}, the coefficient of {unknowns[j]} varies with time "
+                    f"(a time-varying inertia or damping): {show(entry)}. {_USE}."
+                )
+    J = b.jacobian(state)
+    for i in range(n):
+        for j in range(len(state)):
+            entry = J[i, j]
+            if entry == 0:
+                continue
+            dep = _dependence(entry, state_set)
+            if dep:
+                raise ModelError(
+                    f"{where}: the equation of {names[i]} is nonlinear in {state_names[j]}: its forcing has "
+                    f"∂f/∂{state_names[j]} = {show(entry)}, which depends on {_state_list(dep, eq)} "
+                    f"(a nonlinear spring, damper or geometry). {_USE}."
+                )
+            if time_varying(entry):
+                raise ModelError(
+                    f"{where}: in the equation of {names[i]} the coefficient of {state_names[j]} varies with time "
+                    f"({show(entry)}): a time-varying parameter, not an input. {_USE}."
+                )
+    s = b.xreplace({x: sp.Integer(0) for x in state})
+    leftover = s.free_symbols - {t}
+    if leftover:  # pragma: no cover - parameters are all given values by Model._values
+        raise ModelError(f"parameters without values: {', '.join(sorted(map(str, leftover)))}")
+    constant = {x: sp.Integer(0) for x in state} | {t: sp.Integer(0)}  # what remains of them cancels out
+    try:
+        A_num = np.array(A.xreplace(constant).tolist(), dtype=float)
+        J_num = np.array(J.xreplace(constant).tolist(), dtype=float)
+    except TypeError:  # pragma: no cover - every symbol was checked above
+        raise ModelError(f"{where}: the coefficients do not evaluate to numbers.") from None
+    if not (np.all(np.isfinite(A_num)) and np.all(np.isfinite(J_num))):
+        raise ModelError(f"model {model.name!r}: its equations have non-finite coefficients with these parameter values.")
+    if np.linalg.cond(A_num) > 1 / (_EPS * 16):
+        _, sv, vt = np.linalg.svd(A_num)
+        involved = [unknowns[k] for k, w in enumerate(vt[-1]) if abs(w) > 1e-8]
+        raise SingularMassMatrixError(
+            f"the mass matrix of model {model.name!r} is singular (smallest singular value {sv[-1]:.3g}): "
+            f"{', '.join(involved)} are not determined by the equations. Check for coordinates without inertia "
+            f"coupled only through constraints, or choose another formulation."
+        )
+    Ainv = np.linalg.solve(A_num, np.eye(n))
+    AJ = Ainv @ J_num
+    ny = len(state)
+    F = np.zeros((ny, ny))
+    G = np.zeros((ny, n))
+    for p, i in enumerate(inertial):
+        F[i, n + p] = 1.0
+        F[n + p] = AJ[p]
+        G[n + p] = Ainv[p]
+    for r, i in enumerate(first):
+        F[i] = AJ[nI + r]
+        G[i] = Ainv[nI + r]
+    active = [i for i in range(n) if s[i] != 0]
+    return StateSpace(
+        F=F,
+        G=G[:, active],
+        inputs=sp.Matrix([s[i] for i in active]) if active else sp.Matrix(0, 1, []),
+        states=state_names,
+        names=list(names),
+        inertial=[names[i] for i in inertial],
+        first_order=[names[i] for i in first],
+        equations=[names[i] for i in active],
+    )
+
+
+def _dependence(expr: sp.Expr, symbols: set) -> set:
+    """The symbols of ``symbols`` that ``expr`` really depends on (after expansion, and simplification when small)."""
+    found = expr.free_symbols & symbols
+    if found:
+        found = sp.expand(expr).free_symbols & symbols
+    if found and sp.count_ops(expr) < 200:
+        found = sp.simplify(expr).free_symbols & symbols
+    return found
+
+
+def _state_list(symbols: set, eq) -> str:
+    names = {q: n for q, n in zip(eq.sym.q, eq.names)} | {v: f"{n}'" for v, n in zip(eq.sym.v, eq.names)}
+    return ", ".join(sorted(names.get(s, str(s)) for s in symbols))
+
+
+# ---------------------------------------------------------------------------
+# Inputs as outputs of an exosystem
+# ---------------------------------------------------------------------------
+
+
+class _Unrepresentable(Exception):
+    """An input term outside the exosystem class: ``args = (term,)`` or ``(term, channel index)``."""
+
+
+@dataclass
+class _Exosystem:
+    """``ẇ = S w``, ``w(0) = w0``, ``s(τ) = C w(τ)``; one block per (α, ω), ``order`` powers of τ each."""
+
+    S: np.ndarray
+    C: np.ndarray
+    w0: np.ndarray
+    modes: list[tuple[float, float, int]]
+
+    def basis(self, tau: float) -> np.ndarray:
+        """``w(τ)`` in closed form (for checking)."""
+        out = []
+        for alpha, omega, order in self.modes:
+            env = math.exp(alpha * tau)
+            for k in range(order + 1):
+                p = tau**k / math.factorial(k) * env
+                out += [p * math.cos(omega * tau), p * math.sin(omega * tau)] if omega else [p]
+        return np.array(out)
+
+
+def _exp_terms(expr: sp.Expr) -> dict[tuple[int, complex], complex]:
+    """``expr`` as ``Σ c τ^k e^{λτ}`` (``t`` plays τ): a map ``(k, λ) → c``; raises :class:`_Unrepresentable`."""
+    out: dict[tuple[int, complex], complex] = {}
+    expanded = sp.expand(sp.sympify(expr).rewrite(sp.exp))
+    for term in sp.Add.make_args(expanded):
+        coeff, power, lam = sp.Integer(1), 0, sp.Integer(0)
+        for factor in sp.Mul.make_args(term):
+            if t not in factor.free_symbols:
+                coeff *= factor
+            elif factor == t:
+                power += 1
+            elif factor.is_Pow and factor.base == t and factor.exp.is_Integer and factor.exp > 0:
+                power += int(factor.exp)
+            elif isinstance(factor, sp.exp):
+                arg = sp.expand(factor.args[0])
+                if not arg.is_polynomial(t) or sp.degree(arg, t) > 1:
+                    raise _Unrepresentable(term)
+                slope = arg.coeff(t, 1)
+                lam += slope
+                coeff *= sp.exp(sp.expand(arg - slope * t))
+            else:
+                raise _Unrepresentable(term)
+        try:
+            c, lam_c = complex(sp.N(coeff)), complex(sp.N(lam))
+        except (TypeError, ValueError):
+            raise _Unrepresentable(term) from None
+        if not (np.isfinite(c) and np.isfinite(lam_c)):
+            raise _Unrepresentable(term)
+        key = (power, lam_c)
+        out[key] = out.get(key, 0) + c
+    return out
+
+
+def _exosystem(channels: Sequence[sp.Expr], length: float) -> _Exosystem:
+    """The exosystem whose output is ``channels`` (expressions of τ = ``t``); raises :class:`_Unrepresentable`."""
+    real: list[dict[tuple[float, float, int, int], float]] = []
+    terms_of = []
+    for i, expr in enumerate(channels):
+        try:
+            terms = _exp_terms(expr)
+        except _Unrepresentable as exc:
+            raise _Unrepresentable(exc.args[0], i) from None
+        terms_of.append(terms)
+        coeffs: dict[tuple[float, float, int, int], float] = {}
+        for (k, lam), c in terms.items():
+            alpha, omega, fact = lam.real, lam.imag, math.factorial(k)
+            # Re(c τ^k e^{(α+iω)τ}) = τ^k e^{ατ} (Re c cos ωτ − Im c sin ωτ); the input is real.
+            key = (alpha, abs(omega), k)
+            coeffs[key + (0,)] = coeffs.get(key + (0,), 0.0) + c.real * fact
+            if omega:
+                sin = -c.imag if omega > 0 else c.imag
+                coeffs[key + (1,)] = coeffs.get(key + (1,), 0.0) + sin * fact
+        real.append(coeffs)
+    orders: dict[tuple[float, float], int] = {}
+    for coeffs in real:
+        for alpha, omega, k, _ in coeffs:
+            orders[(alpha, omega)] = max(orders.get((alpha, omega), 0), k)
+    modes = [(a, w, orders[(a, w)]) for a, w in sorted(orders)]
+    index: dict[tuple[float, float, int, int], int] = {}
+    blocks = []
+    for alpha, omega, order in modes:
+        width = 2 if omega else 1
+        start = len(index)
+        for k in range(order + 1):
+            for part in range(width):
+                index[(alpha, omega, k, part)] = start + width * k + part
+        size = width * (order + 1)
+        block = np.zeros((size, size))
+        for k in range(order + 1):
+            if omega:
+                c, s_ = 2 * k, 2 * k + 1
+                block[c, c] = block[s_, s_] = alpha
+                block[c, s_], block[s_, c] = -omega, omega  # d/dτ (cos, sin) = ω (−sin, cos)
+                if k:
+                    block[c, c - 2] = block[s_, s_ - 2] = 1.0  # d/dτ τ^k/k! = τ^{k−1}/(k−1)!
+            else:
+                block[k, k] = alpha
+                if k:
+                    block[k, k - 1] = 1.0
+        blocks.append((start, block))
+    nw = len(index)
+    S = np.zeros((nw, nw))
+    for start, block in blocks:
+        S[start : start + block.shape[0], start : start + block.shape[0]] = block
+    C = np.zeros((len(channels), nw))
+    for i, coeffs in enumerate(real):
+        for key, value in coeffs.items():
+            C[i, index[key]] += value
+    w0 = np.zeros(nw)
+    for alpha, omega, _ in modes:
+        w0[index[(alpha, omega, 0, 0)]] = 1.0
+    exo = _Exosystem(S, C, w0, modes)
+    _check_exosystem(exo, channels, terms_of, length)
+    return exo
+
+
+def _check_exosystem(exo: _Exosystem, channels, terms_of, length: float) -> None:
+    """The exosystem's output equals each channel at a few times in ``[0, length]`` (a guard, not a proof)."""
+    for tau in (0.0, 0.3819660112501051 * length, length):
+        w = exo.basis(tau)
+        for i, expr in enumerate(channels):
+            try:
+                ref = complex(sp.N(expr.xreplace({t: sp.Float(tau)})))
+            except (TypeError, ValueError):
+                raise _Unrepresentable(expr, i) from None
+            got = float(exo.C[i] @ w) if w.size else 0.0
+            scale = sum(abs(c) * tau**k * math.exp(lam.real * tau) for (k, lam), c in terms_of[i].items())
+            if not (np.isfinite(ref) and np.isfinite(scale)):
+                continue
+            if abs(got - ref.real) > 1e-9 * scale + 1e-300 or abs(ref.imag) > 1e-9 * scale + 1e-300:
+                raise _Unrepresentable(expr, i)
+
+
+# ---------------------------------------------------------------------------
+# Piecewise inputs: switching times and the expression on each piece
+# ---------------------------------------------------------------------------
+
+
+def _switching_times(exprs: Sequence[sp.Expr], lo: float, hi: float) -> list[float]:
+    """Times in ``(lo, hi)`` where some switching function of ``exprs`` may change branch; raises ``ValueError``."""
+    found: set[float] = set()
+    for expr in exprs:
+        for atom in expr.atoms(*_SWITCHES):
+            if t not in atom.free_symbols:
+                continue
+            if isinstance(atom, sp.Piecewise):
+                for _, cond in atom.args:
+                    for rel in getattr(cond, "atoms", lambda *_: ())(Relational):
+                        found.update(_crossings(rel.lhs - rel.rhs, None, lo, hi, rel))
+            elif isinstance(atom, (sp.Heaviside, sp.sign, sp.Abs)):
+                found.update(_crossings(atom.args[0], None, lo, hi, atom))
+            elif isinstance(atom, (sp.Min, sp.Max)):
+                args = atom.args
+                for i in range(len(args)):
+                    for j in range(i + 1, len(args)):
+                        found.update(_crossings(args[i] - args[j], None, lo, hi, atom))
+            elif isinstance(atom, sp.Mod):
+                p, q = atom.args
+                if t in q.free_symbols:
+                    raise ValueError(f"{atom}: the modulus depends on t")
+                found.update(_crossings(p, float(q), lo, hi, atom))
+            else:  # floor, ceiling, frac
+                found.update(_crossings(atom.args[0], 1.0, lo, hi, atom))
+            if len(found) > _MAX_PIECES:
+                raise ValueError(f"{atom} switches more than {_MAX_PIECES} times in [{lo:g}, {hi:g}]")
+    return sorted(found)
+
+
+def _crossings(fun: sp.Expr, step: float | None, lo: float, hi: float, atom) -> list[float]:
+    """Times in ``(lo, hi)`` where ``fun`` crosses zero (``step`` None) or a multiple of ``step``.
+
+    A ``fun`` that itself switches (``Mod(t, P) < w``) is split at its own switching times first.
+    """
+    find = _zeros if step is None else (lambda f, a, b, at: _levels(f, step, a, b, at))
+    if not fun.has(*_SWITCHES):
+        return find(fun, lo, hi, atom)
+    inner = _switching_times([fun], lo, hi)
+    edges = [lo, *inner, hi]
+    out = list(inner)
+    for a, b in zip(edges[:-1], edges[1:]):
+        if b > a:
+            out += find(_resolve(fun, (a + b) / 2), a, b, atom)
+    return out
+
+
+def _zeros(expr: sp.Expr, lo: float, hi: float, atom) -> list[float]:
+    """Real zeros of ``expr`` (a function of t) in ``(lo, hi)``, found symbolically."""
+    expr = sp.expand(expr)
+    if t not in expr.free_symbols:
+        return []
+    if expr.is_polynomial(t):
+        coeffs = [complex(sp.N(c)) for c in sp.Poly(expr, t).all_coeffs()]
+        if len(coeffs) == 2:
+            roots = [-coeffs[1].real / coeffs[0].real]
+        else:
+            roots = [r.real for r in np.roots(coeffs) if abs(r.imag) <= 1e-12 * max(1.0, abs(r))]
+    else:
+        try:
+            sol = sp.solveset(expr, t, sp.Interval(lo, hi))
+        except Exception:  # noqa: BLE001 - SymPy may fail in many ways; we only need a yes or no
+            sol = None
+        if not isinstance(sol, sp.FiniteSet):
+            raise ValueError(f"cannot find symbolically where {atom} switches")
+        roots = [float(sp.N(r)) for r in sol]
+    return [r for r in roots if lo < r < hi]
+
+
+def _levels(expr: sp.Expr, step: float, lo: float, hi: float, atom) -> list[float]:
+    """Times in ``(lo, hi)`` where the linear ``expr`` crosses a multiple of ``step``."""
+    expr = sp.expand(expr)
+    if not expr.is_polynomial(t) or sp.degree(expr, t) > 1:
+        raise ValueError(f"{atom}: only an argument linear in t is supported")
+    slope, offset = float(expr.coeff(t, 1)), float(expr.coeff(t, 0))
+    if slope == 0:
+        return []
+    a, b = sorted(((slope * lo + offset) / step, (slope * hi + offset) / step))
+    first, last = math.floor(a) + 1, math.ceil(b) - 1
+    if last - first > _MAX_PIECES:
+        raise ValueError(f"{atom} switches more than {_MAX_PIECES} times in [{lo:g}, {hi:g}]")
+    return [(k * step - offset) / slope for k in range(first, last + 1)]
+
+
+def _resolve(expr: sp.Expr, at: float) -> sp.Expr:
+    """``expr`` with every switching function replaced by the branch it takes at time ``at``."""
+    if not expr.has(*_SWITCHES):
+        return expr
+    if isinstance(expr, sp.Piecewise):
+        for branch, cond in expr.args:
+            if bool(cond.subs(t, at)) is True:
+                return _resolve(branch, at)
+        raise ValueError(f"{expr} is undefined at t = {at:g}")
+    if not expr.args:
+        return expr
+    args = [_resolve(a, at) for a in expr.args]
+
+    def value(e) -> float:
+        return float(sp.N(e.xreplace({t: sp.Float(at)})))
+
+    if isinstance(expr, sp.Heaviside):
+        return sp.Integer(1 if value(args[0]) > 0 else 0)
+    if isinstance(expr, sp.sign):
+        return sp.Integer(int(np.sign(value(args[0]))))
+    if isinstance(expr, sp.Abs):
+        return args[0] if value(args[0]) >= 0 else -args[0]
+    if isinstance(expr, (sp.Min, sp.Max)):
+        vals = [value(a) for a in args]
+        pick = int(np.argmin(vals) if isinstance(expr, sp.Min) else np.argmax(vals))
+        return args[pick]
+    if isinstance(expr, sp.floor):
+        return sp.Integer(math.floor(value(args[0])))
+    if isinstance(expr, sp.ceiling):
+        return sp.Integer(math.ceil(value(args[0])))
+    if isinstance(expr, sp.frac):
+        return args[0] - math.floor(value(args[0]))
+    if isinstance(expr, sp.Mod):
+        p, q = args
+        return p - q * math.floor(value(p) / value(q))
+    return expr.func(*args)
+
+
+# ---------------------------------------------------------------------------
+# Marching on the grid
+# ---------------------------------------------------------------------------
+
+
+class _Propagator:
+    """``e^{Z h}`` for one augmented matrix ``Z``, cached per step ``h``; also its first powers."""
+
+    def __init__(self, Z: np.ndarray):
+        self.Z = Z
+        self._cache: dict[float, np.ndarray] = {}
+        self._powers: dict[float, np.ndarray] = {}
+
+    def powers(self, h: float, count: int) -> np.ndarray:
+        """``[Φ, Φ², …, Φ^count]`` for ``Φ = e^{Z h}``, stacked (at least ``count`` of them)."""
+        out = self._powers.get(h)
+        if out is None or out.shape[0] < count:
+            phi = self(h)
+            out = np.empty((count, *phi.shape))
+            out[0] = phi
+            for k in range(1, count):
+                out[k] = phi @ out[k - 1]
+            if len(self._powers) > 64:
+                self._powers.clear()
+            self._powers[h] = out
+        return out
+
+    def __call__(self, h: float) -> np.ndarray:
+        phi = self._cache.get(h)
+        if phi is None:
+            if len(self._cache) > 4096:
+                self._cache.clear()
+            phi = self._cache[h] = expm(self.Z * h)
+        return phi
+
+
+def _march(prop: _Propagator, z: np.ndarray, start: float, times: np.ndarray, uniform: float | None) -> np.ndarray:
+    """States at ``times`` (increasing, ≥ ``start``) from ``z`` at ``start``: one row per time."""
+    out = np.empty((times.size, z.size))
+    steps = np.diff(times, prepend=start)
+    if uniform is not None and steps.size > 1:
+        steps[1:] = uniform  # consecutive grid points of a uniform grid: one step, one exponential
+    i = 0
+    while i < steps.size:
+        h = steps[i]
+        m = 1
+        while i + m < steps.size and steps[i + m] == h:
+            m += 1
+        if h == 0:
+            out[i : i + m] = z
+        elif m < 8:
+            phi = prop(h)
+            for k in range(m):
+                z = phi @ z
+                out[i + k] = z
+        else:  # blocks of powers Φ, Φ², …, Φ^B applied at once
+            B = min(m, 64)
+            powers = prop.powers(h, B)
+            B = powers.shape[0]
+            k = 0
+            while k < m:
+                c = min(B, m - k)
+                out[i + k : i + k + c] = powers[:c] @ z
+                z = out[i + k + c - 1]
+                k += c
+        z = out[i + m - 1]
+        i += m
+    return out
+
+
+def _span(t_end) -> tuple[float, float]:
+    try:
+        span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
+    except (TypeError, ValueError):
+        raise ModelError(f"t_end must be a number or a pair (t0, t1), got {t_end!r}.") from None
+    if len(span) != 2 or not np.all(np.isfinite(span)) or not span[1] > span[0]:
+        raise ModelError(f"the time span must end after it starts, got {span}.")
+    return span
+
+
+def _grid(span: tuple[float, float], points: int, t_eval) -> np.ndarray:
+    if t_eval is None:
+        if not isinstance(points, (int, np.integer)) or points < 1:
+            raise ModelError(f"points must be a positive integer, got {points!r}.")
+        return np.linspace(*span, points)
+    grid = np.asarray(t_eval, dtype=float)
+    if grid.ndim != 1 or grid.size == 0 or not np.all(np.isfinite(grid)):
+        raise ModelError("t_eval must be a non-empty sequence of finite times.")
+    if np.any(np.diff(grid) < 0):
+        raise ModelError("t_eval must be sorted in increasing order.")
+    if grid[0] < span[0] or grid[-1] > span[1]:
+        raise ModelError(f"t_eval must lie within the time span {span}, got [{grid[0]:g}, {grid[-1]:g}].")
+    return grid
+
+
+def simulate_exact(
+    model,
+    t_end: float | tuple[float, float] = 10.0,
+    *,
+    initial: Mapping[str, float] | None = None,
+    velocity: Mapping[str, float] | None = None,
+    params: Mapping[str, float] | None = None,
+    points: int = 1001,
+    t_eval: Sequence[float] | None = None,
+    progress: bool | Callable[[float, float], None] = False,
+) -> Result:
+    """Solve a linear time-invariant model exactly on the output grid; a :class:`~lagrangian.Result` like ``Model.simulate``.
+
+    Arguments are those of :meth:`lagrangian.Model.simulate` (no tolerances:
+    there is no integration error).  The state is advanced by matrix
+    exponentials of the state-space form augmented with an exosystem that
+    generates the inputs (see the module documentation); piecewise inputs
+    are solved piece by piece between their switching times.  The result is
+    exact up to rounding: errors of order 1e-15 relative per step, growing
+    at most linearly with the number of steps.
+
+    Raises :class:`~lagrangian.errors.ModelError` when the model is not
+    linear time-invariant (see :func:`state_space`) or an input is not a
+    combination of polynomials, exponentials, sines and cosines of ``t``
+    (piecewise ones included) — an input given as a Python callable, say;
+    ``Model.simulate`` integrates those numerically.
+
+    >>> import numpy as np, sympy as sp, lagrangian as lg
+    >>> c = lg.Model("rc pulse")
+    >>> _ = c.add("voltage_source", "V1", ("n1", "0"), E=sp.Piecewise((1, lg.t < 1), (0, True)))
+    >>> _ = c.add("resistor", "R1", ("n1", "n2"), R=1)
+    >>> _ = c.add("capacitor", "C1", ("n2", "0"), C=1)
+    >>> res = simulate_exact(c, 2.0, initial={"q_R1": 0}, points=3)     # charge 1 s, discharge 1 s
+    >>> bool(np.allclose(res["q_R1"], [0, 1 - np.exp(-1), (1 - np.exp(-1)) * np.exp(-1)], rtol=0, atol=1e-15))
+    True
+    >>> res.method
+    'exact'
+    """
+    span = _span(t_end)
+    grid = _grid(span, points, t_eval)
+    ss = state_space(model, params)
+    y0, defaulted = initial_state(model.eq, initial or {}, velocity or {})
+    inputs = list(ss.inputs)
+    ny = len(ss.states)
+
+    for expr, eqname in zip(inputs, ss.equations):
+        bad = expr.atoms(AppliedUndef, sp.Derivative)
+        if bad:
+            raise ModelError(
+                f"model {model.name!r}: the input {sp.sstr(next(iter(bad)))} in the equation of {eqname} is a Python "
+                f"callable, which has no exact solution; give it as a SymPy expression of t "
+                f"(polynomials, exponentials, sines, cosines, piecewise), or {_ADVICE}."
+            )
+        if expr.has(sp.DiracDelta):
+            raise ModelError(
+                f"model {model.name!r}: the input {sp.sstr(expr)} in the equation of {eqname} contains an impulse "
+                f"(DiracDelta), from differentiating a Heaviside step or kink (in a prescribed motion, say); "
+                f"the exact solution needs bounded inputs: write kinks with Max, Min or Piecewise, whose "
+                f"derivatives have no impulse, and steps in position as steep ramps."
+            )
+
+    numeric = model.numeric(params)  # the energies
+    cuts = ss._cuts.get(span)
+    if cuts is None:
+        try:
+            cuts = _switching_times(inputs, *span)
+        except (TypeError, ValueError) as exc:
+            raise ModelError(
+                f"model {model.name!r}: a piecewise input cannot be split into pieces ({exc}); {_ADVICE}."
+            ) from None
+        if len(ss._cuts) > 64:
+            ss._cuts.clear()
+        ss._cuts[span] = cuts
+    tol = 8 * _EPS * max(abs(span[0]), abs(span[1]))
+    bounds = [span[0]]
+    for c in cuts:
+        if c - bounds[-1] > tol and span[1] - c > tol:
+            bounds.append(c)
+    bounds.append(span[1])
+
+    uniform = None
+    if grid.size > 2:
+        h = (grid[-1] - grid[0]) / (grid.size - 1)
+        if h > 0 and np.max(np.abs(np.diff(grid) - h)) <= 64 * _EPS * max(abs(grid[0]), abs(grid[-1])):
+            uniform = h
+
+    Y = np.empty((ny, grid.size))
+    y = y0.astype(float)
+    j = 0
+    for p, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
+        exo = _piece(ss, model.name, inputs, a, b)
+        nw = exo.w0.size
+        if nw:
+            Z = np.zeros((ny + nw, ny + nw))
+            Z[:ny, :ny] = ss.F
+            Z[:ny, ny:] = ss.G @ exo.C
+            Z[ny:, ny:] = exo.S
+        else:
+            Z = ss.F
+        key = Z.tobytes()
+        prop = ss._propagators.get(key)
+        if prop is None:
+            if len(ss._propagators) > 256:
+                ss._propagators.clear()
+            prop = ss._propagators[key] = _Propagator(Z)
+        z = np.concatenate([y, exo.w0])
+        last = p == len(bounds) - 2
+        k = j
+        while k < grid.size and grid[k] <= b:
+            k += 1
+        if k > j:
+            states = _march(prop, z, a, grid[j:k], uniform)
+            Y[:, j:k] = states[:, :ny].T
+            z = states[-1]
+            here = grid[k - 1]
+        else:
+            here = a
+        if not last and b > here:
+            z = prop(b - here) @ z
+        y = z[:ny]
+        j = k
+        if callable(progress):
+            progress(b, span[1])
+    if not np.all(np.isfinite(Y)):
+        bad = int(np.argmax(~np.all(np.isfinite(Y), axis=0)))
+        raise IntegrationError(f"the exact solution of model {model.name!r} overflows at t={grid[bad]:g}.")
+    if progress is True:
+        print(f"simulating {model.name!r} exactly: done, {len(bounds) - 1} piece(s)", file=sys.stderr)
+
+    n = len(ss.names)
+    q = Y[:n]
+    v = ss.velocities(Y, ss.input_values(grid))
+    T, V, D = numeric.energies(grid, q, v)
+    return Result(
+        t=grid,
+        q={name: q[i] for i, name in enumerate(ss.names)},
+        v={name: v[i] for i, name in enumerate(ss.names)},
+        T=T,
+        V=V,
+        D=D,
+        model=model.name,
+        defaulted=defaulted,
+        nfev=0,
+        method="exact",
+        evaluator=numeric.evaluate,
+    )
+
+
+def _piece(ss: StateSpace, model: str, inputs: list[sp.Expr], a: float, b: float) -> _Exosystem:
+    """The exosystem generating the inputs on ``[a, b]`` in the local time ``τ = t − a`` (cached)."""
+    exo = ss._pieces.get((a, b))
+    if exo is not None:
+        return exo
+    try:
+        resolved = [_resolve(e, (a + b) / 2) for e in inputs] if any(e.has(*_SWITCHES) for e in inputs) else inputs
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"model {model!r}: a piecewise input cannot be evaluated on [{a:g}, {b:g}] ({exc}); {_ADVICE}.") from None
+    local = tuple(e.xreplace({t: sp.Float(a) + t}) if a else e for e in resolved)
+    exo = ss._pieces.get((local, b - a))  # the same expression on another piece of a pulse train
+    if exo is None:
+        try:
+            exo = _exosystem(local, b - a)
+        except _Unrepresentable as exc:
+            term, i = exc.args
+            local_time = f" (in the local time t − {a:g} of the piece [{a:g}, {b:g}])" if a else ""
+            raise ModelError(
+                f"model {model!r}: the input {sp.sstr(inputs[i])} in the equation of {ss.equations[i]} has no exact "
+                f"solution: its term {sp.sstr(term)}{local_time} is not a combination of constants, powers of t, "
+                f"exp(α t), sin and cos(ω t + φ) and their products (piecewise ones included); {_ADVICE}."
+            ) from None
+    if len(ss._pieces) > 8192:
+        ss._pieces.clear()
+    ss._pieces[(local, b - a)] = ss._pieces[(a, b)] = exo
+    return exo
