@@ -47,6 +47,10 @@ class Assembly:
         return sp.Add(*(sp.sympify(c.D) for c in self.contributions.values()))
 
     @property
+    def G(self) -> sp.Expr:
+        return sp.Add(*(sp.sympify(c.G) for c in self.contributions.values()))
+
+    @property
     def loads(self) -> list[tuple[str, Load]]:
         return [(name, load) for name, c in self.contributions.items() for load in c.loads]
 
@@ -103,7 +107,7 @@ def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
     where = f"{comp.kind} {comp.name!r}"
     if not isinstance(c, Contribution):
         raise ModelError(f"{where}: contribute() returned {type(c).__name__}, not a lagrangian.Contribution.")
-    parts = [("T", c.T), ("V", c.V), ("D", c.D)]
+    parts = [("T", c.T), ("V", c.V), ("D", c.D), ("G", c.G)]
     for i, load in enumerate(c.loads):
         if not isinstance(load, Load):
             raise ModelError(f"{where}: loads[{i}] is not a lagrangian.Load.")
@@ -113,7 +117,7 @@ def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
             expr = sp.sympify(expr)
         except sp.SympifyError:
             raise ModelError(f"{where}: {label} is not a SymPy expression: {expr!r}.") from None
-        if label in ("T", "V", "D") and not isinstance(expr, sp.Expr):
+        if label in ("T", "V", "D", "G") and not isinstance(expr, sp.Expr):
             raise ModelError(f"{where}: {label} must be a scalar expression.")
         for f in expr.atoms(AppliedUndef):
             if f.func not in allowed:

@@ -18,7 +18,11 @@ def _kinds(registry) -> str:
     lines = []
     for kind, cls in sorted(registry.kinds.items()):
         doc = (cls.__doc__ or "").strip().splitlines()[0] if cls.__doc__ else ""
-        lines.append(f"{kind}  [{cls.domain}; terminals: {', '.join(cls.terminals) or 'none'}]  {doc}")
+        terminals = ", ".join(
+            f"{name} ({domain})" if cls.terminal_domains else name
+            for name, domain in zip(cls.terminals, cls.terminal_domains or cls.terminals)
+        )
+        lines.append(f"{kind}  [{cls.domain}; terminals: {terminals or 'none'}]  {doc}")
         for name, p in cls.parameters.items():
             default = "" if p.required else f" = {p.default!r}"
             unit = f" [{p.unit}]" if p.unit else ""

@@ -180,12 +180,16 @@ class Contribution:
 
     ``T``: kinetic energy or co-energy; ``V``: potential energy;
     ``D``: Rayleigh dissipation function (half the dissipated power for a
-    linear damper); ``loads``: generalized forces by virtual power.
+    linear damper); ``G``: terms of the Lagrangian linear in the velocities
+    that store no energy (gyroscopic and gyrator couplings such as a moving
+    coil's ``Bl·x·q̇``), so that ``L = T − V + G``; ``loads``: generalized
+    forces by virtual power.
     """
 
     T: Any = 0
     V: Any = 0
     D: Any = 0
+    G: Any = 0
     loads: list[Load] = field(default_factory=list)
 
 

@@ -1,6 +1,7 @@
 """Equations of motion from the Lagrangian, in mass-matrix form.
 
-For ``L = T - V``, Rayleigh function ``D`` and generalized forces ``Q``:
+For ``L = T - V + G`` (``G``: velocity-linear couplings that store no
+energy), Rayleigh function ``D`` and generalized forces ``Q``:
 
     d/dt ∂L/∂q̇ - ∂L/∂q + ∂D/∂q̇ = Q
 
@@ -67,7 +68,8 @@ class Equations:
         self.T = self.symbolic(assembly.T)
         self.V = self.symbolic(assembly.V)
         self.D = self.symbolic(assembly.D)
-        self.L = self.T - self.V
+        self.G = self.symbolic(assembly.G)
+        self.L = self.T - self.V + self.G
         Q = [sp.Integer(0)] * len(q)
         for name, load in assembly.loads:
             force = sp.Matrix([load.force]) if not isinstance(load.force, sp.MatrixBase) else load.force

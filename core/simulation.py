@@ -22,7 +22,7 @@ from .component import t
 from .equations import Equations
 from .errors import IntegrationError, ModelError, SingularMassMatrixError, UnknownNameError
 
-__all__ = ["NumericModel", "Result", "InitialConditionWarning"]
+__all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state", "integrate"]
 
 
 class InitialConditionWarning(UserWarning):
@@ -217,6 +217,7 @@ def integrate(
     defaulted: list[str],
     progress: bool | Callable[[float, float], None] = False,
 ) -> Result:
+    """Integrate ``numeric`` from the state ``y0`` with :func:`scipy.integrate.solve_ivp` into a :class:`Result`."""
     from scipy.integrate import solve_ivp
 
     start = numeric.rhs(t_span[0], y0)  # fail early, with a clear message, on a singular start

@@ -76,7 +76,7 @@ def check_contribution(kind, m):
     assert set(m.assembly.contributions) == set(m.components)
     for name, c in m.assembly.contributions.items():
         assert isinstance(c, lg.Contribution), name
-        for label in ("T", "V", "D"):
+        for label in ("T", "V", "D", "G"):
             expr = sp.sympify(getattr(c, label))
             assert isinstance(expr, sp.Expr), (name, label, expr)
             assert not isinstance(expr, sp.MatrixBase)
@@ -90,7 +90,7 @@ def check_contribution(kind, m):
     # the kind under test is not a no-op: it adds energy, dissipation, a load or fixes coordinates
     own = m.assembly.contributions[kind]
     cls = type(m.component(kind))
-    assert own.T != 0 or own.V != 0 or own.D != 0 or own.loads or cls.role == "across" or cls.role == "through"
+    assert own.T != 0 or own.V != 0 or own.D != 0 or own.G != 0 or own.loads or cls.role in ("across", "through")
 
 
 def test_kinetic_energy_is_a_nonnegative_quadratic_form_in_velocities(example):
@@ -113,6 +113,10 @@ def check_kinetic(kind, m):
                 Hn = np.array(H.xreplace(state).evalf(), dtype=float)
                 assert np.allclose(Hn, Hn.T)
                 assert np.linalg.eigvalsh(Hn).min() >= -1e-10, (T, Hn)
+    # gyroscopic terms G are linear in the velocities: they add nothing to the mass matrix
+    for c in m.assembly.contributions.values():
+        G = eq.symbolic(c.G)
+        assert all(sp.expand(sp.diff(G, a, b)) == 0 for a in v for b in v), G
     # and the model's mass matrix is the Hessian of the total T
     assert sp.simplify(eq.M - sp.hessian(eq.T, v)) == sp.zeros(len(v), len(v))
 
