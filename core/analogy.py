@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import networkx as nx
 import sympy as sp
 
-from .component import GROUND, Component, t
+from .component import GROUND, Component, _CallableSignal, t
 from .errors import ModelError, UnknownNameError
 
 if TYPE_CHECKING:
@@ -58,15 +58,25 @@ class Element:
 
     ``branch`` is the index of the source component's branch this element
     stands for (its branch quantity is identified with ``sign`` times that
-    branch's), or ``None`` for elements that stand for no branch (sources).
+    branch's), ``None`` for elements that stand for no branch (sources), or,
+    for an element with several branches (a two-port), a sequence of
+    ``(element branch, source branch)`` pairs.
     """
 
     kind: str
     name: str
     nodes: Any
     params: Mapping[str, Any]
-    branch: int | None = 0
+    branch: int | None | tuple[tuple[int, int], ...] = 0
     sign: int = 1
+
+    def pairs(self) -> list[tuple[int, int]]:
+        """``(element branch, source branch)`` identifications."""
+        if self.branch is None:
+            return []
+        if isinstance(self.branch, int):
+            return [(0, self.branch)]
+        return [tuple(p) for p in self.branch]
 
 
 AnalogueBuilder = Callable[[Component, "Ports"], list[Element]]
@@ -195,6 +205,25 @@ def dual_branches(graph: nx.MultiGraph, must_touch_ground: set[str] = frozenset(
     return _planar_dual(graph, choose)[0]
 
 
+def _key(name: str, index: int) -> str:
+    return name if index == 0 else f"{name}#{index}"
+
+
+def _branch_value(model: Model, key: str) -> sp.Expr:
+    """The branch quantity of edge ``key``, from the view of the domain the branch lies in."""
+    name, _, index = key.partition("#")
+    comp = model.component(name)
+    a, b = comp.branches()[int(index or 0)]
+    node = a if a != GROUND else b
+    domain = comp.node_domain(comp.nodes.index(node)) if node in comp.nodes else comp.domain
+    return model.assembly.views[domain].branch_value(key)
+
+
+def _user_params(comp: Component) -> dict[str, Any]:
+    """The component's parameters as given (callable signals as their callables)."""
+    return {k: v.func if isinstance(v, _CallableSignal) else v for k, v in comp.params.items() if v is not None}
+
+
 def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
     """Map ``model`` through the analogy called ``analogy`` (either direction, chosen by the model's domain).
 
@@ -216,37 +245,58 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
     an = registry.analogies[analogy]
     domains = {d for c in model.components.values() for d in c.domains}
     if domains == {an.source}:
-        direction, target, options = "forward", an.target, dict(an.options)
+        direction, mapped_domain, target, options = "forward", an.source, an.target, dict(an.options)
     elif domains == {an.target}:
-        direction, target, options = "inverse", an.source, dict(an.inverse_options)
+        direction, mapped_domain, target, options = "inverse", an.target, an.source, dict(an.inverse_options)
+    elif domains == {an.source, an.target}:
+        # a coupled model: its source-domain part is mapped, its target-domain part kept as it is
+        direction, mapped_domain, target = "forward", an.source, an.target
+        options = {**{k: v for k, v in model._options.items() if k in registry.domains[target].options}, **an.options}
+        kept = model.options
+        clash = [k for k, v in an.options.items() if kept.get(k) != v]
+        if clash:
+            raise AnalogyError(
+                f"model {model.name!r} couples domains; its {target} part is kept as it is, but the {analogy} analogue "
+                f"needs {', '.join(f'{k}={an.options[k]!r}' for k in clash)} (it has "
+                f"{', '.join(f'{k}={kept.get(k)!r}' for k in clash)}): build the model that way, or use the other analogy."
+            )
     else:
         raise AnalogyError(
             f"the {analogy} analogy maps {an.source} models to {an.target} models and back; model {model.name!r} has "
             f"components of the domains {', '.join(sorted(domains))}."
         )
-    missing = [c for c in model.components.values() if (c.kind, analogy) not in registry.analogues]
+    kept_as_is = {c.name for c in model.components.values() if set(c.domains) == {target}}
+    missing = [
+        c for c in model.components.values() if c.name not in kept_as_is and (c.kind, analogy) not in registry.analogues
+    ]
     if missing:
         kinds = sorted({c.kind for c in missing})
         raise AnalogyError(
             f"no plugin declares a {analogy} analogue for {', '.join(kinds)} (component {missing[0].name!r}); "
             f"a plugin adds one with the register_analogues hook."
         )
-    source_view = model.assembly.views[an.source if direction == "forward" else an.target]
-    graph = model.graph()
+    graph = model._graph.graph(domain=mapped_domain)
     if an.dual:
         anchored = {
             c.name
             for c in model.components.values()
-            if getattr(registry.analogues[c.kind, analogy][1], "anchored", False)
+            if c.name not in kept_as_is and getattr(registry.analogues[c.kind, analogy][1], "anchored", False)
         }
         ports = dual_branches(graph, anchored)
     else:
         ports = {k: (d["a"], d["b"]) for _, _, k, d in graph.edges(keys=True, data=True)}
+    for _, _, k, d in model.graph().edges(keys=True, data=True):
+        ports.setdefault(k, (d["a"], d["b"]))  # branches of the part kept as it is
 
     target_model = Model(name or f"{model.name} ({analogy} analogue)", registry=registry, **options)
     origin: dict[str, str] = {}
     identities: list[tuple[str, str, int]] = []
     for comp in model.components.values():
+        if comp.name in kept_as_is:
+            target_model.add(comp.kind, comp.name, comp.nodes, **_user_params(comp))
+            origin[comp.name] = comp.name
+            identities += [(_key(comp.name, i), _key(comp.name, i), 1) for i in range(len(comp.branches()))]
+            continue
         build = registry.analogues[comp.kind, analogy][1]
         try:
             elements = build(comp, Ports(comp, ports, GROUND, model))
@@ -257,14 +307,13 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
         for el in elements:
             target_model.add(el.kind, el.name, el.nodes, **dict(el.params))
             origin[el.name] = comp.name
-            if el.branch is not None:
-                identities.append((el.name, comp.name if el.branch == 0 else f"{comp.name}#{el.branch}", el.sign))
+            for mine, theirs in el.pairs():
+                identities.append((_key(el.name, mine), _key(comp.name, theirs), el.sign))
 
-    target_view = target_model.assembly.views[target]
     unknowns = [c.function for c in target_model.coordinates]
     plain = {f: sp.Dummy(str(f.func)) for f in unknowns}
     equations = [
-        target_view.branch_value(el).xreplace(plain) - sign * source_view.branch_value(src)
+        _branch_value(target_model, el).xreplace(plain) - sign * _branch_value(model, src)
         for el, src, sign in identities
     ]
     solution = sp.linsolve(equations, [plain[f] for f in unknowns])

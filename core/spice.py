@@ -64,8 +64,11 @@ class SpiceElement:
     """One SPICE element contributed by a component.
 
     ``prefix`` is the SPICE letter (``R``, ``L``, ``C``, ``V``, ``I``, ``B``,
-    ``K``); ``nodes`` are model node names; ``value`` is the rest of the line
-    (``"0.25"``, ``"SIN(0 1 0.5)"``, ``"V=sin(2*time)"``); ``state``, for
+    ``H``, ``K``); ``nodes`` are model node names, or internal nodes of the
+    component written ``"~name"``; ``value`` is the rest of the line
+    (``"0.25"``, ``"SIN(0 1 0.5)"``, ``"V=sin(2*time)"``), in which
+    ``{tag}`` stands for the SPICE name of the component's element tagged
+    ``tag`` (a controlled source names its controlling element so); ``state``, for
     energy-storing elements, is ``("v", voltage)`` or ``("i", current)``: the
     quantity (a SymPy expression in the model's coordinates) that becomes the
     element's ``ic=`` and is read back from ngspice.
@@ -75,7 +78,7 @@ class SpiceElement:
     nodes: tuple[str, ...]
     value: str
     state: tuple[str, sp.Expr] | None = None
-    suffix: str = ""
+    tag: str = ""
 
 
 @dataclass
@@ -210,22 +213,26 @@ def spice_waveform(expr: Any) -> str | None:
 # -- netlist ---------------------------------------------------------------------------------------
 
 
-def _node_namer(nodes: Sequence[str]) -> dict[str, str]:
-    names: dict[str, str] = {GROUND: "0"}
-    used = {"0"}
-    for node in nodes:
-        if node == GROUND:
-            continue
-        base = re.sub(r"[^a-z0-9_]", "_", str(node).lower()) or "n"
+class _NodeNames(dict):
+    """SPICE node names, made safe (lower case, no ``time``) and unique as nodes are met."""
+
+    def __init__(self, nodes: Sequence[str]):
+        super().__init__({GROUND: "0"})
+        self.used = {"0"}
+        for node in nodes:
+            self[node]  # noqa: B018 - name the model's nodes first, in order
+
+    def __missing__(self, node: str) -> str:
+        base = re.sub(r"[^a-z0-9_]", "_", str(node).lower().lstrip("~")) or "n"
         if base in {"time", "0", "gnd"} or not base[0].isalpha():
             base = f"n_{base}"
         name, i = base, 1
-        while name in used:
+        while name in self.used:
             i += 1
             name = f"{base}_{i}"
-        names[node] = name
-        used.add(name)
-    return names
+        self[node] = name
+        self.used.add(name)
+        return name
 
 
 def _element_name(prefix: str, component: str, used: set[str]) -> str:
@@ -286,7 +293,7 @@ def netlist(
     point = {**dict(zip(eq.sym.q, y0[: numeric.n])), **dict(zip(eq.sym.v, v_all)), t: 0.0}
 
     asm = model.assembly
-    nodes = _node_namer(model.nodes)
+    nodes = _NodeNames(model.nodes)
     lines = [f".title {model.name}"]
     elements: dict[str, str] = {}
     probes: dict[str, tuple[str, ...]] = {}
@@ -301,13 +308,17 @@ def netlist(
                 f"map a mechanism to its circuit analogue first (lagrangian.analogy)."
             )
         ctx = Context(asm.views[comp.domain], asm.views, model.options, list(model.components.values()))
-        for el in spice(ctx):
-            name = _element_name(el.prefix, comp.name, used)
-            if not name.startswith(el.prefix.lower()):
-                name = f"{el.prefix.lower()}{name}"
+        parts = spice(ctx)
+        names = [_element_name(el.prefix, comp.name if len(parts) == 1 else f"{comp.name}_{el.tag or i}", used)
+                 for i, el in enumerate(parts)]
+        tags = {el.tag: name for el, name in zip(parts, names) if el.tag}
+        for el, name in zip(parts, names):
             elements[name] = comp.name
             text = _number(el.value, subs, comp.name) if isinstance(el.value, (sp.Basic, int, float)) else el.value
-            line = f"{name} {' '.join(nodes[n] for n in el.nodes)} {text}".rstrip()
+            if tags:
+                text = text.format(**tags)
+            inner = [f"~{comp.name}.{n[1:]}" if n.startswith("~") else n for n in el.nodes]
+            line = f"{name} {' '.join(nodes[n] for n in inner)} {text}".rstrip()
             if el.state is not None:
                 kind, expr = el.state
                 expr = sp.sympify(expr).xreplace(subs)
@@ -317,7 +328,7 @@ def netlist(
                 line += f" ic={_fmt(value)}"
                 quantities[label] = expr
                 probes[label] = ("i", name) if kind == "i" else ("v", *(nodes[n] for n in el.nodes[:2]))
-            lines.append(line + el.suffix)
+            lines.append(line)
     step = step or t_end / 1000
     max_step = max_step or step / 10
     lines.append(f".tran {_fmt(step)} {_fmt(t_end)} 0 {_fmt(max_step)} uic")

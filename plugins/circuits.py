@@ -312,6 +312,55 @@ class CurrentSource(_Element):
         )
 
 
+class Gyrator(_Element):
+    """Ideal gyrator two-port: ``v_ab = r·i_cd`` and ``v_cd = −r·i_ab`` (charge formulation).
+
+    Lagrangian term ``G = r·q_cd·q̇_ab`` (it stores no energy).  It is the
+    circuit analogue of a moving coil or a DC motor under the force–voltage
+    analogy; in SPICE it is two current-controlled voltage sources.
+    """
+
+    kind = "gyrator"
+    terminals = ("a", "b", "c", "d")
+    tree_priority = 3
+    parameters = {"r": Parameter("gyration resistance", check="real", unit="Ω")}
+
+    def branches(self) -> list[tuple[str, str]]:
+        a, b, c, d = self.nodes
+        return [(a, b), (c, d)]
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.formulation != "charge":
+            raise ModelError(f"gyrator {self.name!r} is defined in the charge formulation only: use formulation='charge'.")
+        return Contribution(G=self.r * ctx.view.charge(self, 1) * ctx.view.current(self, 0))
+
+    def spice(self, ctx) -> list[SpiceElement]:
+        if not self.r.is_number:
+            raise ModelError(f"gyrator {self.name!r}: its SPICE equivalent needs a numeric r, not {self.r}.")
+        a, b, c, d = self.nodes
+        r = float(self.r)
+        return [
+            SpiceElement("V", (a, "~p1"), "DC 0", tag="sense1"),
+            SpiceElement("H", ("~p1", b), f"{{sense2}} {r!r}", tag="port1"),
+            SpiceElement("V", (c, "~p2"), "DC 0", tag="sense2"),
+            SpiceElement("H", ("~p2", d), f"{{sense1}} {-r!r}", tag="port2"),
+        ]
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            ("n1", "0", "n2", "0"),
+            {"r": 2},
+            context=[
+                ("voltage_source", "V", ("n0", "0"), {"E": sp.sin(t)}),
+                ("resistor", "R", ("n0", "n1"), {"R": 1}),
+                ("inductor", "L1", ("n1", "0"), {"L": 1}),
+                ("inductor", "L2", ("n2", "n3"), {"L": 1}),
+                ("capacitor", "C2", ("n3", "0"), {"C": 1}),
+            ],
+        )
+
+
 @hookimpl
 def register_domains(register):
     register(ElectricalDomain())
@@ -319,7 +368,7 @@ def register_domains(register):
 
 @hookimpl
 def register_component_types(register):
-    for cls in (Inductor, Capacitor, Resistor, VoltageSource, CurrentSource):
+    for cls in (Inductor, Capacitor, Resistor, VoltageSource, CurrentSource, Gyrator):
         register(cls)
 
 

@@ -105,10 +105,8 @@ class _Transducer(Component):
             )
 
     def branches(self) -> list[tuple[str, str]]:
-        # Only the electrical branch is an edge: the moving node gets its coordinate from its own domain.
-        # (A second branch (moving node, ground) would also be put in the electrical network by
-        # ComponentGraph.graph(domain=...), which counts ground as belonging to every domain.)
-        return [(self.nodes[0], self.nodes[1])]
+        """Branch 0: the coil ``a → b`` (electrical); branch 1: the moving node against the frame."""
+        return [(self.nodes[0], self.nodes[1]), (self.nodes[2], GROUND)]
 
     def displacement(self, ctx) -> sp.Expr:
         """Position x (mechanical) or angle θ (rotational) of the moving terminal."""
@@ -591,3 +589,17 @@ def _locate_contact(model, guards, t_end, kwargs, cause) -> None:
         f"({name} = gap = {gap:g}): the gap closed and C → ∞, so the model does not hold past this instant. "
         f"The voltage exceeds the pull-in voltage, or the plate overshot; lower the voltage, or add damping or a stop.",
     ) from cause
+
+
+@hookimpl
+def register_analogues(register):
+    """Under the force–voltage analogy a moving coil becomes a gyrator between its coil and its node's mesh."""
+    from lagrangian.analogy import Element
+
+    register(
+        "moving_coil",
+        "force-voltage",
+        lambda c, ports: [
+            Element("gyrator", f"G_{c.name}", (*ports.branch(0), *ports.branch(1)), {"r": c.Bl}, branch=((0, 0), (1, 1)))
+        ],
+    )

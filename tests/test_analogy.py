@@ -218,3 +218,22 @@ def test_initial_state_maps_through_the_coordinates():
     by_source = {str(expr): name for name, expr in zip((c.name for c in mapped.model.coordinates), mapped.coordinates.values())}
     assert q0[by_source["x_a(t)"]] == pytest.approx(0.1) and q0[by_source["x_b(t)"]] == pytest.approx(-0.2)
     assert v0[by_source["x_a(t)"]] == pytest.approx(0.3) and v0[by_source["x_b(t)"]] == 0
+
+
+def test_coupled_model_maps_its_mechanical_part_and_the_coil_to_a_gyrator():
+    Bl, Le, Re, mc, ks, cs = sp.symbols("Bl L_e R_e m_c k_s c_s", positive=True)
+    m = lg.Model("speaker")
+    m.add("voltage_source", "V", ("n1", "0"), E=sp.sin(lg.t))
+    m.add("resistor", "Re", ("n1", "n2"), R=Re)
+    m.add("inductor", "Le", ("n2", "n3"), L=Le)
+    m.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=Bl)
+    m.add("mass", "mc", "cone", m=mc)
+    m.add("spring", "ks", ("ground", "cone"), k=ks)
+    m.add("damper", "cs", ("ground", "cone"), c=cs)
+    mapped = map_model(m, "force-voltage")
+    kinds = {name: c.kind for name, c in mapped.model.components.items()}
+    assert kinds["G_coil"] == "gyrator" and kinds["Le"] == "inductor" and kinds["L_mc"] == "inductor"
+    assert mapped.origin["Le"] == "Le" and mapped.origin["G_coil"] == "coil"
+    assert same_equations(equations_in_source_terms(mapped), residuals(m))
+    with pytest.raises(AnalogyError, match="formulation='flux'"):
+        map_model(m, "force-current")  # the coil needs the charge formulation the flux analogue cannot keep

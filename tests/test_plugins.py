@@ -27,7 +27,7 @@ from lagrangian.registry import ENTRY_POINT_GROUP
 
 BUILTIN_KINDS = {
     "mechanics": ["mass", "spring", "damper", "gravity", "force", "prescribed_motion"],
-    "circuits": ["inductor", "capacitor", "resistor", "voltage_source", "current_source"],
+    "circuits": ["inductor", "capacitor", "resistor", "voltage_source", "current_source", "gyrator"],
 }
 
 

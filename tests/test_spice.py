@@ -191,3 +191,24 @@ def test_missing_library_says_how_to_install(tmp_path):
     env = {**os.environ, "NGSPICE_LIBRARY_PATH": str(tmp_path / "libngspice-nowhere.so")}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert "MISSING:" in out.stdout and "libngspice0-dev" in out.stdout
+
+
+def loudspeaker():
+    m = lg.Model("loudspeaker")
+    m.add("voltage_source", "V", ("n1", "0"), E=sp.sin(2 * sp.pi * 40 * lg.t))
+    m.add("resistor", "Re", ("n1", "n2"), R=6.0)
+    m.add("inductor", "Le", ("n2", "n3"), L=0.5e-3)
+    m.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=7.0)
+    m.add("mass", "mc", "cone", m=0.02)
+    m.add("spring", "ks", ("ground", "cone"), k=2000.0)
+    m.add("damper", "cs", ("ground", "cone"), c=1.5)
+    return m
+
+
+def test_loudspeaker_equivalent_circuit_agrees_with_ngspice():
+    """The coupled model's mechanical part becomes its force-voltage analogue, the coil a gyrator (two CCVS)."""
+    cmp = compare_with_ngspice(loudspeaker(), 0.1, analogy="force-voltage", step=1e-4, max_step=2e-6, method="exact")
+    assert "h_g_coil_port1" in cmp.netlist and "v_g_coil_sense2" in cmp.netlist
+    assert {r.label for r in cmp.rows} == {"i(Le)", "i(L_mc)", "v(C_ks)"}
+    assert all(r.peak > 0 for r in cmp.rows)
+    assert cmp.worst_rel < 1e-6
