@@ -12,6 +12,8 @@ test: setup
 
 benchmark: setup
 	.venv/bin/python benchmarks/simulation.py
+	.venv/bin/python benchmarks/linear.py
+	.venv/bin/python benchmarks/spice.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins

@@ -29,6 +29,7 @@ GROUND_ALIASES = frozenset({"ground", "gnd", "0"})
 
 _REQUIRED = object()
 _CHECKS = {
+    "fraction": (lambda v: 0 < v <= 1, "must be in (0, 1]"),
     "positive": (lambda v: v > 0, "must be positive"),
     "nonnegative": (lambda v: v >= 0, "must be zero or positive"),
     "nonzero": (lambda v: v != 0, "must not be zero"),
@@ -50,10 +51,12 @@ class Parameter:
     """Declaration of one parameter of a component type.
 
     ``check`` is one of ``"positive"``, ``"nonnegative"``, ``"nonzero"``,
-    ``"real"``.  ``shape`` is ``"scalar"``, ``"vector"`` (a sequence or
-    matrix, one entry per spatial axis) or ``"signal"`` (a number, a SymPy
-    expression of :data:`t`, or a Python callable of time; callables become
-    undefined functions in the equations and are called numerically).
+    ``"fraction"`` (in (0, 1]), ``"real"``.  ``shape`` is ``"scalar"``,
+    ``"vector"`` (a sequence or matrix, one entry per spatial axis),
+    ``"signal"`` (a number, a SymPy expression of :data:`t`, or a Python
+    callable of time; callables become undefined functions in the equations
+    and are called numerically) or ``"name"`` (the name of another
+    component, kept as a string).
 
     >>> Parameter("stiffness", unit="N/m").coerce(4, "k1", "k")
     4
@@ -75,6 +78,10 @@ class Parameter:
 
     def coerce(self, value: Any, component: str, name: str) -> Any:
         """Turn a user value into a SymPy object, checking it; raise :class:`ParameterError`."""
+        if self.shape == "name":
+            if not isinstance(value, str) or not value.strip():
+                raise ParameterError(component, name, f"expected the name of a component (a string), got {value!r}.")
+            return value.strip()
         if self.shape == "signal" and callable(value) and not isinstance(value, sp.Basic):
             return _CallableSignal(value, f"{name}_{component}")
         if self.shape == "signal" and isinstance(value, (Sequence, sp.MatrixBase)) and not isinstance(value, (str, bytes)):
@@ -124,7 +131,7 @@ def _parse(text: str) -> sp.Expr:
 def check_value(expr: Any, check: str, component: str, name: str) -> None:
     """Check a scalar against a parameter rule; symbolic values are checked by their assumptions."""
     test, rule = _CHECKS[check]
-    if isinstance(expr, sp.MatrixBase) or isinstance(expr, _CallableSignal) or expr is None:
+    if isinstance(expr, (sp.MatrixBase, _CallableSignal, str)) or expr is None:
         return
     if expr.is_number:
         if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo) or not expr.is_real:
@@ -134,6 +141,7 @@ def check_value(expr: Any, check: str, component: str, name: str) -> None:
         return
     # symbolic: refuse only what the assumptions prove wrong
     verdict = {
+        "fraction": False if expr.is_positive is False or (expr - 1).is_positive else None,
         "positive": expr.is_positive,
         "nonnegative": expr.is_nonnegative,
         "nonzero": expr.is_nonzero,
@@ -238,6 +246,9 @@ class Component:
     parameters: ClassVar[Mapping[str, Parameter]] = {}
     role: ClassVar[str | None] = None
     terminal_domains: ClassVar[tuple[str, ...] | None] = None
+    #: True for a component whose T is a cross term between others' velocities (a mutual
+    #: inductance): not positive semidefinite on its own, only in the model's total.
+    cross_energy: ClassVar[bool] = False
 
     def __init__(self, name: str, nodes: tuple[str, ...], params: Mapping[str, Any]):
         self.name = name

@@ -46,6 +46,12 @@ class Equations:
     """Mass matrix, forcing and the first-order solve of an :class:`~lagrangian.assembly.Assembly`."""
 
     def __init__(self, assembly: Assembly):
+        if not assembly.coordinates:
+            raise ModelError(
+                "the model has no generalized coordinates: every node is fixed by ideal sources or prescribed "
+                "motions, so there is nothing to solve for. Add an element that can move (a mass, a capacitor "
+                "between free nodes), or use the other circuit formulation."
+            )
         self.coordinates = assembly.coordinates
         names = [c.name for c in self.coordinates]
         self.names = names

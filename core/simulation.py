@@ -54,6 +54,8 @@ class NumericModel:
                     f"the equations need the time derivative {d} of a callable signal; give that signal as a SymPy expression of t."
                 )
         self._solve_fn = _lambdify((t, q, self.vI), [A, b], signals)
+        self._flat_fn = None  # entries of A and b, for many states at once (built on first use)
+        self._flat_exprs = (list(A), list(b), (t, q, self.vI), signals)
         self._energy_fn = _lambdify((t, q, v), energies, signals)
         self.n = len(q)
         self.nI = len(eq.inertial)
@@ -89,6 +91,28 @@ class NumericModel:
         v[self.eq.inertial] = vI
         v[self.eq.first_order] = u[self.nI :]
         return v, u[: self.nI]
+
+    def velocities_many(self, times: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        """All generalized velocities at many states ``Y`` (columns), with one batched solve."""
+        n, N = self.n, times.size
+        v = np.empty((n, N))
+        v[self.eq.inertial] = Y[n:]
+        if not self.eq.first_order:
+            return v
+        if self._flat_fn is None:
+            a_entries, b_entries, args, signals = self._flat_exprs
+            self._flat_fn = _lambdify(args, a_entries + b_entries, signals)
+        m = len(self.eq.inertial) + len(self.eq.first_order)
+        out = [np.broadcast_to(np.asarray(e, dtype=float), (N,)) for e in self._flat_fn(times, Y[:n], Y[n:])]
+        A = np.stack(out[: m * m], axis=-1).reshape(N, m, m)
+        b = np.stack(out[m * m :], axis=-1)
+        try:
+            u = np.linalg.solve(A, b[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            k = next(i for i in range(N) if np.linalg.matrix_rank(A[i]) < m)
+            raise SingularMassMatrixError(self._singular_message(times[k], A[k])) from None
+        v[self.eq.first_order] = u[:, self.nI :].T
+        return v
 
     def rhs(self, time: float, y: np.ndarray) -> np.ndarray:
         v, acc = self.velocities(time, y)
@@ -244,11 +268,7 @@ def integrate(
         bad = int(np.argmax(~np.all(np.isfinite(sol.y), axis=0)))
         raise IntegrationError(f"the solution of model {model!r} became non-finite at t={sol.t[bad]:g}.")
     n = numeric.n
-    v = np.empty((n, sol_t.size))
-    v[numeric.eq.inertial] = sol.y[n:]
-    if numeric.eq.first_order:  # their rates come from the solve, point by point
-        for k in range(sol_t.size):
-            v[:, k], _ = numeric.velocities(sol_t[k], sol.y[:, k])
+    v = numeric.velocities_many(sol_t, sol.y)
     q = sol.y[:n]
     T, V, D = numeric.energies(sol.t, q, v)
     return Result(

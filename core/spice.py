@@ -68,7 +68,9 @@ class SpiceElement:
     component written ``"~name"``; ``value`` is the rest of the line
     (``"0.25"``, ``"SIN(0 1 0.5)"``, ``"V=sin(2*time)"``), in which
     ``{tag}`` stands for the SPICE name of the component's element tagged
-    ``tag`` (a controlled source names its controlling element so); ``state``, for
+    ``tag`` (a controlled source names its controlling element so) and
+    ``{ref0}``, ``{ref1}``, ... for the SPICE names of the elements of the
+    components named in ``refs`` (a ``K`` line names its inductors); ``state``, for
     energy-storing elements, is ``("v", voltage)`` or ``("i", current)``: the
     quantity (a SymPy expression in the model's coordinates) that becomes the
     element's ``ic=`` and is read back from ngspice.
@@ -79,6 +81,7 @@ class SpiceElement:
     value: str
     state: tuple[str, sp.Expr] | None = None
     tag: str = ""
+    refs: tuple[str, ...] = ()
 
 
 @dataclass
@@ -300,6 +303,7 @@ def netlist(
     quantities: dict[str, sp.Expr] = {}
     used: set[str] = set()
     ics: dict[str, float] = {}
+    pending: list[tuple[Any, list[SpiceElement], list[str]]] = []
     for comp in model.components.values():
         spice = getattr(comp, "spice", None)
         if spice is None:
@@ -311,12 +315,21 @@ def netlist(
         parts = spice(ctx)
         names = [_element_name(el.prefix, comp.name if len(parts) == 1 else f"{comp.name}_{el.tag or i}", used)
                  for i, el in enumerate(parts)]
+        for name in names:
+            elements[name] = comp.name
+        pending.append((comp, parts, names))
+    element_of = {}
+    for name, comp_name in elements.items():
+        element_of.setdefault(comp_name, name)
+    for comp, parts, names in pending:
         tags = {el.tag: name for el, name in zip(parts, names) if el.tag}
         for el, name in zip(parts, names):
-            elements[name] = comp.name
             text = _number(el.value, subs, comp.name) if isinstance(el.value, (sp.Basic, int, float)) else el.value
-            if tags:
-                text = text.format(**tags)
+            if tags or el.refs:
+                try:
+                    text = text.format(**tags, **{f"ref{i}": element_of[r] for i, r in enumerate(el.refs)})
+                except KeyError as exc:
+                    raise ModelError(f"{comp.kind} {comp.name!r}: its SPICE line refers to {exc.args[0]!r}, which has no element.") from None
             inner = [f"~{comp.name}.{n[1:]}" if n.startswith("~") else n for n in el.nodes]
             line = f"{name} {' '.join(nodes[n] for n in inner)} {text}".rstrip()
             if el.state is not None:

@@ -200,7 +200,12 @@ class Inductor(_Element):
         return Contribution(V=ctx.view.flux(self) ** 2 / (2 * self.L))
 
     def spice(self, ctx) -> list[SpiceElement]:
-        i = ctx.view.current(self) if ctx.view.formulation == "charge" else ctx.view.flux(self) / self.L
+        if ctx.view.formulation == "charge":
+            i = ctx.view.current(self)
+        else:  # λ/L, plus what mutual couplings add
+            i = ctx.view.flux(self) / self.L + sum(
+                (c.current_correction(ctx, self) for c in ctx.components if hasattr(c, "current_correction")), sp.Integer(0)
+            )
         return [SpiceElement("L", self.nodes, self.L, state=("i", i))]
 
     @classmethod

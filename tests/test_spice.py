@@ -212,3 +212,28 @@ def test_loudspeaker_equivalent_circuit_agrees_with_ngspice():
     assert {r.label for r in cmp.rows} == {"i(Le)", "i(L_mc)", "v(C_ks)"}
     assert all(r.peak > 0 for r in cmp.rows)
     assert cmp.worst_rel < 1e-6
+
+
+@pytest.mark.parametrize("formulation", ["charge", "flux"])
+def test_coupled_inductors_export_as_a_k_line_and_agree(formulation):
+    m = lg.Model("tanks", formulation=formulation)
+    m.add("capacitor", "C1", ("a", "0"), C=1)
+    m.add("inductor", "L1", ("a", "0"), L=1)
+    m.add("capacitor", "C2", ("b", "0"), C=1)
+    m.add("inductor", "L2", ("b", "0"), L=2)
+    m.add("resistor", "R2", ("b", "0"), R=10)
+    m.add("coupling", "K1", inductor1="L1", inductor2="L2", k=0.4)
+    first = m.coordinate_names[0]
+    cmp = compare_with_ngspice(m, 10, initial={first: 0.1}, velocity={n: 0 for n in m.coordinate_names if n not in m.first_order},
+                               step=0.01, max_step=2.5e-4)
+    assert "\nk1  l1 l2 0.4\n" in cmp.netlist
+    assert {r.label for r in cmp.rows} == {"v(C1)", "i(L1)", "v(C2)", "i(L2)"}
+    assert min(r.peak for r in cmp.rows) > 0.01 and cmp.worst_rel < 1e-6
+
+
+def test_a_model_without_coordinates_is_a_clear_error():
+    m = lg.Model("fixed", formulation="flux")
+    m.add("voltage_source", "V1", ("a", "0"), E=1)
+    m.add("resistor", "R1", ("a", "0"), R=1)
+    with pytest.raises(lg.ModelError, match="no generalized coordinates"):
+        m.equations
