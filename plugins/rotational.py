@@ -203,3 +203,70 @@ def register_domains(register):
 def register_component_types(register):
     for cls in (Inertia, TorsionSpring, RotaryDamper, Torque, PrescribedRotation):
         register(cls)
+
+
+# -- analogies ------------------------------------------------------------------------------------
+# Torque–voltage: inertia → inductor, torsion spring → capacitor (C = 1/k), rotary damper →
+# resistor, torque → voltage source, prescribed rotation → current source; angular velocity ↔ loop
+# current.  Torque–current: inertia → capacitor, torsion spring → inductor (L = 1/k), damper →
+# resistor (R = 1/c), torque → current source, prescribed rotation → voltage source; angular
+# velocity ↔ node voltage.  The same as the translational analogies, for shafts.
+
+from lagrangian.analogy import Analogy, AnalogyError, Element  # noqa: E402
+
+
+def _relaxed_at_zero(spring) -> None:
+    if spring.rest_angle != 0:
+        raise AnalogyError(
+            f"torsion_spring {spring.name!r} has a rest angle; its analogue is linear about zero: "
+            f"measure angles from the relaxed configuration (rest_angle=0)."
+        )
+
+
+def _rate_from_zero(motion) -> sp.Expr:
+    angle = motion.prescribed_angle()
+    if angle.subs(t, 0) != 0:
+        raise AnalogyError(f"prescribed_rotation {motion.name!r} starts at {angle.subs(t, 0)}, not 0: shift the angles.")
+    return angle.diff(t)
+
+
+def _damping(damper, invert: bool):
+    if damper.c == 0:
+        raise AnalogyError(f"rotary_damper {damper.name!r} has c = 0 and contributes nothing: remove it.")
+    return 1 / damper.c if invert else damper.c
+
+
+TORQUE_VOLTAGE = {
+    "inertia": lambda c, p: [Element("inductor", f"L_{c.name}", p.branch(), {"L": c.J})],
+    "torsion_spring": lambda c, p: (_relaxed_at_zero(c), [Element("capacitor", f"C_{c.name}", p.branch(), {"C": 1 / c.k})])[1],
+    "rotary_damper": lambda c, p: [Element("resistor", f"R_{c.name}", p.branch(), {"R": _damping(c, False)})],
+    "torque": lambda c, p: [Element("voltage_source", f"V_{c.name}", p.branch()[::-1], {"E": c.tau}, branch=None)],
+    "prescribed_rotation": lambda c, p: [
+        Element("current_source", f"I_{c.name}", p.branch(), {"I": _rate_from_zero(c)}, branch=None)
+    ],
+}
+
+TORQUE_CURRENT = {
+    "inertia": lambda c, p: [Element("capacitor", f"C_{c.name}", p.branch(), {"C": c.J})],
+    "torsion_spring": lambda c, p: (_relaxed_at_zero(c), [Element("inductor", f"L_{c.name}", p.branch(), {"L": 1 / c.k})])[1],
+    "rotary_damper": lambda c, p: [Element("resistor", f"R_{c.name}", p.branch(), {"R": _damping(c, True)})],
+    "torque": lambda c, p: [Element("current_source", f"I_{c.name}", p.branch()[::-1], {"I": c.tau}, branch=None)],
+    "prescribed_rotation": lambda c, p: [
+        Element("voltage_source", f"V_{c.name}", p.branch(), {"E": _rate_from_zero(c)}, branch=None)
+    ],
+}
+
+
+@hookimpl
+def register_analogies(register):
+    register(Analogy("torque-voltage", "rotational", "electrical", dual=True, options={"formulation": "charge"},
+                     doc="inertia ↔ inductor, torsion spring ↔ capacitor, rotary damper ↔ resistor, torque ↔ voltage"))
+    register(Analogy("torque-current", "rotational", "electrical", dual=False, options={"formulation": "flux"},
+                     doc="inertia ↔ capacitor, torsion spring ↔ inductor, rotary damper ↔ conductance, torque ↔ current"))
+
+
+@hookimpl
+def register_analogues(register):
+    for analogy, table in (("torque-voltage", TORQUE_VOLTAGE), ("torque-current", TORQUE_CURRENT)):
+        for kind, build in table.items():
+            register(kind, analogy, build)

@@ -593,7 +593,7 @@ def _locate_contact(model, guards, t_end, kwargs, cause) -> None:
 
 @hookimpl
 def register_analogues(register):
-    """Under the force–voltage analogy a moving coil becomes a gyrator between its coil and its node's mesh."""
+    """Under the force– (torque–) voltage analogy a moving coil (DC motor) becomes a gyrator between its coil and its node's mesh."""
     from lagrangian.analogy import Element
 
     register(
@@ -601,5 +601,12 @@ def register_analogues(register):
         "force-voltage",
         lambda c, ports: [
             Element("gyrator", f"G_{c.name}", (*ports.branch(0), *ports.branch(1)), {"r": c.Bl}, branch=((0, 0), (1, 1)))
+        ],
+    )
+    register(
+        "dc_motor",
+        "torque-voltage",
+        lambda c, ports: [
+            Element("gyrator", f"G_{c.name}", (*ports.branch(0), *ports.branch(1)), {"r": c.K}, branch=((0, 0), (1, 1)))
         ],
     )

@@ -237,3 +237,17 @@ def test_coupled_model_maps_its_mechanical_part_and_the_coil_to_a_gyrator():
     assert same_equations(equations_in_source_terms(mapped), residuals(m))
     with pytest.raises(AnalogyError, match="formulation='flux'"):
         map_model(m, "force-current")  # the coil needs the charge formulation the flux analogue cannot keep
+
+
+@pytest.mark.parametrize("analogy", ["torque-voltage", "torque-current"])
+def test_rotational_analogues_equal_the_shaft_equations(analogy):
+    J, k, c, tau = sp.symbols("J k c tau", positive=True)
+    m = lg.Model("shaft")
+    m.add("inertia", "J1", "a", J=J)
+    m.add("inertia", "J2", "b", J=2 * J)
+    m.add("torsion_spring", "k1", ("ground", "a"), k=k)
+    m.add("torsion_spring", "k2", ("a", "b"), k=k)
+    m.add("rotary_damper", "c2", ("a", "b"), c=c)
+    m.add("torque", "T", "b", tau=tau * sp.cos(lg.t))
+    mapped = map_model(m, analogy)
+    assert same_equations(equations_in_source_terms(mapped), residuals(m))

@@ -237,3 +237,19 @@ def test_a_model_without_coordinates_is_a_clear_error():
     m.add("resistor", "R1", ("a", "0"), R=1)
     with pytest.raises(lg.ModelError, match="no generalized coordinates"):
         m.equations
+
+
+def test_dc_motor_spinning_up_a_flywheel_agrees_with_ngspice():
+    """The rotational part through the torque-voltage analogue, the motor as a gyrator."""
+    m = lg.Model("motor")
+    m.add("voltage_source", "V", ("n1", "0"), E=12)
+    m.add("resistor", "Ra", ("n1", "n2"), R=2.0)
+    m.add("inductor", "La", ("n2", "n3"), L=0.01)
+    m.add("dc_motor", "M", ("n3", "0", "shaft"), K=0.05)
+    m.add("inertia", "J", "shaft", J=1e-4)
+    m.add("rotary_damper", "b", ("ground", "shaft"), c=1e-5)
+    cmp = compare_with_ngspice(m, 0.8, analogy="torque-voltage", step=1e-4, max_step=1e-5, method="exact")
+    speed = next(r for r in cmp.rows if "theta_shaft" in r.meaning)
+    # after ten time constants τ ≈ J R / (K² + R b) = 0.08 s it turns at the steady ω = K V / (K² + R b)
+    assert speed.peak == pytest.approx(0.05 * 12 / (0.05**2 + 2.0 * 1e-5), rel=1e-3)
+    assert cmp.worst_rel < 1e-6
