@@ -18,10 +18,8 @@ from __future__ import annotations
 
 import json
 import statistics
-import sys
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 import sympy as sp
@@ -31,8 +29,6 @@ from lagrangian.analogy import map_model
 from lagrangian.compare import compare_with_ngspice
 from lagrangian.netlist import read_netlist
 from lagrangian.spice import netlist, run_transient
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 LADDER = """5th-order Butterworth LC ladder low-pass, 1 rad/s cut-off, 1 ohm terminations
 V1 in 0 SIN(0 1 0.15 0 0 0)
