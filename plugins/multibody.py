@@ -1,0 +1,1 @@
+"""Built-in plugin (in progress): rigid bodies and joints."""
