@@ -55,8 +55,9 @@ class Parameter:
     ``"vector"`` (a sequence or matrix, one entry per spatial axis),
     ``"signal"`` (a number, a SymPy expression of :data:`t`, or a Python
     callable of time; callables become undefined functions in the equations
-    and are called numerically) or ``"name"`` (the name of another
-    component, kept as a string).
+    and are called numerically), ``"name"`` (the name of another
+    component, kept as a string), ``"flag"`` (True or False), ``"mapping"``
+    (names to vectors) or ``"tensor"`` (a scalar, a vector or a matrix).
 
     >>> Parameter("stiffness", unit="N/m").coerce(4, "k1", "k")
     4
@@ -78,6 +79,26 @@ class Parameter:
 
     def coerce(self, value: Any, component: str, name: str) -> Any:
         """Turn a user value into a SymPy object, checking it; raise :class:`ParameterError`."""
+        if self.shape == "flag":
+            if not isinstance(value, bool):
+                raise ParameterError(component, name, f"expected True or False, got {value!r}.")
+            return value
+        if self.shape == "mapping":
+            if value is None:
+                return None
+            if not isinstance(value, Mapping):
+                raise ParameterError(component, name, f"expected a mapping of names to vectors, got {value!r}.")
+            return {str(k): Parameter(self.doc, shape="vector").coerce(v, component, f"{name}[{k!r}]") for k, v in value.items()}
+        if self.shape == "tensor":
+            if isinstance(value, (Sequence, sp.MatrixBase)) and not isinstance(value, (str, bytes)):
+                try:
+                    matrix = sp.Matrix(value)
+                except (ValueError, TypeError, sp.SympifyError):
+                    raise ParameterError(component, name, f"expected a scalar, a vector or a square matrix, got {value!r}.") from None
+                for entry in matrix:
+                    self._scalar(entry, component, name, check="real")
+                return matrix
+            return self._scalar(value, component, name, check=self.check)
         if self.shape == "name":
             if not isinstance(value, str) or not value.strip():
                 raise ParameterError(component, name, f"expected the name of a component (a string), got {value!r}.")
@@ -131,7 +152,7 @@ def _parse(text: str) -> sp.Expr:
 def check_value(expr: Any, check: str, component: str, name: str) -> None:
     """Check a scalar against a parameter rule; symbolic values are checked by their assumptions."""
     test, rule = _CHECKS[check]
-    if isinstance(expr, (sp.MatrixBase, _CallableSignal, str)) or expr is None:
+    if isinstance(expr, (sp.MatrixBase, _CallableSignal, str, bool, dict)) or expr is None:
         return
     if expr.is_number:
         if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo) or not expr.is_real:
@@ -249,6 +270,9 @@ class Component:
     #: True for a component whose T is a cross term between others' velocities (a mutual
     #: inductance): not positive semidefinite on its own, only in the model's total.
     cross_energy: ClassVar[bool] = False
+    #: True for a component that gives the model coordinates or geometry (a joint, a massless link)
+    #: rather than energy: its contribution may be empty.
+    structural: ClassVar[bool] = False
 
     def __init__(self, name: str, nodes: tuple[str, ...], params: Mapping[str, Any]):
         self.name = name

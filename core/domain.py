@@ -78,6 +78,8 @@ class DomainView:
     """
 
     coordinates: list[Coordinate] = field(default_factory=list)
+    #: holonomic constraints ``Φ(q, t) = 0`` among the coordinates (closed kinematic loops), kept with multipliers
+    constraints: list[sp.Expr] = field(default_factory=list)
 
     def branch_value(self, key: str) -> sp.Expr:
         raise NotImplementedError(f"{type(self).__name__} does not define branch quantities")

@@ -102,6 +102,9 @@ class Equations:
                 for i in range(n)
             ]
         )
+        self.constraints = sp.Matrix([self.symbolic(c) for view in assembly.views.values() for c in view.constraints])
+        self.constraint_rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.views.values()), default=10.0)
+        self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(len(self.constraints))]
         self._split()
 
     def symbolic(self, expr) -> sp.Expr:
@@ -124,6 +127,8 @@ class Equations:
         self.first_order = zero_rows
         unknowns = [self.sym.a[i] for i in self.inertial] + [self.sym.v[i] for i in self.first_order]
         residual = sp.Matrix([sum((M[i, j] * self.sym.a[j] for j in self.inertial), sp.Integer(0)) - self.f[i] for i in range(n)])
+        if len(self.constraints):
+            residual, unknowns = self._constrained(residual, unknowns)
         A = residual.jacobian(unknowns)
         if A.free_symbols & set(unknowns):
             culprit = sorted((s.name[2:] for s in A.free_symbols & set(unknowns)))
@@ -140,6 +145,22 @@ class Equations:
                 )
         self.A = A
         self.b = -residual.xreplace({u: sp.Integer(0) for u in unknowns})
+
+    def _constrained(self, residual: sp.Matrix, unknowns: list) -> tuple[sp.Matrix, list]:
+        """Append multipliers and the stabilized constraint rows ``Φ̈ + 2ωΦ̇ + ω²Φ = 0`` (Baumgarte)."""
+        q, v, a = self.sym.q, self.sym.v, self.sym.a
+        Phi = self.constraints
+        Jq = Phi.jacobian(q)
+        involved = [self.names[i] for i in self.first_order if any(not _is_zero(Jq[k, i]) for k in range(Jq.rows))]
+        if involved:
+            raise ModelError(
+                f"coordinates {', '.join(involved)} have no inertia but take part in a loop-closure constraint: give them mass."
+            )
+        Phi_dot = Jq * sp.Matrix(v) + Phi.diff(t)
+        w = sp.Float(self.constraint_rate)
+        rows = Jq * sp.Matrix(a) + Phi_dot.jacobian(q) * sp.Matrix(v) + Phi_dot.diff(t) + 2 * w * Phi_dot + w**2 * Phi
+        residual = residual - Jq.T * sp.Matrix(self.multipliers)
+        return residual.col_join(rows), unknowns + self.multipliers
 
     # -- display helpers -------------------------------------------------------
     @property

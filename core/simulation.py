@@ -73,7 +73,7 @@ class NumericModel:
             raise SingularMassMatrixError(self._singular_message(time, A)) from None
 
     def _singular_message(self, time: float, A: np.ndarray) -> str:
-        names = [self.eq.names[i] for i in self.eq.inertial + self.eq.first_order]
+        names = [self.eq.names[i] for i in self.eq.inertial + self.eq.first_order] + [f"multiplier {k}" for k in range(len(self.eq.multipliers))]
         _, s, vt = np.linalg.svd(A)
         null = vt[-1]
         involved = [n for n, w in zip(names, null) if abs(w) > 1e-8]
@@ -89,7 +89,7 @@ class NumericModel:
         u = self.solve(time, qv, vI)
         v = np.empty(self.n)
         v[self.eq.inertial] = vI
-        v[self.eq.first_order] = u[self.nI :]
+        v[self.eq.first_order] = u[self.nI : self.nI + len(self.eq.first_order)]
         return v, u[: self.nI]
 
     def velocities_many(self, times: np.ndarray, Y: np.ndarray) -> np.ndarray:
@@ -102,7 +102,7 @@ class NumericModel:
         if self._flat_fn is None:
             a_entries, b_entries, args, signals = self._flat_exprs
             self._flat_fn = _lambdify(args, a_entries + b_entries, signals)
-        m = len(self.eq.inertial) + len(self.eq.first_order)
+        m = self.eq.A.shape[0]  # unknowns: accelerations, first-order rates, multipliers
         out = [np.broadcast_to(np.asarray(e, dtype=float), (N,)) for e in self._flat_fn(times, Y[:n], Y[n:])]
         A = np.stack(out[: m * m], axis=-1).reshape(N, m, m)
         b = np.stack(out[m * m :], axis=-1)
@@ -111,7 +111,7 @@ class NumericModel:
         except np.linalg.LinAlgError:
             k = next(i for i in range(N) if np.linalg.matrix_rank(A[i]) < m)
             raise SingularMassMatrixError(self._singular_message(times[k], A[k])) from None
-        v[self.eq.first_order] = u[:, self.nI :].T
+        v[self.eq.first_order] = u[:, self.nI : self.nI + len(self.eq.first_order)].T
         return v
 
     def rhs(self, time: float, y: np.ndarray) -> np.ndarray:

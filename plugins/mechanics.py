@@ -22,6 +22,7 @@ from typing import Any
 import sympy as sp
 
 from lagrangian import (
+    UnknownNameError,
     Component,
     Contribution,
     Coordinate,
@@ -48,6 +49,14 @@ class MechanicalView(DomainView):
     dim: int = 1
     positions: dict[str, sp.Matrix] = field(default_factory=dict)
     edges: dict[str, tuple[str, str]] = field(default_factory=dict)
+    poses: dict[str, Any] = field(default_factory=dict)
+    bodies: dict[str, Any] = field(default_factory=dict)
+
+    def pose(self, body: str):
+        """Rotation, origin, angular velocity (and planar angle) of a rigid body (see the multibody plugin)."""
+        if body not in self.poses:
+            raise UnknownNameError("rigid body", body, [b for b in self.poses if b != "ground"])
+        return self.poses[body]
 
     def branch_value(self, key: str) -> sp.Expr:
         """``x_a − x_b`` of the branch ``key`` (one dimension only)."""
@@ -57,7 +66,19 @@ class MechanicalView(DomainView):
         return self.position(a)[0] - self.position(b)[0]
 
     def position(self, node: str) -> sp.Matrix:
-        return self.positions.get(node, sp.zeros(self.dim, 1))
+        if node in self.positions:
+            return self.positions[node]
+        body, _, point = node.partition(".")
+        if point and body in self.bodies:  # a point of a rigid body: its origin plus the rotated offset
+            offsets = self.bodies[body].point_offsets(self.dim)
+            if point not in offsets:
+                raise UnknownNameError(f"point of body {body!r}", point, offsets)
+            pose = self.poses[body]
+            self.positions[node] = pose.p + pose.R * offsets[point]
+            return self.positions[node]
+        if node == "ground":
+            return sp.zeros(self.dim, 1)
+        raise UnknownNameError("mechanical node", node, self.positions)
 
     def velocity(self, node: str) -> sp.Matrix:
         return self.position(node).diff(t)
@@ -74,7 +95,15 @@ class MechanicalDomain(Domain):
         prescribed = {c.nodes[0]: c for c in network.components if c.role == "across"}
         view = MechanicalView(dim=dim)
         view.edges = {k: (d["a"], d["b"]) for _, _, k, d in network.graph.edges(keys=True, data=True)}
+        if any(getattr(c, "multibody", False) for c in network.components):
+            from lagrangian.plugins.multibody import build_kinematics
+
+            build_kinematics(network, view)
         for node in network.nodes:
+            if node in view.positions:  # a body, or a point of one
+                if node in prescribed:
+                    raise ModelError(f"node {node!r} belongs to a rigid body: drive its joint instead of prescribing its motion.")
+                continue
             if node in prescribed:
                 view.positions[node] = prescribed[node].prescribed_position(dim)
                 continue

@@ -1,1 +1,691 @@
-"""Built-in plugin (in progress): rigid bodies and joints."""
+"""Built-in plugin: rigid bodies and joints, in the plane (``dim=2``) and in space (``dim=3``).
+
+Bodies are nodes of the mechanical domain; joints are branches between two
+bodies (``ground`` is the fixed frame).  The joints of a spanning tree rooted
+at ground give every body its pose — rotation ``R`` and origin ``p`` — as
+functions of the joint coordinates (or of time, for a driven joint); every
+other joint closes a kinematic loop and becomes a holonomic constraint kept
+with a Lagrange multiplier.  Points of a body are nodes named
+``"<body>.<point>"`` (``"<body>.com"`` and ``"<body>.origin"`` always exist),
+so springs, dampers, forces and point masses of the mechanics plugin attach
+to them unchanged.
+
+Conventions.  A joint ``(parent, child)`` sits at ``parent_point`` (in the
+parent's frame) and ``child_point`` (in the child's frame), which coincide.
+Planar: a revolute joint's angle ``θ`` turns the child by ``θ`` relative to
+the parent (``absolute=True``: ``θ`` is the child's angle to the fixed x
+axis); a prismatic joint slides the child by ``s`` along ``axis`` (parent
+frame).  Spatial: revolute about ``axis`` (parent frame); spherical and free
+joints use body-fixed x-y-z Euler angles ``alpha``, ``beta``, ``gamma`` (singular
+at ``beta = ±π/2``).
+
+>>> import lagrangian as lg, sympy as sp
+>>> m = lg.Model("pendulum", dim=2)
+>>> _ = m.add("rod", "arm", "arm", m=1, length=2)
+>>> _ = m.add("revolute", "pin", ("ground", "arm"), absolute=True)
+>>> _ = m.add("gravity", "g", g=9.81, direction=(0, -1))
+>>> m.coordinate_names
+['theta_pin']
+>>> sp.trigsimp(m.mass_matrix)  # m L²/3 about the pin
+Matrix([[4/3]])
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import sympy as sp
+
+from lagrangian import (
+    GROUND,
+    Component,
+    Contribution,
+    Coordinate,
+    Example,
+    Load,
+    ModelError,
+    Parameter,
+    UnknownNameError,
+    dot,
+    hookimpl,
+    t,
+)
+
+__all__ = ["Pose", "Body", "Link", "Rod", "Disc", "Revolute", "Prismatic", "Spherical", "PlanarJoint", "Fixed", "Free"]
+
+
+@dataclass
+class Pose:
+    """Rotation ``R`` (dim × dim), origin ``p`` and angular velocity ``omega`` (planar: scalar; spatial: 3-vector in
+    the fixed frame) of a body, as expressions of the coordinates and time."""
+
+    R: sp.Matrix
+    p: sp.Matrix
+    omega: Any
+    angle: Any = None  # planar only
+
+
+def _rot2(phi) -> sp.Matrix:
+    return sp.Matrix([[sp.cos(phi), -sp.sin(phi)], [sp.sin(phi), sp.cos(phi)]])
+
+
+def _rot3(axis: sp.Matrix, angle) -> sp.Matrix:
+    """Rotation by ``angle`` about the unit vector ``axis`` (Rodrigues); exact for the coordinate axes."""
+    ax = [sp.nsimplify(a) if a.is_number else a for a in axis]
+    if ax == [1, 0, 0]:
+        return sp.Matrix([[1, 0, 0], [0, sp.cos(angle), -sp.sin(angle)], [0, sp.sin(angle), sp.cos(angle)]])
+    if ax == [0, 1, 0]:
+        return sp.Matrix([[sp.cos(angle), 0, sp.sin(angle)], [0, 1, 0], [-sp.sin(angle), 0, sp.cos(angle)]])
+    if ax == [0, 0, 1]:
+        return sp.Matrix([[sp.cos(angle), -sp.sin(angle), 0], [sp.sin(angle), sp.cos(angle), 0], [0, 0, 1]])
+    k = sp.Matrix([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return sp.eye(3) + sp.sin(angle) * k + (1 - sp.cos(angle)) * k * k
+
+
+E3 = [sp.Matrix([1, 0, 0]), sp.Matrix([0, 1, 0]), sp.Matrix([0, 0, 1])]
+
+
+def _vec(value, dim: int, comp: Component, pname: str, default=None) -> sp.Matrix:
+    if value is None:
+        return sp.zeros(dim, 1) if default is None else default
+    if not isinstance(value, sp.MatrixBase) or value.shape != (dim, 1):
+        raise ModelError(f"{comp.kind} {comp.name!r}: parameter {pname!r} must be a vector of {dim} entries in a {dim}-D model.")
+    return sp.Matrix(value)
+
+
+def _unit(value, comp: Component, pname: str) -> sp.Matrix:
+    norm = sp.sqrt(dot(value, value))
+    if norm == 0:
+        raise ModelError(f"{comp.kind} {comp.name!r}: parameter {pname!r} must not be the zero vector.")
+    return value / norm
+
+
+def _need_dim(comp: Component, view, dims: tuple[int, ...]) -> int:
+    if view.dim not in dims:
+        raise ModelError(
+            f"{comp.kind} {comp.name!r} needs a model of dimension {' or '.join(map(str, dims))} "
+            f"(lg.Model(dim=...)); this model has dim={view.dim}."
+        )
+    return view.dim
+
+
+# -- bodies ---------------------------------------------------------------------------------------
+
+
+class _BodyBase(Component):
+    domain = "mechanical"
+    terminals = ("body",)
+    multibody = True
+
+    def point_offsets(self, dim: int) -> dict[str, sp.Matrix]:
+        """Named points in the body frame: ``origin``, ``com`` and the body's own."""
+        points = {"origin": sp.zeros(dim, 1), "com": self.com_offset(dim)}
+        for name, value in (self.params.get("points") or {}).items():
+            points[name] = _vec(value, dim, self, f"points[{name!r}]")
+        return points
+
+    def com_offset(self, dim: int) -> sp.Matrix:
+        return sp.zeros(dim, 1)
+
+    def inertia_matrix(self, dim: int):
+        return None
+
+    @property
+    def mass_value(self):
+        return 0
+
+    @property
+    def gravitational_mass(self):
+        return (f"{self.nodes[0]}.com", self.mass_value) if self.mass_value != 0 else None
+
+    def contribute(self, ctx) -> Contribution:
+        view = ctx.view
+        dim = _need_dim(self, view, (2, 3))
+        if self.mass_value == 0:
+            return Contribution()
+        pose = view.pose(self.nodes[0])
+        v = view.velocity(f"{self.nodes[0]}.com")
+        I = self.inertia_matrix(dim)
+        if dim == 2:
+            rot = I * pose.omega**2 / 2
+        else:
+            wb = pose.R.T * pose.omega
+            rot = (wb.T * I * wb)[0, 0] / 2
+        return Contribution(T=self.mass_value * dot(v, v) / 2 + rot)
+
+
+def _points_param():
+    return Parameter("named points in the body frame: {name: vector}", default=None, shape="mapping")
+
+
+class Body(_BodyBase):
+    """Rigid body: mass ``m``, centre of mass ``com`` and inertia about it (planar: a scalar; spatial: three
+    principal moments or a 3 × 3 matrix), with named ``points``; T = ½ m |v_G|² + ½ ωᵀ I ω."""
+
+    kind = "body"
+    parameters = {
+        "m": Parameter("mass", unit="kg"),
+        "inertia": Parameter("inertia about the centre of mass (planar: scalar; spatial: 3 or 3 × 3)", shape="tensor"),
+        "com": Parameter("centre of mass in the body frame", default=None, shape="vector", unit="m"),
+        "points": _points_param(),
+    }
+
+    def __init__(self, name, nodes, params):
+        super().__init__(name, nodes, params)
+        I = self.params["inertia"]
+        matrix = I if isinstance(I, sp.MatrixBase) else None
+        if matrix is not None and matrix.shape == (3, 1):
+            matrix = sp.diag(*matrix)
+        if matrix is None:
+            if not isinstance(I, sp.Expr) or (I.is_number and float(I) <= 0) or I.is_positive is False:
+                raise lg_param_error(name, "inertia", f"a planar moment of inertia must be positive, got {I}.")
+        else:
+            if matrix.shape != (3, 3) or matrix != matrix.T:
+                raise lg_param_error(name, "inertia", "a spatial inertia must be 3 principal moments or a symmetric 3 × 3 matrix.")
+            if all(e.is_number for e in matrix):
+                eig = [complex(e).real for e in matrix.evalf().eigenvals(multiple=True)]
+                if min(eig) <= 0:
+                    raise lg_param_error(
+                        name, "inertia", f"the inertia matrix is not positive definite (eigenvalues {', '.join(f'{e:g}' for e in eig)})."
+                    )
+                d = sorted(eig)
+                if d[0] + d[1] < d[2] * (1 - 1e-12):
+                    raise lg_param_error(name, "inertia", f"principal moments {d} violate the triangle inequality I1 + I2 ≥ I3: no body has them.")
+        self._inertia = matrix if matrix is not None else I
+
+    @property
+    def mass_value(self):
+        return self.m
+
+    def com_offset(self, dim):
+        return _vec(self.params.get("com"), dim, self, "com")
+
+    def inertia_matrix(self, dim):
+        if dim == 2:
+            if isinstance(self._inertia, sp.MatrixBase):
+                raise ModelError(f"body {self.name!r}: a planar body takes a scalar moment of inertia.")
+            return self._inertia
+        if not isinstance(self._inertia, sp.MatrixBase):
+            raise ModelError(f"body {self.name!r}: a spatial body takes 3 principal moments or a 3 × 3 inertia matrix.")
+        return self._inertia
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            "b", {"m": 2, "inertia": sp.Rational(1, 3), "com": (1, 0), "points": {"tip": (2, 0)}},
+            context=[("revolute", "j", ("ground", "b"), {}), ("gravity", "g", (), {})], options={"dim": 2},
+        )
+
+
+def lg_param_error(component, parameter, message):
+    from lagrangian import ParameterError
+
+    return ParameterError(component, parameter, message)
+
+
+class Link(_BodyBase):
+    """A massless frame with named points (rods of a point-mass pendulum, a crank's geometry)."""
+
+    kind = "link"
+    structural = True
+    parameters = {"points": _points_param()}
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            "l", {"points": {"end": (1, 0)}},
+            context=[("revolute", "j", ("ground", "l"), {}), ("mass", "bob", "l.end", {"m": 1}), ("gravity", "g", (), {})],
+            options={"dim": 2},
+        )
+
+
+class Rod(_BodyBase):
+    """Slender uniform rod along the body's x axis from ``start`` (the origin) to ``end``; points ``start``,
+    ``center``, ``end``; I = m L²/12 about its centre."""
+
+    kind = "rod"
+    parameters = {
+        "m": Parameter("mass", unit="kg"),
+        "length": Parameter("length", unit="m"),
+        "points": _points_param(),
+    }
+
+    @property
+    def mass_value(self):
+        return self.m
+
+    def point_offsets(self, dim):
+        points = super().point_offsets(dim)
+        e = sp.zeros(dim, 1)
+        e[0] = self.length
+        points.update(start=sp.zeros(dim, 1), center=e / 2, end=e)
+        return points
+
+    def com_offset(self, dim):
+        e = sp.zeros(dim, 1)
+        e[0] = self.length / 2
+        return e
+
+    def inertia_matrix(self, dim):
+        i = self.m * self.length**2 / 12
+        return i if dim == 2 else sp.diag(0, i, i)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example("r", {"m": 1, "length": 2}, context=[("revolute", "j", ("ground", "r"), {}), ("gravity", "g", (), {})],
+                       options={"dim": 2})
+
+
+class Disc(_BodyBase):
+    """Thin uniform disc of ``radius`` centred on the origin, its axis the body's z axis; I = ½ m r² about the
+    axis (¼ m r² about a diameter); points ``center`` and ``rim`` (on +x)."""
+
+    kind = "disc"
+    parameters = {
+        "m": Parameter("mass", unit="kg"),
+        "radius": Parameter("radius", unit="m"),
+        "points": _points_param(),
+    }
+
+    @property
+    def mass_value(self):
+        return self.m
+
+    def point_offsets(self, dim):
+        points = super().point_offsets(dim)
+        e = sp.zeros(dim, 1)
+        e[0] = self.radius
+        points.update(center=sp.zeros(dim, 1), rim=e)
+        return points
+
+    def inertia_matrix(self, dim):
+        axial = self.m * self.radius**2 / 2
+        return axial if dim == 2 else sp.diag(axial / 2, axial / 2, axial)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example("d", {"m": 1, "radius": sp.Rational(1, 2)},
+                       context=[("revolute", "j", ("ground", "d"), {"child_point": (sp.Rational(1, 2), 0)}),
+                                ("gravity", "g", (), {})], options={"dim": 2})
+
+
+# -- joints ---------------------------------------------------------------------------------------
+
+
+class _Joint(Component):
+    domain = "mechanical"
+    terminals = ("parent", "child")
+    multibody = True
+    structural = True
+
+    def coordinate_names(self, dim: int) -> list[str]:
+        raise NotImplementedError
+
+    def names(self, dim: int) -> list[str]:
+        given = self.params.get("coordinates")
+        default = self.coordinate_names(dim)
+        if given is None:
+            return default
+        names = [n.strip() for n in str(given).split(",")]
+        if len(names) != len(default):
+            raise lg_param_error(self.name, "coordinates", f"needs {len(default)} comma-separated names, got {given!r}.")
+        return names
+
+    def points(self, dim: int) -> tuple[sp.Matrix, sp.Matrix]:
+        return (_vec(self.params.get("parent_point"), dim, self, "parent_point"),
+                _vec(self.params.get("child_point"), dim, self, "child_point"))
+
+    def relative(self, dim: int, q: list) -> tuple[Any, sp.Matrix, Any]:
+        """Planar: ``(relative angle, translation in the parent frame, None)``; spatial: ``(R_rel, translation in
+        the parent frame, relative angular velocity in the parent frame)``."""
+        raise NotImplementedError
+
+    def driven(self) -> list | None:
+        """Prescribed coordinate values (expressions of t) for a driven joint, else None."""
+        return None
+
+    def contribute(self, ctx) -> Contribution:
+        return Contribution()
+
+
+def _joint_params(extra: dict) -> dict:
+    return {
+        "parent_point": Parameter("joint location in the parent's frame", default=None, shape="vector", unit="m"),
+        "child_point": Parameter("joint location in the child's frame", default=None, shape="vector", unit="m"),
+        "coordinates": Parameter("names of the joint coordinates, comma-separated", default=None, shape="name"),
+        **extra,
+    }
+
+
+class Revolute(_Joint):
+    """Revolute (pin) joint: one angle; planar, or about ``axis`` in space; ``angle=`` drives it."""
+
+    kind = "revolute"
+    parameters = _joint_params({
+        "axis": Parameter("rotation axis in the parent frame (spatial)", default=None, shape="vector"),
+        "absolute": Parameter("planar: the angle is the child's absolute angle", default=False, shape="flag"),
+        "angle": Parameter("prescribed angle (an expression of t): a driven joint", default=None, check="real", shape="signal"),
+    })
+
+    def coordinate_names(self, dim):
+        return [f"theta_{self.name}"]
+
+    @property
+    def absolute_angle(self) -> bool:
+        return bool(self.params.get("absolute"))
+
+    def driven(self):
+        return None if self.params.get("angle") is None else [self.angle]
+
+    def relative(self, dim, q):
+        (theta,) = q
+        if dim == 2:
+            return theta, sp.zeros(2, 1), None
+        axis = _unit(_vec(self.params.get("axis"), 3, self, "axis", E3[2]), self, "axis")
+        return _rot3(axis, theta), sp.zeros(3, 1), axis * theta.diff(t)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "b"), {"child_point": (-1, 0)},
+                       context=[("body", "b", "b", {"m": 1, "inertia": 1}), ("gravity", "g", (), {})], options={"dim": 2})
+
+
+class Prismatic(_Joint):
+    """Prismatic (slider) joint: one displacement ``s`` along ``axis`` (parent frame; default x); ``displacement=``
+    drives it."""
+
+    kind = "prismatic"
+    parameters = _joint_params({
+        "axis": Parameter("sliding direction in the parent frame", default=None, shape="vector"),
+        "displacement": Parameter("prescribed displacement (expression of t)", default=None, check="real", shape="signal"),
+    })
+
+    def coordinate_names(self, dim):
+        return [f"s_{self.name}"]
+
+    def driven(self):
+        return None if self.params.get("displacement") is None else [self.displacement]
+
+    def relative(self, dim, q):
+        (s,) = q
+        e = sp.zeros(dim, 1)
+        e[0] = 1
+        axis = _unit(_vec(self.params.get("axis"), dim, self, "axis", e), self, "axis")
+        return (sp.Integer(0), axis * s, None) if dim == 2 else (sp.eye(3), axis * s, sp.zeros(3, 1))
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "cart"), {},
+                       context=[("body", "cart", "cart", {"m": 2, "inertia": 1}),
+                                ("spring", "k", ("ground", "cart.origin"), {"k": 3})], options={"dim": 2})
+
+
+def _euler_xyz(a, b, c):
+    R = _rot3(E3[0], a) * _rot3(E3[1], b) * _rot3(E3[2], c)
+    omega = E3[0] * a.diff(t) + _rot3(E3[0], a) * E3[1] * b.diff(t) + _rot3(E3[0], a) * _rot3(E3[1], b) * E3[2] * c.diff(t)
+    return R, omega
+
+
+class Spherical(_Joint):
+    """Spherical (ball) joint, spatial: body-fixed x-y-z Euler angles ``alpha``, ``beta``, ``gamma``."""
+
+    kind = "spherical"
+    parameters = _joint_params({})
+
+    def coordinate_names(self, dim):
+        return [f"alpha_{self.name}", f"beta_{self.name}", f"gamma_{self.name}"]
+
+    def relative(self, dim, q):
+        if dim != 3:
+            raise ModelError(f"spherical joint {self.name!r} needs a spatial model (dim=3); in the plane use a revolute joint.")
+        R, omega = _euler_xyz(*q)
+        return R, sp.zeros(3, 1), omega
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "top"), {"child_point": (0, 0, -1)},
+                       context=[("body", "top", "top", {"m": 1, "inertia": (1, 1, 1)}), ("gravity", "g", (), {})],
+                       options={"dim": 3})
+
+
+class PlanarJoint(_Joint):
+    """Planar joint (3 DOF in the plane): translations ``x``, ``y`` in the parent frame and a rotation ``theta``."""
+
+    kind = "planar"
+    parameters = _joint_params({})
+
+    def coordinate_names(self, dim):
+        return [f"x_{self.name}", f"y_{self.name}", f"theta_{self.name}"]
+
+    def relative(self, dim, q):
+        x, y, theta = q
+        if dim == 2:
+            return theta, sp.Matrix([x, y]), None
+        return _rot3(E3[2], theta), sp.Matrix([x, y, 0]), E3[2] * theta.diff(t)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "b"), {},
+                       context=[("body", "b", "b", {"m": 1, "inertia": 1}), ("gravity", "g", (), {})], options={"dim": 2})
+
+
+class Fixed(_Joint):
+    """Fixed (weld) joint: no coordinates; the child keeps the parent's orientation (turned by ``angle`` in the plane)."""
+
+    kind = "fixed"
+    parameters = _joint_params({"angle": Parameter("planar: fixed relative angle", default=0, check="real")})
+
+    def coordinate_names(self, dim):
+        return []
+
+    def relative(self, dim, q):
+        if dim == 2:
+            return self.angle, sp.zeros(2, 1), None
+        return sp.eye(3), sp.zeros(3, 1), sp.zeros(3, 1)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("a", "b"), {"parent_point": (1, 0)},
+                       context=[("body", "a", "a", {"m": 1, "inertia": 1}), ("body", "b", "b", {"m": 1, "inertia": 1}),
+                                ("revolute", "j", ("ground", "a"), {}), ("gravity", "g", (), {})], options={"dim": 2})
+
+
+class Free(_Joint):
+    """Free joint: all the child's degrees of freedom (planar: x, y, theta; spatial: x, y, z and Euler angles)."""
+
+    kind = "free"
+    parameters = _joint_params({})
+
+    def coordinate_names(self, dim):
+        if dim == 2:
+            return [f"x_{self.name}", f"y_{self.name}", f"theta_{self.name}"]
+        return [f"{a}_{self.name}" for a in ("x", "y", "z", "alpha", "beta", "gamma")]
+
+    def relative(self, dim, q):
+        if dim == 2:
+            x, y, theta = q
+            return theta, sp.Matrix([x, y]), None
+        R, omega = _euler_xyz(*q[3:])
+        return R, sp.Matrix(q[:3]), omega
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "b"), {},
+                       context=[("body", "b", "b", {"m": 1, "inertia": (1, 2, 2)})], options={"dim": 3})
+
+
+# -- loads on bodies ------------------------------------------------------------------------------
+
+
+class BodyTorque(Component):
+    """A torque on a body (planar: scalar about z; spatial: a vector in the fixed frame)."""
+
+    kind = "body_torque"
+    domain = "mechanical"
+    terminals = ("body",)
+    role = "through"
+    multibody = True
+    parameters = {"tau": Parameter("torque (a signal; spatial: a vector)", check="real", shape="signal", unit="N m")}
+
+    def contribute(self, ctx) -> Contribution:
+        pose = ctx.view.pose(self.nodes[0])
+        return Contribution(loads=[Load(self.tau, pose.omega)])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example("b", {"tau": sp.sin(t)},
+                       context=[("body", "b", "b", {"m": 1, "inertia": 1}), ("revolute", "j", ("ground", "b"), {}),
+                                ("rotational_spring", "k", ("ground", "b"), {"k": 2})], options={"dim": 2})
+
+
+class RotationalSpring(Component):
+    """Planar torsional spring between two bodies: V = ½ k (φ_b − φ_a − θ₀)² (at a joint: its angle)."""
+
+    kind = "rotational_spring"
+    domain = "mechanical"
+    terminals = ("a", "b")
+    multibody = True
+    parameters = {"k": Parameter("torsional stiffness", unit="N m/rad"),
+                  "rest_angle": Parameter("relative angle at rest", default=0, check="real", unit="rad")}
+
+    def contribute(self, ctx) -> Contribution:
+        _need_dim(self, ctx.view, (2,))
+        rel = ctx.view.pose(self.nodes[1]).angle - ctx.view.pose(self.nodes[0]).angle
+        return Contribution(V=self.k * (rel - self.rest_angle) ** 2 / 2)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "b"), {"k": 2},
+                       context=[("body", "b", "b", {"m": 1, "inertia": 1}), ("revolute", "j", ("ground", "b"), {})],
+                       options={"dim": 2})
+
+
+class RotationalDamper(Component):
+    """Planar torsional damper between two bodies: D = ½ c (φ̇_b − φ̇_a)²."""
+
+    kind = "rotational_damper"
+    domain = "mechanical"
+    terminals = ("a", "b")
+    multibody = True
+    parameters = {"c": Parameter("torsional damping", check="nonnegative", unit="N m s/rad")}
+
+    def contribute(self, ctx) -> Contribution:
+        _need_dim(self, ctx.view, (2,))
+        rate = ctx.view.pose(self.nodes[1]).omega - ctx.view.pose(self.nodes[0]).omega
+        return Contribution(D=self.c * rate**2 / 2)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "b"), {"c": 0.5},
+                       context=[("body", "b", "b", {"m": 1, "inertia": 1}), ("revolute", "j", ("ground", "b"), {}),
+                                ("rotational_spring", "k", ("ground", "b"), {"k": 2})], options={"dim": 2})
+
+
+# -- kinematics -----------------------------------------------------------------------------------
+
+
+def build_kinematics(network, view) -> None:
+    """Give ``view`` the pose of every body and the position of every body point; add joint coordinates and
+    loop-closure constraints.  Called by the mechanical domain when the model has bodies or joints."""
+    dim = view.dim
+    comps = network.components
+    if any(getattr(c, "multibody", False) for c in comps) and dim not in (2, 3):
+        culprit = next(c for c in comps if getattr(c, "multibody", False))
+        raise ModelError(f"{culprit.kind} {culprit.name!r}: rigid bodies and joints need lg.Model(dim=2) or dim=3.")
+    bodies = {c.nodes[0]: c for c in comps if isinstance(c, _BodyBase)}
+    duplicate = [c for c in comps if isinstance(c, _BodyBase) and bodies[c.nodes[0]] is not c]
+    if duplicate:
+        raise ModelError(f"node {duplicate[0].nodes[0]!r} has two bodies ({duplicate[0].name!r} and {bodies[duplicate[0].nodes[0]].name!r}).")
+    joints = [c for c in comps if isinstance(c, _Joint)]
+    for j in joints:
+        for n in j.nodes:
+            if n != GROUND and n not in bodies:
+                raise UnknownNameError(f"body for joint {j.name!r}", n, bodies)
+    ground_pose = Pose(sp.eye(dim), sp.zeros(dim, 1), sp.Integer(0) if dim == 2 else sp.zeros(3, 1),
+                       angle=sp.Integer(0) if dim == 2 else None)
+    view.poses[GROUND] = ground_pose
+    # breadth-first over joints from ground: tree joints give poses, the rest close loops
+    adjacency: dict[str, list] = {}
+    for j in joints:
+        for n in j.nodes:
+            adjacency.setdefault(n, []).append(j)
+    used, queue = set(), deque([GROUND])
+    while queue:
+        body = queue.popleft()
+        for j in adjacency.get(body, []):
+            if j.name in used:
+                continue
+            other = j.nodes[1] if j.nodes[0] == body else j.nodes[0]
+            if other in view.poses:
+                continue
+            if j.nodes[1] != other:
+                raise ModelError(
+                    f"joint {j.name!r} is declared (parent={j.nodes[0]!r}, child={j.nodes[1]!r}) but {j.nodes[1]!r} is "
+                    f"nearer the ground in the joint tree: swap its nodes."
+                )
+            used.add(j.name)
+            view.poses[other] = _child_pose(j, view, dim, body, other, bodies)
+            view.positions[other] = view.poses[other].p
+            queue.append(other)
+    loose = [b for b in bodies if b not in view.poses]
+    if loose:
+        raise ModelError(f"body {loose[0]!r} is not connected to ground by joints: add a joint (a free joint if it flies).")
+    for j in joints:
+        if j.name not in used:
+            view.constraints.extend(_closure(j, view, dim, bodies))
+    view.bodies = bodies
+    for node in network.nodes:
+        body, _, point = node.partition(".")
+        if point and body in bodies:
+            view.position(node)  # resolves (and checks) the point
+
+
+def _child_pose(j: _Joint, view, dim: int, parent: str, child: str, bodies) -> Pose:
+    driven = j.driven()
+    if driven is not None:
+        q = [sp.sympify(d) for d in driven]
+        if any(not isinstance(d, sp.Expr) for d in q) or j.signals():
+            raise ModelError(f"joint {j.name!r}: a driven joint needs its motion as a SymPy expression of t.")
+    else:
+        names = j.names(dim)
+        coords = [Coordinate.named(n, f"{n.split('_')[0]} of {j.kind} joint {j.name!r}") for n in names]
+        view.coordinates.extend(coords)
+        q = [c.function for c in coords]
+    P, C = j.points(dim)
+    pp = view.poses[parent]
+    R_rel, d, w_rel = j.relative(dim, q)
+    rel = R_rel
+    if dim == 2:
+        angle = rel if getattr(j, "absolute_angle", False) else pp.angle + rel
+        R = _rot2(angle)
+        p = pp.p + pp.R * (P + d) - R * C
+        return Pose(R, p, sp.sympify(angle).diff(t), angle)
+    R = pp.R * R_rel
+    omega = pp.omega + pp.R * w_rel
+    p = pp.p + pp.R * (P + d) - R * C
+    return Pose(R, p, omega)
+
+
+def _closure(j: _Joint, view, dim: int, bodies) -> list[sp.Expr]:
+    """Loop-closure constraints of a joint outside the tree: its two points coincide (and, for a planar
+    prismatic joint, the orientation and the offset across the axis are held)."""
+    if j.kind not in ("revolute", "spherical") or j.driven() is not None:
+        raise ModelError(
+            f"joint {j.name!r} closes a kinematic loop; loops can be closed by a revolute (planar) or spherical joint: "
+            f"choose the loop-closing joint among those (declare the others first)."
+        )
+    if dim == 3 and j.kind == "revolute":
+        raise ModelError(f"joint {j.name!r}: in space, close loops with a spherical joint.")
+    P, C = j.points(dim)
+    pa, pb = view.poses[j.nodes[0]], view.poses[j.nodes[1]]
+    gap = (pa.p + pa.R * P) - (pb.p + pb.R * C)
+    return [g for g in gap]
+
+
+@hookimpl
+def register_component_types(register):
+    for cls in (Body, Link, Rod, Disc, Revolute, Prismatic, Spherical, PlanarJoint, Fixed, Free, BodyTorque,
+                RotationalSpring, RotationalDamper):
+        register(cls)

@@ -90,7 +90,7 @@ def check_contribution(kind, m):
     # the kind under test is not a no-op: it adds energy, dissipation, a load or fixes coordinates
     own = m.assembly.contributions[kind]
     cls = type(m.component(kind))
-    assert own.T != 0 or own.V != 0 or own.D != 0 or own.G != 0 or own.loads or cls.role in ("across", "through")
+    assert own.T != 0 or own.V != 0 or own.D != 0 or own.G != 0 or own.loads or cls.role in ("across", "through") or cls.structural
 
 
 def test_kinetic_energy_is_a_nonnegative_quadratic_form_in_velocities(example):
