@@ -161,13 +161,13 @@ def check_value(expr: Any, check: str, component: str, name: str) -> None:
             raise ParameterError(component, name, f"{rule} (got {expr}).")
         return
     # symbolic: refuse only what the assumptions prove wrong
-    verdict = {
-        "fraction": False if expr.is_positive is False or (expr - 1).is_positive else None,
-        "positive": expr.is_positive,
-        "nonnegative": expr.is_nonnegative,
-        "nonzero": expr.is_nonzero,
-        "real": expr.is_real,
-    }[check]
+    verdict = {  # only the rule asked for is evaluated: assumption queries on sums are slow
+        "fraction": lambda: False if expr.is_positive is False or (expr - 1).is_positive else None,
+        "positive": lambda: expr.is_positive,
+        "nonnegative": lambda: expr.is_nonnegative,
+        "nonzero": lambda: expr.is_nonzero,
+        "real": lambda: expr.is_real,
+    }[check]()
     if verdict is False:
         raise ParameterError(component, name, f"{rule}, but {expr} is declared otherwise.")
 

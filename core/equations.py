@@ -10,12 +10,21 @@ is written ``M(q, t) q̈ = f(q, q̇, t)`` with
     p = ∂L/∂q̇,   M = ∂p/∂q̇,   f = ∂L/∂q - (∂p/∂q) q̇ - ∂p/∂t - ∂D/∂q̇ + Q,
 
 derived on plain symbols standing for ``q`` and ``q̇`` (no time
-differentiation of functions, no global ``simplify``).
+differentiation of functions, no global ``simplify``, no ``expand``).  The
+work is done by :class:`lagrangian.derive.Derivation`: the parts of ``T`` of
+the form ``c · w_a · w_b`` with ``w = J q̇ + b`` (point masses, bodies,
+inductors) give their share of ``M`` and ``f`` directly, collected by
+Jacobian column (``M = Σ_k m_k J_kᵀ J_k``, ``f = −Σ_k m_k J_kᵀ (J̇_k q̇ + ḃ_k)
++ …``); everything else goes through the formulas above with memoized
+derivatives.  Both give the same equations (``lagrangian.derive.general`` is
+the plain-SymPy reference they are tested against).
 
 Coordinates with no inertia at all (a zero row of ``M``: a node with no
 mass, a loop with no inductor) but with dissipation are first-order: their
 velocities are unknowns of the same linear solve as the accelerations of the
-others.  The solve is ``A u = b`` with ``u = (q̈_inertial, q̇_first_order)``.
+others.  The solve is ``A u = b`` with ``u = (q̈_inertial, q̇_first_order, λ)``
+(``λ``: loop-closure multipliers), built block by block from ``M``, ``∂f/∂q̇``
+and the constraint Jacobian.
 """
 
 from __future__ import annotations
@@ -26,13 +35,37 @@ import sympy as sp
 
 from .assembly import Assembly
 from .component import t
+from .derive import Derivation, Rewriter, float_value
 from .errors import ModelError
 
 __all__ = ["Equations"]
 
 
 def _is_zero(expr: sp.Expr) -> bool:
-    return expr == 0 or sp.expand(expr) == 0
+    """Whether ``expr`` is identically zero.
+
+    Structural zero first; then a value away from zero at one generic point proves it is not (no expansion);
+    only what that cannot settle is expanded.
+    """
+    if expr == 0:
+        return True
+    if _nonzero_somewhere(expr):
+        return False
+    return sp.expand(expr) == 0
+
+
+_GOLDEN = 0.6180339887498949
+
+
+def _nonzero_somewhere(expr: sp.Expr) -> bool:
+    values = {}
+    for k, s in enumerate(sorted(expr.free_symbols, key=str), start=1):
+        if s.is_integer or s.is_zero:
+            return False
+        value = 0.5 + (k * _GOLDEN) % 1  # generic, and of the sign the assumptions allow
+        values[s] = -value if s.is_nonpositive else value
+    probe = float_value(expr, values)
+    return probe is not None and abs(probe[0]) > 1e-9 * probe[1]
 
 
 @dataclass
@@ -62,93 +95,115 @@ class Equations:
         )
         funcs = [c.function for c in self.coordinates]
         self._to_sym = {}
-        for f, q, v in zip(funcs, self.sym.q, self.sym.v):
-            self._to_sym[f.diff(t, 2)] = sp.Symbol(f"_acc_{f.func}")  # never allowed, caught below
-            self._to_sym[f.diff(t)] = v
-            self._to_sym[f] = q
         self._from_sym = {}
         for f, q, v, a in zip(funcs, self.sym.q, self.sym.v, self.sym.a):
-            self._from_sym.update({q: f, v: f.diff(t), a: f.diff(t, 2)})
+            df = sp.Derivative(f, t, evaluate=False)  # = f.diff(t), without diff's checks
+            self._to_sym[df] = v
+            self._to_sym[f] = q
+            self._from_sym.update({q: f, v: df, a: sp.Derivative(f, (t, 2), evaluate=False)})
+        self._symbolic = Rewriter(self._to_sym, self._no_acceleration)
+        self._display = Rewriter(self._from_sym)
 
         q, v = self.sym.q, self.sym.v
+        n = len(q)
         self.T = self.symbolic(assembly.T)
         self.V = self.symbolic(assembly.V)
         self.D = self.symbolic(assembly.D)
         self.G = self.symbolic(assembly.G)
         self.L = self.T - self.V + self.G
-        Q = [sp.Integer(0)] * len(q)
+        self._derivation = derivation = Derivation(q, v, t)
+        Q = [sp.Integer(0)] * n
         for name, load in assembly.loads:
             force = sp.Matrix([load.force]) if not isinstance(load.force, sp.MatrixBase) else load.force
             vel = sp.Matrix([load.velocity]) if not isinstance(load.velocity, sp.MatrixBase) else load.velocity
             if force.shape != vel.shape:
                 raise ModelError(f"component {name!r}: a load's force {force.shape} and velocity {vel.shape} differ in shape.")
-            force, vel = force.applyfunc(self.symbolic), vel.applyfunc(self.symbolic)
+            force = [self.symbolic(e) for e in force]
+            vel = [self.symbolic(e) for e in vel]
             for i, vi in enumerate(v):
-                partial = vel.diff(vi)
-                if any(not _is_zero(e) for e in partial):
-                    Q[i] += (force.T * partial)[0, 0]
+                terms = [F * derivation.calc.diff(u, vi) for F, u in zip(force, vel)]
+                terms = [e for e in terms if e != 0]
+                if terms:
+                    Q[i] += sp.Add(*terms)
         self.Q = sp.Matrix(Q)
-        p = [sp.diff(self.L, vi) for vi in v]
-        self.p = sp.Matrix(p)
-        n = len(q)
-        self.M = sp.Matrix(n, n, lambda i, j: sp.diff(p[i], v[j]))
-        self.f = sp.Matrix(
-            [
-                sp.diff(self.L, q[i])
-                - sum((sp.diff(p[i], q[j]) * v[j] for j in range(n)), sp.Integer(0))
-                - sp.diff(p[i], t)
-                - sp.diff(self.D, v[i])
-                + Q[i]
-                for i in range(n)
-            ]
-        )
+        M, f = derivation.equations(self.T, self.V, self.G, self.D, Q)
+        self.M = sp.Matrix(M)
+        self.f = sp.Matrix(f)
         self.constraints = sp.Matrix([self.symbolic(c) for view in assembly.views.values() for c in view.constraints])
         self.constraint_rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.views.values()), default=10.0)
         self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(len(self.constraints))]
         self._split()
 
+    @property
+    def p(self) -> sp.Matrix:
+        """Generalized momenta ``∂L/∂q̇`` (built on first use)."""
+        if getattr(self, "_p", None) is None:
+            self._p = sp.Matrix(self._derivation.momenta())
+        return self._p
+
+    def _no_acceleration(self, node) -> None:
+        if isinstance(node, sp.Derivative) and node.expr in self._to_sym and node.derivative_count >= 2:
+            raise ModelError(
+                f"an energy term depends on an acceleration ({node.expr.func}''); energies may use only q and q'."
+            )
+
     def symbolic(self, expr) -> sp.Expr:
         """Rewrite an expression in ``q(t)``, ``q̇(t)`` as one in the plain symbols used internally."""
-        out = sp.sympify(expr).xreplace(self._to_sym)
-        bad = [s for s in out.free_symbols if s.name.startswith("_acc_")]
-        if bad:
-            raise ModelError(f"an energy term depends on an acceleration ({bad[0].name[5:]}''); energies may use only q and q'.")
-        return out
+        expr = sp.sympify(expr)
+        if isinstance(expr, sp.MatrixBase):
+            return expr.applyfunc(self._symbolic)
+        return self._symbolic(expr)
 
     def display(self, expr):
         """Rewrite an internal expression back in terms of ``q(t)`` and its derivatives."""
-        return expr.xreplace(self._from_sym) if hasattr(expr, "xreplace") else expr
+        if isinstance(expr, sp.MatrixBase):
+            return expr.applyfunc(self._display)
+        return self._display(expr) if isinstance(expr, sp.Basic) else expr
 
     def _split(self) -> None:
+        """``A u = b`` with ``u = (q̈_inertial, q̇_first_order, λ)``, built block by block: the rows of the
+        coordinates are ``Σ_j M_ij q̈_j − f_i − Σ_k λ_k ∂Φ_k/∂q_i = 0``, linear in ``u``."""
         n = len(self.names)
-        M = self.M
-        zero_rows = [i for i in range(n) if all(_is_zero(M[i, j]) for j in range(n))]
+        M, f, calc = self.M, self.f, self._derivation.calc
+        zero_rows = [i for i in range(n) if all(_is_zero(M[i, j]) for j in [i, *range(n)])]
         self.inertial = [i for i in range(n) if i not in zero_rows]
         self.first_order = zero_rows
-        unknowns = [self.sym.a[i] for i in self.inertial] + [self.sym.v[i] for i in self.first_order]
-        residual = sp.Matrix([sum((M[i, j] * self.sym.a[j] for j in self.inertial), sp.Integer(0)) - self.f[i] for i in range(n)])
-        if len(self.constraints):
-            residual, unknowns = self._constrained(residual, unknowns)
-        A = residual.jacobian(unknowns)
-        if A.free_symbols & set(unknowns):
-            culprit = sorted((s.name[2:] for s in A.free_symbols & set(unknowns)))
+        if not zero_rows and not len(self.constraints):
+            self.A = M.copy()
+            self.b = f.copy()
+            return
+        vF = [self.sym.v[i] for i in self.first_order]
+        rates = [[-calc.diff(f[r], s) for s in vF] for r in range(n)]
+        nonlinear = sorted({s.name[2:] for row in rates for e in row for s in calc.deps(e) if s in vF})
+        if nonlinear:
             raise ModelError(
-                f"the equations are nonlinear in the velocity of first-order coordinate(s) {', '.join(culprit)}; "
+                f"the equations are nonlinear in the velocity of first-order coordinate(s) {', '.join(nonlinear)}; "
                 f"give those coordinates inertia (a mass, an inductor, a capacitor)."
             )
-        for col, i in enumerate(self.first_order, start=len(self.inertial)):
-            if all(_is_zero(A[r, col]) for r in range(n)):
+        for col, i in enumerate(self.first_order):
+            if all(_is_zero(rates[r][col]) for r in range(n)):
                 raise ModelError(
                     f"coordinate {self.names[i]!r} has neither inertia nor dissipation, so nothing determines its motion "
                     f"(a node with only springs, or a loop with only capacitors and sources). Add a mass or damper "
                     f"(an inductor or resistor), or remove the node."
                 )
-        self.A = A
-        self.b = -residual.xreplace({u: sp.Integer(0) for u in unknowns})
+        at_rest = {s: sp.Integer(0) for s in vF}
+        rows = [[M[r, j] for j in self.inertial] + rates[r] for r in range(n)]
+        b = [f[r].xreplace(at_rest) for r in range(n)]
+        if len(self.constraints):
+            Jq, crow, cb = self._constrained()
+            for r in range(n):
+                rows[r] += [-Jq[k, r] for k in range(Jq.rows)]
+            for k in range(Jq.rows):
+                rows.append([Jq[k, j] for j in self.inertial] + [sp.Integer(0)] * (len(vF) + Jq.rows))
+                b.append(cb[k])
+        self.A = sp.Matrix(rows)
+        self.b = sp.Matrix(b)
 
-    def _constrained(self, residual: sp.Matrix, unknowns: list) -> tuple[sp.Matrix, list]:
-        """Append multipliers and the stabilized constraint rows ``Φ̈ + 2ωΦ̇ + ω²Φ = 0`` (Baumgarte)."""
-        q, v, a = self.sym.q, self.sym.v, self.sym.a
+    def _constrained(self):
+        """Jacobian ``Φ_q`` and the right-hand sides of the stabilized constraint rows ``Φ̈ + 2ωΦ̇ + ω²Φ = 0``
+        (Baumgarte): ``Φ_q q̈ = −(Φ̇_q q̇ + Φ̇_t + 2ωΦ̇ + ω²Φ)``."""
+        q, v = self.sym.q, self.sym.v
         Phi = self.constraints
         Jq = Phi.jacobian(q)
         involved = [self.names[i] for i in self.first_order if any(not _is_zero(Jq[k, i]) for k in range(Jq.rows))]
@@ -158,9 +213,8 @@ class Equations:
             )
         Phi_dot = Jq * sp.Matrix(v) + Phi.diff(t)
         w = sp.Float(self.constraint_rate)
-        rows = Jq * sp.Matrix(a) + Phi_dot.jacobian(q) * sp.Matrix(v) + Phi_dot.diff(t) + 2 * w * Phi_dot + w**2 * Phi
-        residual = residual - Jq.T * sp.Matrix(self.multipliers)
-        return residual.col_join(rows), unknowns + self.multipliers
+        rhs = -(Phi_dot.jacobian(q) * sp.Matrix(v) + Phi_dot.diff(t) + 2 * w * Phi_dot + w**2 * Phi)
+        return Jq, None, rhs
 
     # -- display helpers -------------------------------------------------------
     @property

@@ -31,7 +31,9 @@ import pluggy
 if TYPE_CHECKING:
     from .analogy import Analogy, AnalogueBuilder
     from .component import Component
+    from .bench import Benchmark
     from .domain import Domain
+    from .integrate import Integrator
 
 __all__ = [
     "hookspec",
@@ -40,6 +42,8 @@ __all__ = [
     "register_domains",
     "register_analogies",
     "register_analogues",
+    "register_integrators",
+    "register_benchmarks",
 ]
 
 PROJECT = "lagrangian"
@@ -104,4 +108,37 @@ def register_analogues(register: Callable[[str, str, AnalogueBuilder], None]) ->
     that stands for branch ``i`` says so (``Element(..., branch=i)``): its
     branch quantity (charge, flux linkage, position difference) is then
     identified with the source branch's, which is how coordinates map.
+    """
+
+
+@hookspec
+def register_integrators(register: Callable[[Integrator], None]) -> None:
+    """Register integration methods.
+
+    Call ``register(integrator)`` once per method, with an instance (or a
+    class, instantiated without arguments) following the contract of
+    :class:`lagrangian.integrate.Integrator`: a ``name`` (what users pass
+    as ``Model.simulate(method=...)``; unique across plugins, ``"auto"``
+    and ``"exact"`` are reserved), a ``kind`` (``"adaptive"``: it receives
+    ``rtol``, ``atol``, ``max_step``; ``"fixed-step"``: it receives
+    ``step``), the flags ``symplectic``, ``implicit``, ``stiff`` and
+    ``first_order``, an ``order``, ``options`` it accepts, an optional
+    ``check(problem)`` that refuses models it cannot integrate, and
+    ``solve(problem, t_span, y0, t_eval, **options)`` returning a
+    :class:`lagrangian.integrate.Solution`.  Fixed-step methods usually
+    subclass :class:`lagrangian.integrate.FixedStepIntegrator` and provide
+    one step.  A duplicate name is an error naming both plugins.
+    """
+
+
+@hookspec
+def register_benchmarks(register: Callable[[Benchmark], None]) -> None:
+    """Register benchmark problems for work–precision measurements.
+
+    Call ``register(benchmark)`` with a :class:`lagrangian.bench.Benchmark`:
+    a name (what ``lagrangian bench NAME`` takes; unique across plugins), a
+    function building the model, the initial state and time span, and the
+    truth to measure errors against — an exact solution, or a reference
+    run (a method and tight tolerances).  ``requires`` lists component
+    kinds it needs; it is listed as unavailable when they are not installed.
     """

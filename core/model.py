@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -25,9 +26,11 @@ from .equations import Equations
 from .errors import ModelError, UnknownNameError
 from .graph import ComponentGraph
 from .registry import Registry, default_registry
-from .simulation import NumericModel, Result, initial_state, integrate
+from .simulation import NumericModel, Result, initial_state
 
 __all__ = ["Model"]
+
+_log = logging.getLogger("lagrangian")
 
 
 class Model:
@@ -280,13 +283,16 @@ class Model:
         params: Mapping[str, float] | None = None,
         points: int = 1001,
         t_eval: Sequence[float] | None = None,
-        method: str = "DOP853",
-        rtol: float = 1e-9,
-        atol: float = 1e-12,
-        max_step: float = np.inf,
+        method: Any = "DOP853",
+        rtol: float | None = None,
+        atol: float | None = None,
+        max_step: float | None = None,
+        step: float | None = None,
+        energy_tol: float | bool | None = None,
         progress: bool | Callable[[float, float], None] = False,
+        **options: Any,
     ) -> Result:
-        """Integrate the equations of motion with :func:`scipy.integrate.solve_ivp`, or solve them exactly.
+        """Integrate the equations of motion with a registered method, or solve them exactly.
 
         ``initial`` and ``velocity`` give coordinates and velocities by name;
         any not given start at zero and are listed in ``Result.defaulted``
@@ -296,14 +302,33 @@ class Model:
         standard error every 5 % of the time span; a callable
         ``progress(t, t_end)`` is called instead.
 
-        ``method`` is a :func:`~scipy.integrate.solve_ivp` method, or
-        ``"exact"``: the exact solution of a linear time-invariant model by
-        matrix exponentials (:func:`lagrangian.linear.simulate_exact`; there
-        are no tolerances, so ``rtol``, ``atol`` and ``max_step`` do not
-        apply).  A model that is not linear time-invariant, or an input that
-        is not a sum of products of polynomials, exponentials, sines and
-        cosines of ``t`` (piecewise ones included), is refused with a
-        :class:`ModelError` naming the term.
+        ``method`` names a registered integrator (``lagrangian integrators``
+        lists them; see :mod:`lagrangian.integrate`) or is an integrator
+        object.  Adaptive ones (``RK45``, ``DOP853``, ``Radau``, ``BDF``,
+        ``LSODA``, ...) take ``rtol`` (default 1e-9), ``atol`` (1e-12) and
+        ``max_step``; fixed-step ones (``rk4``, ``verlet``,
+        ``implicit_midpoint``, ``gauss_legendre``, ``variational``) take
+        ``step``.  Further keyword ``options`` go to the method (e.g.
+        ``stages=3``, ``rule="trapezoidal"``, ``newton_tol=1e-13``).  A
+        method that cannot integrate the model (first-order coordinates, a
+        Lagrangian that is not separable, ...) refuses it with a
+        :class:`ModelError` saying why and what to use.  For a conservative
+        model the energy (Jacobi integral) is checked after the run: a drift
+        beyond ``energy_tol`` warns (:class:`~lagrangian.integrate.EnergyDriftWarning`).
+
+        ``method="exact"`` solves a linear time-invariant model exactly by
+        matrix exponentials (:func:`lagrangian.linear.simulate_exact`; no
+        tolerances apply).  A model that is not linear time-invariant, or an
+        input that is not a sum of products of polynomials, exponentials,
+        sines and cosines of ``t`` (piecewise ones included), is refused with
+        a :class:`ModelError` naming the term.
+
+        ``method="auto"`` picks one from the model's properties — exact for
+        a linear time-invariant model, an implicit method for a stiff one
+        (eigenvalues of the linearization at the start), a symplectic one for
+        a long conservative run at a loose tolerance, DOP853 or RK45
+        otherwise — and says what and why in ``Result.method`` and
+        ``Result.notes`` (see :func:`lagrangian.integrate.choose`).
 
         >>> import lagrangian as lg
         >>> m = lg.Model("free fall")
@@ -312,34 +337,116 @@ class Model:
         >>> res = m.simulate(1, initial={"x_p": 0}, velocity={"x_p": 0}, points=3)
         >>> [round(float(x), 9) for x in res["x_p"]]  # x = -g t²/2
         [0.0, -1.25, -5.0]
+        >>> m.simulate(1, initial={"x_p": 0}, velocity={"x_p": 0}, method="auto").method
+        'exact'
         """
+        from .integrate import Problem, choose, resolve
+
+        if method == "auto":
+            numeric = self.numeric(params)
+            span = self._span(t_end)
+            y0, _ = initial_state(self.eq, initial or {}, velocity or {}, warn=False)
+            problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
+            lti = self._linear(params)
+            choice = choose(problem, span, y0, rtol=1e-9 if rtol is None else rtol, linear_exact=lti,
+                            integrators=self.registry.integrators)
+            if choice.method == "exact":
+                try:
+                    res = self.simulate(t_end, initial=initial, velocity=velocity, params=params, points=points,
+                                        t_eval=t_eval, method="exact", progress=progress)
+                    res.notes[:0] = choice.notes
+                    return res
+                except ModelError as exc:
+                    choice = choose(problem, span, y0, rtol=1e-9 if rtol is None else rtol,
+                                    integrators=self.registry.integrators)
+                    choice.notes.insert(0, f"auto: not solved exactly: {exc}")
+            for note in choice.notes:
+                _log.info("%s: %s", self.name, note)
+            picked = self.registry.integrators[choice.method]
+            extra = {k: v for k, v in choice.options.items() if k != "step"} | options
+            if picked.kind == "adaptive":  # the tolerances were asked of auto; a step was not
+                return self._integrate(t_end, initial, velocity, params, points, t_eval, picked, rtol, atol, max_step,
+                                       None, energy_tol, progress, extra, choice.notes)
+            return self._integrate(t_end, initial, velocity, params, points, t_eval, picked, None, None, None,
+                                   choice.options["step"], energy_tol, progress, extra, choice.notes)
         if method == "exact":
+            if options or step is not None:
+                raise ModelError(f"method='exact' takes no step or method options (got {', '.join([*options, *(['step'] if step is not None else [])])}).")
             from .linear import simulate_exact
 
             return simulate_exact(
                 self, t_end, initial=initial, velocity=velocity, params=params,
                 points=points, t_eval=t_eval, progress=progress,
             )
+        resolve(method, self.registry.integrators)  # an unknown name fails before any derivation
+        return self._integrate(t_end, initial, velocity, params, points, t_eval, method, rtol, atol, max_step, step,
+                               energy_tol, progress, options, [])
+
+    @staticmethod
+    def _span(t_end) -> tuple[float, float]:
         try:
             span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
         except (TypeError, ValueError):
             raise ModelError(f"t_end must be a number or a pair (t0, t1), got {t_end!r}.") from None
         if len(span) != 2 or not np.all(np.isfinite(span)) or not span[1] > span[0]:
             raise ModelError(f"the time span must end after it starts, got {span}.")
+        return span
+
+    def _linear(self, params) -> bool:
+        """Whether the model is linear time-invariant (so ``method="exact"`` may apply)."""
+        from .linear import state_space
+
+        try:
+            state_space(self, params)
+        except ModelError:
+            return False
+        return True
+
+    def _check_constraints(self, numeric: NumericModel, t0: float, y0: np.ndarray, tol: float = 1e-8) -> None:
+        """Refuse an initial state that violates the loop-closure constraints (or their rates)."""
+        eq = self.eq
+        if not len(eq.constraints):
+            return
+        q, v = eq.sym.q, eq.sym.v
+        Phi = eq.constraints.xreplace({s: sp.Float(x) for s, x in numeric.values.items()})
+        rate = Phi.jacobian(q) * sp.Matrix(v) + Phi.diff(t)
+        v0, _ = numeric.velocities(t0, y0)
+        point = {**dict(zip(q, y0[: numeric.n])), **dict(zip(v, v0)), t: t0}
+        gap = max(abs(float(e.xreplace(point))) for e in Phi)
+        gap_rate = max(abs(float(e.xreplace(point))) for e in rate)
+        if gap > tol or gap_rate > tol:
+            raise ModelError(
+                f"the initial state of model {self.name!r} does not close its kinematic loops (|Φ| = {gap:.3g}, "
+                f"|dΦ/dt| = {gap_rate:.3g}): solve the dependent coordinates first with "
+                f"lagrangian.plugins.multibody.consistent_initial(model, initial, velocity)."
+            )
+
+    def _integrate(self, t_end, initial, velocity, params, points, t_eval, method, rtol, atol, max_step, step,
+                   energy_tol, progress, options, notes) -> Result:
+        from .integrate import Problem, integrate, resolve
+
+        integrator = resolve(method, self.registry.integrators)
+        span = self._span(t_end)
         numeric = self.numeric(params)
         y0, defaulted = initial_state(self.eq, initial or {}, velocity or {})
+        self._check_constraints(numeric, span[0], y0)
         grid = np.linspace(*span, points) if t_eval is None else np.asarray(t_eval, dtype=float)
+        problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
+        given = {"rtol": rtol, "atol": atol, "max_step": max_step, "step": step}
+        wanted = {"rtol": 1e-9, "atol": 1e-12, "max_step": np.inf} if integrator.kind == "adaptive" else {"step": None}
+        for key, value in given.items():
+            if value is not None and key not in wanted:
+                other = "step=" if integrator.kind == "adaptive" else "rtol=, atol= or max_step="
+                raise ModelError(
+                    f"method {integrator.name!r} is {integrator.kind}: {key}= does not apply to it "
+                    f"({'give rtol/atol, or max_step to cap its steps' if integrator.kind == 'adaptive' else 'give step='}; "
+                    f"{other} belongs to {'fixed-step' if integrator.kind == 'adaptive' else 'adaptive'} methods)."
+                )
+        run_options = {k: (given[k] if given[k] is not None else default) for k, default in wanted.items()}
+        if integrator.kind == "fixed-step" and run_options["step"] is None:
+            run_options.pop("step")
         return integrate(
-            numeric,
-            self.eq.names,
-            span,
-            y0,
-            t_eval=grid,
-            method=method,
-            rtol=rtol,
-            atol=atol,
-            max_step=max_step,
-            model=self.name,
-            defaulted=defaulted,
-            progress=progress,
+            problem, integrator, span, y0,
+            t_eval=grid, options={**run_options, **options}, model=self.name, defaulted=defaulted,
+            integrators=self.registry.integrators, notes=notes, energy_tol=energy_tol, progress=progress,
         )

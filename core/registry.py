@@ -39,10 +39,12 @@ class PluginInfo:
     version: str | None = None
     kinds: list[str] = field(default_factory=list)
     domains: list[str] = field(default_factory=list)
+    integrators: list[str] = field(default_factory=list)
+    benchmarks: list[str] = field(default_factory=list)
 
 
 class Registry:
-    """Component kinds and domains provided by plugins, keyed by name.
+    """Component kinds, domains, integrators and benchmarks provided by plugins, keyed by name.
 
     ``Registry()`` loads the entry-point group ``lagrangian``; ``plugins``
     adds more at run time (``{"name": module_or_object}``), as tests do.
@@ -63,6 +65,8 @@ class Registry:
         self.domains: dict[str, Domain] = {}
         self.analogies: dict[str, Any] = {}
         self.analogues: dict[tuple[str, str], Any] = {}
+        self.integrators: dict[str, Any] = {}
+        self.benchmarks: dict[str, Any] = {}
         self.info: dict[str, PluginInfo] = {}
         if entry_points:
             for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
@@ -102,6 +106,8 @@ class Registry:
             ("register_component_types", self._add_kind),
             ("register_analogies", self._add_analogy),
             ("register_analogues", self._add_analogue),
+            ("register_integrators", self._add_integrator),
+            ("register_benchmarks", self._add_benchmark),
         )
         for hook, accept in hooks:
             caller = getattr(self.pm.hook, hook)
@@ -167,6 +173,52 @@ class Registry:
             raise PluginError(plugin, f"the {analogy} analogue of {kind!r} is already declared by plugin {self.analogues[kind, analogy][0]!r}.")
         self.analogues[kind, analogy] = (plugin, build)
 
+    def _add_integrator(self, plugin: str, integrator: Any) -> None:
+        from .integrate import integrator_problem
+
+        if isinstance(integrator, type):
+            try:
+                integrator = integrator()
+            except Exception as exc:
+                raise PluginError(plugin, f"registered the integrator class {integrator!r}, which cannot be instantiated "
+                                          f"without arguments ({exc.__class__.__name__}: {exc}); register an instance.") from exc
+        problem = integrator_problem(integrator)
+        if problem:
+            raise PluginError(plugin, f"registered an invalid integrator {integrator!r}: {problem}.")
+        name = integrator.name
+        if name in self.integrators:
+            owner = next(p for p, info in self.info.items() if name in info.integrators)
+            raise PluginError(
+                plugin,
+                f"integrator {name!r} is already provided by plugin {owner!r}; method names must be unique: "
+                f"rename one or uninstall a plugin.",
+            )
+        self.integrators[name] = integrator
+        self.info[plugin].integrators.append(name)
+
+    def _add_benchmark(self, plugin: str, benchmark: Any) -> None:
+        from .bench import Benchmark
+
+        if not isinstance(benchmark, Benchmark) or not isinstance(benchmark.name, str) or not benchmark.name:
+            raise PluginError(plugin, f"registered {benchmark!r}, which is not a lagrangian.bench.Benchmark with a name.")
+        if benchmark.name in self.benchmarks:
+            owner = next(p for p, info in self.info.items() if benchmark.name in info.benchmarks)
+            raise PluginError(plugin, f"benchmark {benchmark.name!r} is already provided by plugin {owner!r}.")
+        self.benchmarks[benchmark.name] = benchmark
+        self.info[plugin].benchmarks.append(benchmark.name)
+
+    def integrator(self, name: str) -> Any:
+        """The integrator registered as ``name``; :class:`UnknownNameError` with a suggestion otherwise.
+
+        >>> Registry().integrator("RK54")
+        Traceback (most recent call last):
+        ...
+        lagrangian.errors.UnknownNameError: unknown integration method 'RK54'. Did you mean 'RK45'? ...
+        """
+        from .integrate import resolve
+
+        return resolve(name, self.integrators)
+
     def component_type(self, kind: str) -> type[Component]:
         """The class registered for ``kind``; :class:`UnknownKindError` with suggestions otherwise."""
         try:
@@ -190,7 +242,12 @@ class Registry:
             lines.append(f"{info.name}  ({origin})")
             if info.domains:
                 lines.append(f"    domains: {', '.join(info.domains)}")
-            lines.append(f"    kinds:   {', '.join(info.kinds) or '(none)'}")
+            if info.kinds or not (info.integrators or info.benchmarks):
+                lines.append(f"    kinds:   {', '.join(info.kinds) or '(none)'}")
+            if info.integrators:
+                lines.append(f"    integrators: {', '.join(info.integrators)}")
+            if info.benchmarks:
+                lines.append(f"    benchmarks:  {', '.join(info.benchmarks)}")
         return "\n".join(lines)
 
 

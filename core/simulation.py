@@ -1,17 +1,17 @@
-"""Numeric code from the equations, integration with scipy, and the result object.
+"""Numeric code from the equations, and the result object.
 
 The solve ``A(t, q, q̇) u = b(t, q, q̇)`` (see :mod:`lagrangian.equations`) is
 turned into one NumPy function with common-subexpression elimination; the
-state is ``(q, q̇_inertial)``.  Numerical trouble — a singular mass matrix,
+state is ``(q, q̇_inertial)``.  Integrating it is :mod:`lagrangian.integrate`'s
+job (integrators are plugins).  Numerical trouble — a singular mass matrix,
 an integrator failure, non-finite values — raises a
 :class:`~lagrangian.errors.NumericalError` saying where and when.
 """
 
 from __future__ import annotations
 
-import sys
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,9 +20,9 @@ import sympy as sp
 
 from .component import t
 from .equations import Equations
-from .errors import IntegrationError, ModelError, SingularMassMatrixError, UnknownNameError
+from .errors import ModelError, SingularMassMatrixError, UnknownNameError
 
-__all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state", "integrate"]
+__all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state"]
 
 
 class InitialConditionWarning(UserWarning):
@@ -144,6 +144,11 @@ class Result:
     values and velocities; ``T``, ``V``, ``D`` are kinetic energy, potential
     energy and Rayleigh function over time, and ``E = T + V``.
     ``defaulted`` lists initial conditions that were not given and set to zero.
+    ``method`` is the method that produced the result (the one picked, for
+    ``method="auto"``), ``nfev`` how many times it evaluated the model,
+    ``step`` the step size of a fixed-step method, and ``notes`` what the
+    run wants known: why ``auto`` picked its method, step adjustments, how
+    well a conservative model kept its energy.
     ``res["x_cart"]`` is the same as ``res.q["x_cart"]``.
     """
 
@@ -158,6 +163,8 @@ class Result:
     nfev: int = 0
     method: str = ""
     evaluator: Callable[[Any, "Result"], np.ndarray] | None = field(default=None, repr=False)
+    notes: list[str] = field(default_factory=list)
+    step: float | None = None
 
     @property
     def E(self) -> np.ndarray:
@@ -224,85 +231,6 @@ class Result:
         ax.grid(True, alpha=0.3)
         ax.legend()
         return ax
-
-
-def integrate(
-    numeric: NumericModel,
-    names: Sequence[str],
-    t_span: tuple[float, float],
-    y0: np.ndarray,
-    *,
-    t_eval: np.ndarray,
-    method: str,
-    rtol: float,
-    atol: float,
-    max_step: float,
-    model: str,
-    defaulted: list[str],
-    progress: bool | Callable[[float, float], None] = False,
-) -> Result:
-    """Integrate ``numeric`` from the state ``y0`` with :func:`scipy.integrate.solve_ivp` into a :class:`Result`."""
-    from scipy.integrate import solve_ivp
-
-    start = numeric.rhs(t_span[0], y0)  # fail early, with a clear message, on a singular start
-    if not np.all(np.isfinite(start)):
-        bad = [f"{names[i]}'" if i < numeric.n else f"{names[numeric.eq.inertial[i - numeric.n]]}''" for i in np.flatnonzero(~np.isfinite(start))]
-        raise IntegrationError(
-            f"the equations of model {model!r} are not finite at the initial state ({', '.join(bad)} evaluate to "
-            f"{start[~np.isfinite(start)][0]}): the start is a singular configuration of some component "
-            f"(e.g. a 2-D spring or damper of zero length). Start elsewhere."
-        )
-    rhs = numeric.rhs if not progress else _reporting(numeric.rhs, t_span, model, progress)
-    sol = solve_ivp(rhs, t_span, y0, method=method, t_eval=t_eval, rtol=rtol, atol=atol, max_step=max_step)
-    sol_t = np.asarray(sol.t, dtype=float)
-    if callable(progress):
-        progress(sol_t[-1] if sol_t.size else t_span[0], t_span[1])
-    elif progress:
-        print(f"\rsimulating {model!r}: done, {sol.nfev} evaluations{' ' * 20}", file=sys.stderr)
-    if sol.status < 0:
-        raise IntegrationError(
-            f"{method} failed on model {model!r} at t={sol_t[-1] if sol_t.size else t_span[0]:g}: {sol.message}. "
-            f"The model may be stiff (try method='Radau' or 'BDF') or singular there."
-        )
-    if not np.all(np.isfinite(sol.y)) or sol_t.size != t_eval.size:
-        bad = int(np.argmax(~np.all(np.isfinite(sol.y), axis=0)))
-        raise IntegrationError(f"the solution of model {model!r} became non-finite at t={sol.t[bad]:g}.")
-    n = numeric.n
-    v = numeric.velocities_many(sol_t, sol.y)
-    q = sol.y[:n]
-    T, V, D = numeric.energies(sol.t, q, v)
-    return Result(
-        evaluator=numeric.evaluate,
-        t=sol.t,
-        q={name: q[i] for i, name in enumerate(names)},
-        v={name: v[i] for i, name in enumerate(names)},
-        T=T,
-        V=V,
-        D=D,
-        model=model,
-        defaulted=defaulted,
-        nfev=sol.nfev,
-        method=method,
-    )
-
-
-def _reporting(rhs, t_span, model: str, progress):
-    """Wrap ``rhs`` so that progress through ``t_span`` is reported every 5 %."""
-    t0, t1 = t_span
-    report = progress if callable(progress) else None
-    state = {"next": 0.0}
-
-    def wrapped(time, y):
-        fraction = (time - t0) / (t1 - t0)
-        if fraction >= state["next"]:
-            state["next"] = fraction + 0.05
-            if report is not None:
-                report(time, t1)
-            else:
-                print(f"\rsimulating {model!r}: {100 * fraction:5.1f} % (t = {time:.4g} of {t1:.4g})", end="", file=sys.stderr, flush=True)
-        return rhs(time, y)
-
-    return wrapped
 
 
 def initial_state(

@@ -38,6 +38,7 @@ from lagrangian import (
     hookimpl,
     t,
 )
+from lagrangian.derive import time_derivative
 
 AXES = "xyz"
 
@@ -73,15 +74,17 @@ class MechanicalView(DomainView):
             offsets = self.bodies[body].point_offsets(self.dim)
             if point not in offsets:
                 raise UnknownNameError(f"point of body {body!r}", point, offsets)
+            from lagrangian.plugins.multibody import transform
+
             pose = self.poses[body]
-            self.positions[node] = pose.p + pose.R * offsets[point]
+            self.positions[node] = transform(pose.p, pose.R, offsets[point])
             return self.positions[node]
         if node == "ground":
             return sp.zeros(self.dim, 1)
         raise UnknownNameError("mechanical node", node, self.positions)
 
     def velocity(self, node: str) -> sp.Matrix:
-        return self.position(node).diff(t)
+        return sp.Matrix([time_derivative(e, t) for e in self.position(node)])
 
 
 class MechanicalDomain(Domain):
@@ -145,7 +148,7 @@ class Mass(Component):
 
     def contribute(self, ctx) -> Contribution:
         v = ctx.view.velocity(self.nodes[0])
-        return Contribution(T=self.m * dot(v, v) / 2)
+        return Contribution(T=sp.Mul(sp.Rational(1, 2), self.m, sp.Add(*[e**2 for e in v])))  # ½ m v·v
 
     @classmethod
     def example(cls) -> Example:
@@ -195,7 +198,7 @@ class Damper(Component):
 
     def contribute(self, ctx) -> Contribution:
         d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
-        dv = d.diff(t)
+        dv = sp.Matrix([time_derivative(e, t) for e in d])
         rate = dv[0] if ctx.view.dim == 1 else dot(d, dv) / sp.sqrt(dot(d, d))
         return Contribution(D=self.c * rate**2 / 2)
 
@@ -238,7 +241,7 @@ class Gravity(Component):
             held = getattr(comp, "gravitational_mass", None)
             if held is not None:
                 node, mass = held
-                V -= mass * self.g * dot(u, ctx.view.position(node))
+                V -= mass * self.g * sp.Add(*[a * b for a, b in zip(u, ctx.view.position(node)) if a != 0])  # u · r
         return Contribution(V=V)
 
     @classmethod

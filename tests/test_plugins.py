@@ -612,7 +612,10 @@ def hookspec_functions():
 
 def test_hookspecs_are_the_documented_interface():
     specs = hookspec_functions()
-    assert set(specs) == {"register_component_types", "register_domains", "register_analogies", "register_analogues"}
+    assert set(specs) == {
+        "register_component_types", "register_domains", "register_analogies", "register_analogues",
+        "register_integrators", "register_benchmarks",
+    }
     assert set(specs) <= set(hookspecs.__all__)
     for name, func in specs.items():
         doc = inspect.getdoc(func)

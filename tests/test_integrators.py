@@ -1,0 +1,572 @@
+"""Integrators as plugins: the contract, the built-in methods, ``method="auto"``, and where methods fail.
+
+Expected values come from physics and numerical analysis written out here:
+closed forms of the oscillator and of each method's one-step map on it,
+orders of convergence measured from two step sizes against a reference
+computed by SciPy on an ODE written by hand, stability bounds from the
+eigenvalues of hand-written mass and stiffness matrices, and conservation
+laws.  Nothing expected is taken from the code under test.
+"""
+
+from __future__ import annotations
+
+import math
+import types
+import warnings
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import lagrangian as lg
+from lagrangian.bench import stability_limit
+from lagrangian.integrate import EnergyDriftWarning, FixedStepIntegrator, Integrator, Problem, Solution, Stepper, choose
+
+FIXED = ["rk4", "verlet", "implicit_midpoint", "gauss_legendre", "variational"]
+ADAPTIVE = ["RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
+
+
+@pytest.fixture(autouse=True)
+def _no_initial_condition_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", lg.InitialConditionWarning)
+        yield
+
+
+# ---------------------------------------------------------------------------
+# builders
+
+
+def oscillator(m=1.0, k=1.0, c=None, F=None) -> lg.Model:
+    model = lg.Model("oscillator")
+    model.add("mass", "m1", "p", m=m)
+    model.add("spring", "k1", ("ground", "p"), k=k)
+    if c is not None:
+        model.add("damper", "c1", ("ground", "p"), c=c)
+    if F is not None:
+        model.add("force", "f1", "p", F=F)
+    return model
+
+
+def duffing() -> lg.Model:
+    """x'' = −x − x³ (m = k = k3 = 1), the example plugin's cubic spring."""
+    model = lg.Model("duffing")
+    model.add("mass", "m1", "p", m=1)
+    model.add("cubic_spring", "s", ("ground", "p"), k=1, k3=1)
+    return model
+
+
+def stiff_chain(K=1e4) -> lg.Model:
+    """ground —1— a —K— b, unit masses: M = I, K = [[1+K, −K], [−K, K]]."""
+    model = lg.Model("stiff chain")
+    model.add("mass", "m1", "a", m=1)
+    model.add("mass", "m2", "b", m=1)
+    model.add("spring", "k1", ("ground", "a"), k=1)
+    model.add("spring", "k2", ("a", "b"), k=K)
+    return model
+
+
+def rc(R=1.0, C=1e-3, E=0.0) -> lg.Model:
+    """Source, resistor, capacitor in series: R q' + q/C = E, a first-order coordinate with λ = −1/(RC)."""
+    model = lg.Model("rc", formulation="charge")
+    model.add("voltage_source", "V", ("n1", "0"), E=E)
+    model.add("resistor", "R", ("n1", "n2"), R=R)
+    model.add("capacitor", "C", ("n2", "0"), C=C)
+    return model
+
+
+def solenoid() -> lg.Model:
+    """A coil whose inductance L(x) = 1/(1 + x/4) depends on the armature position: M = diag(L(x), 1), conservative."""
+    model = lg.Model("solenoid")
+    model.add("solenoid", "S", ("n1", "0", "p"), L0=1, x0=4)
+    model.add("capacitor", "C", ("n1", "0"), C=1)
+    model.add("mass", "m", "p", m=1)
+    model.add("spring", "k", ("ground", "p"), k=2)
+    return model
+
+
+SOLENOID_START = {"initial": {"x_p": 0.5, "q_S": 1.0}, "velocity": {"x_p": 0.0, "q_S": 0.0}}
+
+
+# ---------------------------------------------------------------------------
+# 1. The hook and the registry
+
+
+def test_builtin_integrators_are_registered_by_the_integrators_plugin():
+    reg = lg.default_registry()
+    info = {p.name: p for p in reg.plugins()}
+    assert info["integrators"].distribution == "lagrangian"
+    assert set(info["integrators"].integrators) == set(FIXED) | set(ADAPTIVE)
+    assert {n for n, m in reg.integrators.items() if m.kind == "fixed-step"} == set(FIXED)
+    assert {n for n, m in reg.integrators.items() if m.symplectic} == {"verlet", "implicit_midpoint", "gauss_legendre", "variational"}
+    assert {n for n, m in reg.integrators.items() if not m.implicit} == {"RK23", "RK45", "DOP853", "rk4", "verlet"}
+    assert {n for n, m in reg.integrators.items() if not m.first_order} == {"verlet", "variational"}
+    assert {m.order for n, m in reg.integrators.items() if n in FIXED} == {2, 4}
+
+
+class Euler(FixedStepIntegrator):
+    """Explicit Euler: a third-party fixed-step method in a dozen lines."""
+
+    name = "euler"
+    order = 1
+    description = "explicit Euler"
+
+    def stepper(self, problem, h):
+        return Stepper(lambda t, y: y + h * problem.rhs(t, y))
+
+
+def integrator_plugin(*things, name="extra"):
+    plugin = types.ModuleType(name)
+    plugin.register_integrators = lg.hookimpl(lambda register: [register(x) for x in things])
+    return plugin
+
+
+def test_a_third_party_fixed_step_method_runs_and_is_first_order():
+    reg = lg.Registry(plugins={"euler_plugin": integrator_plugin(Euler)})  # a class is instantiated
+    assert isinstance(reg.integrators["euler"], Euler)
+    assert {p.name: p for p in reg.plugins()}["euler_plugin"].integrators == ["euler"]
+    m = oscillator()
+    m._registry = reg
+    errors = []
+    for h in (0.01, 0.005):
+        res = m.simulate(1.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="euler", step=h, points=11, energy_tol=False)
+        errors.append(np.max(np.abs(res["x_p"] - np.cos(res.t))))
+    assert math.log2(errors[0] / errors[1]) == pytest.approx(1.0, abs=0.05)
+
+
+def test_an_integrator_object_may_be_passed_without_registering_it():
+    res = oscillator().simulate(1.0, initial={"x_p": 1}, velocity={"x_p": 0}, method=Euler(), step=1e-3, points=3)
+    assert res.method == "euler" and res.step == pytest.approx(1e-3)
+    with pytest.raises(lg.ModelError, match="neither a registered method name nor a valid integrator"):
+        oscillator().simulate(1.0, method=object())
+
+
+def test_duplicate_integrator_names_both_plugins():
+    class MyRK45(Euler):
+        name = "RK45"
+
+    with pytest.raises(lg.PluginError, match="integrator 'RK45' is already provided by plugin 'integrators'") as info:
+        lg.Registry(plugins={"copycat": integrator_plugin(MyRK45())})
+    assert info.value.plugin == "copycat"
+
+
+class _Broken(Integrator):
+    name, kind = "broken", "adaptive"
+
+    def solve(self, problem, t_span, y0, t_eval, **options):
+        return Solution(t_eval, np.zeros((problem.dim, t_eval.size)))
+
+
+INVALID = [
+    ("no-name", type("N", (_Broken,), {"name": None})(), r"its name None"),
+    ("bad-name", type("N", (_Broken,), {"name": "my method"})(), r"its name 'my method'"),
+    ("reserved", type("N", (_Broken,), {"name": "auto"})(), r"'auto' is reserved"),
+    ("reserved-exact", type("N", (_Broken,), {"name": "exact"})(), r"'exact' is reserved"),
+    ("bad-kind", type("N", (_Broken,), {"kind": "variable"})(), r"kind 'variable' is not one of"),
+    ("flag", type("N", (_Broken,), {"symplectic": "yes"})(), r"flag 'symplectic' must be True or False"),
+    ("order", type("N", (_Broken,), {"order": 0})(), r"order must be a positive int"),
+    ("no-solve", type("N", (), {"name": "x", "kind": "adaptive", "symplectic": False, "implicit": False,
+                                "stiff": False, "first_order": True})(), r"no solve"),
+    ("options", type("N", (_Broken,), {"options": {"y0": "clash"}})(), r"may not be named y0"),
+    ("class-needs-arguments", type("N", (_Broken,), {"__init__": lambda self, x: None}), r"cannot be instantiated"),
+]
+
+
+@pytest.mark.parametrize(("obj", "pattern"), [c[1:] for c in INVALID], ids=[c[0] for c in INVALID])
+def test_invalid_integrators_are_plugin_errors_naming_the_plugin(obj, pattern):
+    with pytest.raises(lg.PluginError, match=pattern) as info:
+        lg.Registry(plugins={"bad": integrator_plugin(obj)})
+    assert info.value.plugin == "bad"
+
+
+def test_unknown_method_lists_the_registered_ones_with_a_suggestion():
+    with pytest.raises(lg.UnknownNameError, match=r"unknown integration method 'RK54'\. Did you mean 'RK45'\?") as info:
+        oscillator().simulate(1.0, method="RK54")
+    for name in [*ADAPTIVE, *FIXED, "auto", "exact"]:
+        assert name in str(info.value)
+    with pytest.raises(lg.UnknownNameError, match="Did you mean 'verlet'"):
+        oscillator().simulate(1.0, method="verlett", step=0.1)
+
+
+def test_options_are_checked_against_the_method():
+    m = oscillator()
+    with pytest.raises(lg.ModelError, match=r"does not take the option 'stage'\. Did you mean 'stages'\?"):
+        m.simulate(1.0, method="gauss_legendre", step=0.1, stage=3)
+    with pytest.raises(lg.ModelError, match=r"'verlet' is fixed-step: rtol= does not apply"):
+        m.simulate(1.0, method="verlet", step=0.1, rtol=1e-3)
+    with pytest.raises(lg.ModelError, match=r"'RK45' is adaptive: step= does not apply"):
+        m.simulate(1.0, method="RK45", step=0.1)
+    with pytest.raises(lg.ModelError, match="method='exact' takes no step"):
+        m.simulate(1.0, method="exact", step=0.1)
+
+
+def test_fixed_step_methods_need_a_step_and_suggest_one_from_the_linearization():
+    # ω = √(k/m) = 2: shortest period π, suggested step π/50 ≈ 0.0628
+    with pytest.raises(lg.ModelError, match=r"verlet is a fixed-step method: give its step size.*step=0\.0628") as info:
+        oscillator(k=4).simulate(1.0, method="verlet")
+    assert "3.14" in str(info.value)
+    with pytest.raises(lg.ModelError, match="step must be a positive number"):
+        oscillator().simulate(1.0, method="rk4", step=-0.1)
+
+
+# ---------------------------------------------------------------------------
+# 2. Accuracy: closed forms and orders of convergence
+
+
+def test_verlet_iterates_are_the_closed_form_of_its_one_step_map():
+    # Velocity Verlet on x'' = −ω²x is the linear map whose iterates are x_k = cos(kθ) from x = 1, v = 0,
+    # with cos θ = 1 − (hω)²/2 (its characteristic roots e^{±iθ}).
+    w, h = 2.0, 0.05
+    res = oscillator(k=w**2).simulate(10.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="verlet", step=h,
+                                      points=201, fast_linear=False)
+    k = np.rint(res.t / h)
+    theta = math.acos(1 - (h * w) ** 2 / 2)
+    assert np.max(np.abs(res["x_p"] - np.cos(k * theta))) < 1e-12
+
+
+def test_rk4_one_step_map_is_the_taylor_polynomial_of_the_exponential():
+    # On y' = F y, one RK4 step is R(hF) = I + hF + (hF)²/2 + (hF)³/6 + (hF)⁴/24.
+    w, h = 1.0, 0.3
+    res = oscillator().simulate(3.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="rk4", step=h, points=11,
+                                fast_linear=False)
+    F = np.array([[0.0, 1.0], [-(w**2), 0.0]])
+    hF = h * F
+    R = np.eye(2) + hF + hF @ hF / 2 + hF @ hF @ hF / 6 + hF @ hF @ hF @ hF / 24
+    y, expected = np.array([1.0, 0.0]), []
+    for _ in range(11):
+        expected.append(y[0])
+        y = R @ y
+    assert np.max(np.abs(res["x_p"] - expected)) < 1e-13
+
+
+def duffing_reference(t_eval):
+    sol = solve_ivp(lambda t, y: [y[1], -y[0] - y[0] ** 3], (0, t_eval[-1]), [1.0, 0.0], method="DOP853",
+                    rtol=1e-13, atol=1e-15, t_eval=t_eval)
+    return sol.y[0]
+
+
+ORDERS = [
+    ("rk4", {}, 0.1, 4),
+    ("verlet", {}, 0.05, 2),
+    ("implicit_midpoint", {}, 0.05, 2),
+    ("gauss_legendre", {}, 0.1, 4),
+    ("gauss_legendre", {"stages": 3}, 0.2, 6),
+    ("variational", {}, 0.05, 2),
+    ("variational", {"rule": "trapezoidal"}, 0.05, 2),
+]
+
+
+@pytest.mark.parametrize(("method", "options", "h", "order"), ORDERS,
+                         ids=[f"{m}{'-' + '-'.join(map(str, o.values())) if o else ''}" for m, o, _, _ in ORDERS])
+def test_order_of_convergence_from_two_step_sizes(method, options, h, order):
+    # Global error ∝ h^p: p = log2(e(h) / e(h/2)), on the nonlinear Duffing oscillator against SciPy.
+    t_eval = np.linspace(0, 4, 5)
+    exact = duffing_reference(t_eval)
+    errors = []
+    for step in (h, h / 2):
+        res = duffing().simulate(4.0, initial={"x_p": 1}, velocity={"x_p": 0}, method=method, step=step, t_eval=t_eval, **options)
+        errors.append(np.max(np.abs(res["x_p"] - exact)))
+    assert errors[1] > 1e-11  # well above rounding, so the ratio measures the method
+    assert math.log2(errors[0] / errors[1]) == pytest.approx(order, abs=0.1)
+
+
+def test_methods_with_dissipation_and_forcing_converge_to_the_closed_form():
+    # m x'' + c x' + k x = F0 cos Ωt; with m = 1, k = 4, c = 0.4, F0 = 1, Ω = 1.5 and x(0) = x'(0) = 0.
+    # Steady state X cos(Ωt − φ), X = F0/√((k − mΩ²)² + (cΩ)²), tan φ = cΩ/(k − mΩ²); transient from the
+    # homogeneous solution e^{−ζω t}(A cos ω_d t + B sin ω_d t) fitted to the initial conditions.
+    import sympy as sp
+
+    m, k, c, F0, W = 1.0, 4.0, 0.4, 1.0, 1.5
+    X = F0 / math.hypot(k - m * W**2, c * W)
+    phi = math.atan2(c * W, k - m * W**2)
+    sigma, wd = c / (2 * m), math.sqrt(k / m - (c / (2 * m)) ** 2)
+    A = -X * math.cos(phi)
+    B = (-X * W * math.sin(phi) + sigma * A) / wd
+
+    def exact(t):
+        return X * np.cos(W * t - phi) + np.exp(-sigma * t) * (A * np.cos(wd * t) + B * np.sin(wd * t))
+
+    model = oscillator(m=m, k=k, c=c, F=F0 * sp.cos(W * lg.t))
+    t_eval = np.linspace(0, 5, 11)
+    for method, order in (("variational", 2), ("implicit_midpoint", 2), ("gauss_legendre", 4), ("rk4", 4)):
+        errors = []
+        for h in (0.05, 0.025):
+            res = model.simulate(5.0, initial={"x_p": 0}, velocity={"x_p": 0}, method=method, step=h, t_eval=t_eval)
+            errors.append(np.max(np.abs(res["x_p"] - exact(t_eval))))
+        assert math.log2(errors[0] / errors[1]) == pytest.approx(order, abs=0.15), method
+        assert errors[1] < {2: 1e-3, 4: 1e-6}[order], method
+
+
+def test_variational_rules_reproduce_verlet_and_implicit_midpoint_on_separable_lagrangians():
+    # Trapezoidal L_d of ½ẋ² − V(x) gives x_{k+1} − 2x_k + x_{k−1} = −h² V'(x_k): Störmer–Verlet.
+    # Midpoint L_d with constant M gives the implicit midpoint rule on (q, p).
+    t_eval = np.linspace(0, 5, 51)
+    run = lambda method, **o: duffing().simulate(5.0, initial={"x_p": 1}, velocity={"x_p": 0.3}, method=method,
+                                                 step=0.05, t_eval=t_eval, **o)
+    trap, verlet = run("variational", rule="trapezoidal"), run("verlet")
+    mid, imp = run("variational"), run("implicit_midpoint")
+    assert np.max(np.abs(trap["x_p"] - verlet["x_p"])) < 1e-11
+    assert np.max(np.abs(trap.velocity("x_p") - verlet.velocity("x_p"))) < 1e-11
+    assert np.max(np.abs(mid["x_p"] - imp["x_p"])) < 1e-10
+
+
+def test_outputs_between_steps_are_interpolated_and_noted():
+    res = oscillator().simulate(2.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="gauss_legendre", step=0.1,
+                                t_eval=[0.0, 0.37, 1.0, 1.93, 2.0], fast_linear=False)
+    assert np.max(np.abs(res["x_p"] - np.cos(res.t))) < 1e-5  # Hermite O(h⁴) ≈ 1e-4·h⁴·… with GL4 below it
+    assert any("Hermite" in n for n in res.notes)
+    shortened = oscillator().simulate(1.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="verlet", step=0.3, points=3,
+                                      energy_tol=False)
+    assert shortened.step == pytest.approx(0.25)  # ⌈0.5 / 0.3⌉ = 2 steps per output interval
+    assert any("shortened to 0.25" in n for n in shortened.notes)
+
+
+def test_first_order_coordinates_with_fixed_step_methods():
+    # R q' + q/C = E with E = 1 V, q(0) = 0: q = C E (1 − e^{−t/RC}); RC = 0.5.
+    model = rc(R=1.0, C=0.5, E=1.0)
+    assert model.first_order == ["q_R"]
+    for method, h, tol in (("rk4", 0.01, 1e-9), ("implicit_midpoint", 0.01, 1e-5), ("gauss_legendre", 0.02, 1e-9)):
+        res = model.simulate(2.0, initial={"q_R": 0}, method=method, step=h, points=21)
+        assert np.max(np.abs(res["q_R"] - 0.5 * (1 - np.exp(-res.t / 0.5)))) < tol, method
+    for method in ("verlet", "variational"):
+        with pytest.raises(lg.ModelError, match=r"q_R have no inertia \(first-order\).*Methods that handle first-order") as info:
+            model.simulate(2.0, initial={"q_R": 0}, method=method, step=0.01)
+        assert "gauss_legendre" in str(info.value) and "Radau" in str(info.value)
+
+
+def test_verlet_refuses_what_is_not_separable_and_says_what_to_use():
+    with pytest.raises(lg.ModelError, match=r"verlet .* separable.*dissipation.*Use 'variational' or 'gauss_legendre'"):
+        oscillator(c=0.1).simulate(1.0, method="verlet", step=0.01)
+    with pytest.raises(lg.ModelError, match=r"mass matrix depends on x_p"):
+        solenoid().simulate(1.0, method="verlet", step=0.01, **SOLENOID_START)
+
+
+def test_structure_preserving_methods_with_a_configuration_dependent_mass_matrix():
+    # M = diag(L(x), 1) with L(x) = 1/(1 + x/4): Gauss–Legendre runs on (q, p), the variational integrator on L_d;
+    # both keep the energy (no dissipation, no sources) and follow a tight DOP853 run.
+    model = solenoid()
+    ref = model.simulate(20.0, points=201, rtol=1e-12, atol=1e-14, **SOLENOID_START)
+    for method, h, tol, drift in (("gauss_legendre", 0.05, 1e-5, 1e-7), ("variational", 0.01, 1e-3, 1e-5)):
+        res = model.simulate(20.0, points=201, method=method, step=h, **SOLENOID_START)
+        assert max(np.max(np.abs(res[n] - ref[n])) for n in res.names) < tol, method
+        assert res.energy_drift() < drift, method
+
+
+def test_singular_mass_matrix_raises_for_every_kind_of_method():
+    # Two massless nodes joined only by a damper: the first-order block c·[[1, −1], [−1, 1]] is singular.
+    model = lg.Model("singular")
+    model.add("spring", "k1", ("ground", "p"), k=1)
+    model.add("spring", "k2", ("ground", "q"), k=2)
+    model.add("damper", "c", ("p", "q"), c=1)
+    for method, options in (("rk4", {"step": 0.1}), ("gauss_legendre", {"step": 0.1}), ("Radau", {}), ("auto", {})):
+        with pytest.raises(lg.SingularMassMatrixError, match="singular"):
+            model.simulate(1.0, initial={"x_p": 0.1, "x_q": 0.2}, method=method, **options)
+
+
+def test_newton_failure_is_a_numerical_error_saying_what_to_change():
+    with pytest.raises(lg.IntegrationError, match=r"gauss_legendre: the Newton iteration .* did not converge.*Reduce step=") as info:
+        duffing().simulate(2.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="gauss_legendre", step=0.5,
+                           newton_maxiter=2, newton_tol=1e-14)
+    assert isinstance(info.value, lg.NumericalError)
+
+
+def test_progress_is_reported_by_fixed_step_runs():
+    seen = []
+    oscillator().simulate(10.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="verlet", step=1e-3,
+                          fast_linear=False, progress=lambda t, t_end: seen.append((t, t_end)))
+    assert len(seen) >= 10 and seen[-1] == (10.0, 10.0)
+    assert all(b == 10.0 for _, b in seen) and [a for a, _ in seen] == sorted(a for a, _ in seen)
+
+
+# ---------------------------------------------------------------------------
+# 3. Stability where explicit methods fail
+
+
+def chain_omega_max(K=1e4) -> float:
+    Kmat = np.array([[1 + K, -K], [-K, K]])
+    return float(np.sqrt(np.linalg.eigvalsh(Kmat)).max())  # M = I
+
+
+def rk4_stability_boundary(direction: complex) -> float:
+    """|z| where |R(z)| = 1 along the ray z = r·direction, R the RK4 polynomial (found by bisection)."""
+    R = lambda z: abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24)
+    lo, hi = 0.1, 4.0
+    for _ in range(100):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if R(mid * direction) <= 1 else (lo, mid)
+    return lo
+
+
+def test_explicit_methods_go_unstable_at_the_theoretical_step_on_a_stiff_chain():
+    # Eigenvalues of the stiff chain are ±iω; leapfrog is stable for hω_max < 2, RK4 for hω_max < 2√2
+    # (its stability region meets the imaginary axis at 2√2 ≈ 2.828).
+    w = chain_omega_max()
+    assert rk4_stability_boundary(1j) == pytest.approx(2 * math.sqrt(2), rel=1e-9)
+    start = {"initial": {"x_a": 1.0, "x_b": -1.0}}
+    for method, bound in (("verlet", 2 / w), ("rk4", 2 * math.sqrt(2) / w)):
+        h = stability_limit(stiff_chain(), method, lo=0.5 * bound, hi=1.5 * bound, **start)
+        assert h / bound == pytest.approx(1.0, abs=2e-3), method
+        # and stepping one by one (no linear fast path) agrees either side of the bound
+        for factor, bounded in ((0.98, True), (1.02, False)):
+            try:
+                res = stiff_chain().simulate(2000 * factor * bound, method=method, step=factor * bound, fast_linear=False,
+                                             t_eval=np.linspace(0, 2000 * factor * bound, 2001), energy_tol=False, **start)
+                grew = np.max(np.abs(res["x_b"])) / abs(res["x_b"][0])
+            except lg.IntegrationError as exc:  # diverged past 1e30: reported, not returned
+                assert "diverged" in str(exc) and "Reduce step=" in str(exc)
+                grew = math.inf
+            assert (grew < 10) == bounded, (method, factor, grew)
+
+
+def test_rk4_goes_unstable_at_the_theoretical_step_on_a_stiff_rc_circuit():
+    # λ = −1/(RC) = −1000 (a first-order coordinate): RK4 is stable for h|λ| below the root of
+    # 1 + z/2 + z²/6 + z³/24 = 0 on the negative real axis, ≈ 2.7853.
+    roots = np.roots([1 / 24, 1 / 6, 1 / 2, 1])
+    real_root = float(roots[np.abs(roots.imag) < 1e-12].real[0])
+    assert rk4_stability_boundary(-1) == pytest.approx(-real_root, rel=1e-9)
+    bound = -real_root / 1000
+    h = stability_limit(rc(R=1.0, C=1e-3), "rk4", initial={"q_R": 1.0}, lo=0.5 * bound, hi=1.5 * bound)
+    assert h / bound == pytest.approx(1.0, abs=2e-3)
+    # a diverging run is reported with the step, |λ|max and what to do
+    with pytest.raises(lg.IntegrationError, match=r"rk4 failed.*diverged.*h·\|λ\|max = 3.*unstable.*Reduce step="):
+        rc(R=1.0, C=1e-3).simulate(2.0, initial={"q_R": 1.0}, method="rk4", step=3e-3, fast_linear=False)
+
+
+def test_implicit_methods_are_stable_far_beyond_the_explicit_bound():
+    # A-stable: implicit midpoint and Gauss–Legendre stay bounded at h = 100× the RK4 bound on the RC circuit.
+    for method in ("implicit_midpoint", "gauss_legendre"):
+        res = rc(R=1.0, C=1e-3).simulate(2.0, initial={"q_R": 1.0}, method=method, step=0.25, points=9)
+        assert np.all(np.abs(res["q_R"]) <= 1.0 + 1e-12), method
+
+
+def test_auto_never_picks_an_explicit_method_for_a_stiff_model():
+    reg = lg.default_registry()
+    linear = stiff_chain().simulate(1.0, method="auto", initial={"x_a": 1.0})
+    assert linear.method == "exact"  # linear time-invariant: solved exactly
+    # a stiffer chain made nonlinear (a cubic spring) and overdamped across the stiff spring: the relative
+    # mode's eigenvalues −c/2μ ± √((c/2μ)² − K/μ) (μ = ½) are ≈ −1.0e3 and −2.0e5, beside |λ| ≈ 1.4
+    model = stiff_chain(K=1e8)
+    model.add("cubic_spring", "s3", ("ground", "a"), k=1, k3=1)
+    model.add("damper", "c", ("a", "b"), c=1e5)
+    for rtol in (1e-9, 1e-3):
+        res = model.simulate(0.5, method="auto", rtol=rtol, initial={"x_a": 1.0})
+        picked = reg.integrators[res.method]
+        assert picked.implicit and picked.stiff, res.method
+        assert res.method == "LSODA"
+        assert "stiff" in res.notes[0] and "auto: picked" in res.notes[0]
+
+
+def test_auto_on_non_stiff_models():
+    # Duffing: not linear, not stiff; DOP853 for tight tolerances, RK45 for loose ones
+    assert duffing().simulate(1.0, method="auto", initial={"x_p": 1}).method == "DOP853"
+    assert duffing().simulate(1.0, method="auto", rtol=1e-4, initial={"x_p": 1}).method == "RK45"
+    # a long conservative run at a loose tolerance: a symplectic method, Verlet when separable
+    res = duffing().simulate(4000.0, method="auto", rtol=1e-3, initial={"x_p": 1}, points=11)  # ≈ 1270 periods of ω = 2
+    assert res.method == "verlet" and res.step > 0
+    assert "symplectic" in res.notes[0] and "long conservative run" in res.notes[0]
+    # ... Gauss–Legendre when the mass matrix depends on the configuration (asked of choose, without running)
+    model = solenoid()
+    problem = Problem(model.numeric(), model.name)
+    choice = choose(problem, (0.0, 5000.0), np.array([1.0, 0.5, 0.0, 0.0]), rtol=1e-4)
+    assert choice.method == "gauss_legendre" and choice.options["step"] > 0 and not choice.stiff
+    # ... and never for a damped one
+    assert oscillator(c=0.1).simulate(1.0, method="auto", rtol=1e-4, initial={"x_p": 1}).method == "exact"
+
+
+# ---------------------------------------------------------------------------
+# 4. Long-time energy
+
+
+def long_run_grid(h, periods, every=321):
+    """Output every ``every`` steps (not a multiple of the 32 steps per period, so every phase is sampled)."""
+    n_out = periods * 32 // every
+    return np.arange(n_out + 1) * every * h
+
+
+def test_energy_over_1e5_periods_bounded_for_symplectic_methods_drifting_for_rk4():
+    # Oscillator m = k = 1 (ω = 1), h = T/32 (y = hω = 2π/32), 3.2·10⁶ steps.  On this linear model every
+    # fixed-step method is one constant matrix per step, applied here by its powers (fast_linear).
+    # Verlet conserves ½v² + ½x²(1 − y²/4)... its energy E = ½(v² + x²) stays within a relative
+    #   (y/2)² / (1 − (y/2)²) of that invariant's level: bounded, no drift.
+    # Implicit midpoint, Gauss–Legendre and the midpoint variational integrator conserve E exactly (a quadratic
+    #   invariant) up to rounding.
+    # RK4 is R(iy) times a rotation per step: E_N / E_0 = |R(iy)|^{2N}, |R(iy)|² = 1 − y⁶/72 + y⁸/576 — drift.
+    y = 2 * math.pi / 32
+    t_eval = long_run_grid(y, 100_000)
+    N = int(round(t_eval[-1] / y))
+    assert N > 3_000_000
+    model = oscillator()
+    runs = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EnergyDriftWarning)
+        for method in ("verlet", "implicit_midpoint", "gauss_legendre", "variational", "rk4"):
+            runs[method] = model.simulate(t_eval[-1], initial={"x_p": 1}, velocity={"x_p": 0}, method=method, step=y, t_eval=t_eval)
+    rel = {m: np.abs(r.E - r.E[0]) / r.E[0] for m, r in runs.items()}
+    bound = (y / 2) ** 2 / (1 - (y / 2) ** 2)
+    verlet = rel["verlet"]
+    tenth = len(verlet) // 10
+    assert verlet.max() <= bound * (1 + 1e-9)
+    assert verlet.max() > 0.9 * bound  # the bound is reached: every phase is sampled
+    assert verlet[-tenth:].max() == pytest.approx(verlet[:tenth].max(), rel=0.02)  # no drift over 10⁵ periods
+    for method in ("implicit_midpoint", "gauss_legendre", "variational"):
+        assert rel[method].max() < 1e-8, method
+    expected = (1 - y**6 / 72 + y**8 / 576) ** N
+    assert expected < 0.1
+    assert runs["rk4"].E[-1] / runs["rk4"].E[0] == pytest.approx(expected, rel=1e-6)
+
+
+def test_linear_fast_path_gives_the_same_iterates_as_stepping():
+    t_eval = long_run_grid(2 * math.pi / 32, 100)
+    model = oscillator()
+    for method in ("verlet", "rk4", "gauss_legendre", "variational"):
+        a, b = (model.simulate(t_eval[-1], initial={"x_p": 1}, velocity={"x_p": 0}, method=method, step=2 * math.pi / 32,
+                               t_eval=t_eval, fast_linear=fast) for fast in (True, False))
+        assert np.max(np.abs(a["x_p"] - b["x_p"])) < 1e-10, method
+        assert any("powers" in n for n in a.notes) and not any("powers" in n for n in b.notes)
+
+
+def test_energy_of_a_nonlinear_oscillator_bounded_for_symplectic_methods_drifting_otherwise():
+    # Duffing, E = ½ẋ² + ½x² + ¼x⁴ = 3/4 from x = 1.  Stepped one by one (it is not linear).
+    model = duffing()
+    start = {"initial": {"x_p": 1}, "velocity": {"x_p": 0}}
+
+    def envelope(res):
+        rel = np.abs(res.E - res.E[0]) / res.E[0]
+        tenth = len(rel) // 10
+        return rel[:tenth].max(), rel[-tenth:].max()
+
+    verlet = model.simulate(4000.0, method="verlet", step=0.05, points=4001, **start)  # ≈ 750 periods, 80 000 steps
+    first, last = envelope(verlet)
+    assert last < 2e-3 and last < 1.5 * first  # bounded
+    for method in ("variational", "gauss_legendre"):
+        res = model.simulate(400.0, method=method, step=0.1, points=401, **start)
+        first, last = envelope(res)
+        assert last < 1.5 * first and last < 2e-3, method
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EnergyDriftWarning)
+        rk4 = model.simulate(2000.0, method="rk4", step=0.2, points=2001, **start)
+        rk45 = model.simulate(200.0, method="RK45", rtol=1e-5, atol=1e-8, points=201, **start)
+    for res in (rk4, rk45):
+        first, last = envelope(res)
+        assert last > 5 * first, res.method  # grows with time
+
+
+def test_energy_drift_of_a_conservative_model_warns_and_is_noted():
+    with pytest.warns(EnergyDriftWarning, match=r"conservative, but its energy .* drifted by .* under rk4.*symplectic") as record:
+        res = oscillator().simulate(20_000.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="rk4", step=0.3, points=101)
+    assert record[0].filename == __file__  # the warning points at the caller
+    assert res.notes[-1].startswith("WARNING: ")
+    with pytest.warns(EnergyDriftWarning, match="under DOP853 .*tighten rtol"):
+        oscillator().simulate(100.0, initial={"x_p": 1}, velocity={"x_p": 0}, energy_tol=1e-13)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EnergyDriftWarning)
+        ok = oscillator().simulate(100.0, initial={"x_p": 1}, velocity={"x_p": 0})  # DOP853 at 1e-9: fine
+        assert "energy (Jacobi integral) kept to" in ok.notes[-1]
+        oscillator().simulate(20_000.0, initial={"x_p": 1}, velocity={"x_p": 0}, method="rk4", step=0.3, points=101,
+                              energy_tol=False)
+        damped = oscillator(c=0.5).simulate(10.0, initial={"x_p": 1}, velocity={"x_p": 0})
+        assert not any("energy" in n for n in damped.notes)  # not conservative: nothing to check
+    with pytest.raises(EnergyDriftWarning):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", EnergyDriftWarning)  # how a caller makes drift an error
+            oscillator().simulate(100.0, initial={"x_p": 1}, velocity={"x_p": 0}, energy_tol=1e-13)
