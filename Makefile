@@ -14,6 +14,7 @@ benchmark: setup
 	.venv/bin/python benchmarks/simulation.py
 	.venv/bin/python benchmarks/linear.py
 	.venv/bin/python benchmarks/spice.py
+	.venv/bin/python benchmarks/derivation.py
 	.venv/bin/python benchmarks/integrators.py
 
 plugins: setup

@@ -1,9 +1,10 @@
 """Deriving the equations of motion: this library against sympy.physics.mechanics.
 
 Model: the planar n-link pendulum — point masses on massless rods, absolute
-angles, gravity, every parameter symbolic (a mass ``m_k`` and a length
-``l_k`` per link and ``g``, as in ``/work/shared/reference/peer-performance.md``,
-whose operation counts they reproduce; ``--shared`` uses one ``m`` and one ``l``).
+angles, gravity, every parameter symbolic: a mass ``m_k`` and a length
+``l_k`` per link and ``g`` (the peer figures of ``reference/peer-performance.md``
+are for these: their operation counts are reproduced); ``--shared`` uses one
+``m`` and one ``l``.
 
 - **ours**: ``lg.Model(dim=2)`` with, per link, a ``link`` with a point
   ``end``, a ``revolute`` joint (``absolute=True``; at the previous link's

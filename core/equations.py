@@ -65,7 +65,13 @@ def _nonzero_somewhere(expr: sp.Expr) -> bool:
         value = 0.5 + (k * _GOLDEN) % 1  # generic, and of the sign the assumptions allow
         values[s] = -value if s.is_nonpositive else value
     probe = float_value(expr, values)
-    return probe is not None and abs(probe[0]) > 1e-9 * probe[1]
+    if probe is None:
+        return False
+    if abs(probe[0]) > 1e-9 * probe[1]:
+        return True
+    # rounding may hide the value (large nested expressions): once more with 60 digits
+    probe = float_value(expr, values, digits=60)
+    return probe is not None and abs(probe[0]) > 1e-45 * probe[1]
 
 
 @dataclass

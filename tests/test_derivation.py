@@ -309,6 +309,13 @@ def test_zero_tests_are_exact_about_identical_zeros():
     assert float_value(sp.Abs(s1), {s1: 1.0}) is None  # outside the quick probe: the caller falls back to expand
 
 
+def test_zero_test_settles_large_nested_expressions_without_expanding():
+    xs, ys = sp.symbols("x:30", real=True), sp.symbols("y:30", real=True)
+    A = sp.Mul(*[x + y for x, y in zip(xs, ys)])  # 2**30 terms once expanded
+    e = A * (xs[0] + ys[0]) - A * xs[0] - A * ys[0] + sp.Rational(1, 2)  # = 1/2; rounding hides it in floats
+    assert not _is_zero(e)  # settled by the 60-digit probe, never by expand
+
+
 def test_a_massless_coordinate_with_only_springs_is_still_refused():
     model = lg.Model("bare")
     model.add("mass", "m", "a", m=1)
