@@ -29,6 +29,7 @@ and the constraint Jacobian.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import sympy as sp
@@ -91,7 +92,55 @@ class Equations:
                 "motions, so there is nothing to solve for. Add an element that can move (a mass, a capacitor "
                 "between free nodes), or use the other circuit formulation."
             )
-        self.coordinates = assembly.coordinates
+        self._setup(assembly.coordinates)
+        q, v = self.sym.q, self.sym.v
+        n = len(q)
+        T = self.symbolic(assembly.T)
+        V = self.symbolic(assembly.V)
+        D = self.symbolic(assembly.D)
+        G = self.symbolic(assembly.G)
+        calc = Derivation(q, v, t).calc
+        Q = [sp.Integer(0)] * n
+        self.load_shares: list[tuple[str, list[sp.Expr]]] = []  # (component, its share of Q)
+        for name, load in assembly.loads:
+            force = sp.Matrix([load.force]) if not isinstance(load.force, sp.MatrixBase) else load.force
+            vel = sp.Matrix([load.velocity]) if not isinstance(load.velocity, sp.MatrixBase) else load.velocity
+            if force.shape != vel.shape:
+                raise ModelError(f"component {name!r}: a load's force {force.shape} and velocity {vel.shape} differ in shape.")
+            force = [self.symbolic(e) for e in force]
+            vel = [self.symbolic(e) for e in vel]
+            share = [sp.Integer(0)] * n
+            for i, vi in enumerate(v):
+                terms = [F * calc.diff(u, vi) for F, u in zip(force, vel)]
+                terms = [e for e in terms if e != 0]
+                if terms:
+                    share[i] = sp.Add(*terms)
+                    Q[i] += share[i]
+            self.load_shares.append((name, share))
+        constraints = [self.symbolic(c) for view in assembly.views.values() for c in view.constraints]
+        rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.views.values()), default=10.0)
+        self._derive(T, V, G, D, Q, constraints, rate)
+
+    @classmethod
+    def from_energies(cls, coordinates, T, V, G, D, Q, constraints=(), constraint_rate: float = 10.0,
+                      quadratures: Mapping[int, sp.Expr] | None = None) -> "Equations":
+        """Equations of a system given directly by its energies, in the plain symbols ``q_<name>``, ``v_<name>``.
+
+        ``coordinates`` are :class:`~lagrangian.domain.Coordinate` objects;
+        ``Q`` one generalized force per coordinate.  ``quadratures`` maps
+        coordinate indices to expressions ``g(t, q, q̇)`` those coordinates
+        follow by ``q̇_i = g`` instead of a Lagrange equation (first-order
+        rows, integrated along with the rest: reconstruction of ignorable
+        coordinates).
+        """
+        self = cls.__new__(cls)
+        self._setup(coordinates)
+        self.load_shares = []
+        self._derive(T, V, G, D, list(Q), list(constraints), constraint_rate, quadratures or {})
+        return self
+
+    def _setup(self, coordinates) -> None:
+        self.coordinates = list(coordinates)
         names = [c.name for c in self.coordinates]
         self.names = names
         self.sym = _Symbols(
@@ -110,33 +159,20 @@ class Equations:
         self._symbolic = Rewriter(self._to_sym, self._no_acceleration)
         self._display = Rewriter(self._from_sym)
 
+    def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None) -> None:
         q, v = self.sym.q, self.sym.v
-        n = len(q)
-        self.T = self.symbolic(assembly.T)
-        self.V = self.symbolic(assembly.V)
-        self.D = self.symbolic(assembly.D)
-        self.G = self.symbolic(assembly.G)
+        self.T, self.V, self.D, self.G = T, V, D, G
         self.L = self.T - self.V + self.G
         self._derivation = derivation = Derivation(q, v, t)
-        Q = [sp.Integer(0)] * n
-        for name, load in assembly.loads:
-            force = sp.Matrix([load.force]) if not isinstance(load.force, sp.MatrixBase) else load.force
-            vel = sp.Matrix([load.velocity]) if not isinstance(load.velocity, sp.MatrixBase) else load.velocity
-            if force.shape != vel.shape:
-                raise ModelError(f"component {name!r}: a load's force {force.shape} and velocity {vel.shape} differ in shape.")
-            force = [self.symbolic(e) for e in force]
-            vel = [self.symbolic(e) for e in vel]
-            for i, vi in enumerate(v):
-                terms = [F * derivation.calc.diff(u, vi) for F, u in zip(force, vel)]
-                terms = [e for e in terms if e != 0]
-                if terms:
-                    Q[i] += sp.Add(*terms)
         self.Q = sp.Matrix(Q)
         M, f = derivation.equations(self.T, self.V, self.G, self.D, Q)
         self.M = sp.Matrix(M)
         self.f = sp.Matrix(f)
-        self.constraints = sp.Matrix([self.symbolic(c) for view in assembly.views.values() for c in view.constraints])
-        self.constraint_rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.views.values()), default=10.0)
+        for i, g in (quadratures or {}).items():  # q̇_i = g: a first-order row with unit rate
+            self.M[i, :] = sp.zeros(1, len(q))
+            self.f[i] = g - v[i]
+        self.constraints = sp.Matrix(constraints)
+        self.constraint_rate = constraint_rate
         self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(len(self.constraints))]
         self._split()
 

@@ -26,6 +26,7 @@ __all__ = [
     "DomainError",
     "TopologyError",
     "FloatingNetworkError",
+    "ReductionError",
     "NumericalError",
     "SingularMassMatrixError",
     "IntegrationError",
@@ -127,6 +128,12 @@ class TopologyError(ModelError):
 
 class FloatingNetworkError(TopologyError):
     """Part of the network has no path to the reference node ``ground``."""
+
+
+class ReductionError(ModelError):
+    """A Routhian reduction cannot be carried out as asked: a coordinate that is not
+    ignorable, momentum equations that cannot be solved for the ignorable
+    velocities, or a state on the singular set of the reduced model."""
 
 
 class NumericalError(LagrangianError, ArithmeticError):

@@ -271,6 +271,50 @@ class Force(Component):
         )
 
 
+class CentralForce(Component):
+    """Central attraction between two nodes, of magnitude ``k / rⁿ`` (``r``: their distance).
+
+    ``V = −k / ((n − 1) rⁿ⁻¹)`` for ``n ≠ 1`` and ``V = k ln r`` for ``n = 1``;
+    ``n = 2`` (the default) is Newtonian gravitation or Coulomb attraction,
+    ``V = −k / r`` (``k = G m₁ m₂``); ``k < 0`` repels.  For a zero-length
+    linear spring (``n = −1``) use ``spring``.  Singular where the nodes meet.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("kepler", dim=2)
+    >>> _ = m.add("mass", "planet", "p", m=1)
+    >>> _ = m.add("central_force", "sun", ("ground", "p"), k=4)
+    >>> m.potential_energy
+    -4/sqrt(x_p(t)**2 + y_p(t)**2)
+    """
+
+    kind = "central_force"
+    domain = "mechanical"
+    parameters = {
+        "k": Parameter("strength: the force is k / rⁿ towards the other node", check="nonzero", unit="N m^n"),
+        "n": Parameter("exponent of the distance in the force law", default=2, check="real"),
+    }
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.dim == 1:
+            raise ModelError(
+                f"central_force {self.name!r}: a central force needs a plane or space (Model(..., dim=2) or dim=3); "
+                f"in one dimension use a spring or a force."
+            )
+        d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
+        r = sp.sqrt(dot(d, d))
+        n = sp.sympify(self.n)
+        if n.is_Float:  # 3.0 → 3, 2.5 → 5/2: exact exponents keep the algebra exact
+            n = sp.nsimplify(n)
+        if n == 1:
+            return Contribution(V=self.k * sp.log(r))
+        return Contribution(V=-self.k / ((n - 1) * r ** (n - 1)))
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "p"), {"k": -0.5, "n": 2}, context=[("mass", "m", "p", {"m": 1})],
+                       options={"dim": 2})
+
+
 class PrescribedMotion(Component):
     """A node moved along a given path ``position(t)`` (a rheonomic constraint); the node has no coordinate."""
 
@@ -307,7 +351,7 @@ def register_domains(register):
 
 @hookimpl
 def register_component_types(register):
-    for cls in (Mass, Spring, Damper, Gravity, Force, PrescribedMotion):
+    for cls in (Mass, Spring, Damper, Gravity, Force, CentralForce, PrescribedMotion):
         register(cls)
 
 

@@ -886,6 +886,8 @@ def test_example_cart_pendulum(examples):
     (gap,) = figures(r"max \|θ − fixed-pivot pendulum .*\| = (\S+) rad", out)
     assert p_drift < 1e-8 and gap < 1e-8
     assert "cart at constant speed 1.5 m/s: coordinates ['theta_pivot']" in out
+    h_drift, e_drift = figures(r"relative drift of h (\S+), of the total energy T \+ V (\S+)", out)
+    assert h_drift < 1e-9 and e_drift > 1e-2  # the Jacobi integral is conserved, the energy is not
 
 
 def test_example_four_bar(examples):
