@@ -5,7 +5,13 @@ provides; ``lagrangian kinds`` lists every kind with its parameters;
 ``lagrangian integrators`` lists the integration methods;
 ``lagrangian bench NAME... --methods RK45,DOP853,verlet --out DIR`` runs
 work–precision benchmarks and writes a CSV file and a chart per benchmark
-(``lagrangian bench --list`` lists them).
+(``lagrangian bench --list`` lists them);
+``lagrangian scene SOURCE --output NAME ... --t-end T`` answers a scene with
+the smallest exact model (see :mod:`lagrangian.scene`): ``SOURCE`` is a
+SPICE netlist (``.cir``, ``.net``, ``.sp``, ``.spice``: its ``.tran`` and
+``.ic`` are used) or a Python file ``file.py[:name]`` whose ``name`` (default
+``model``, else ``build``) is a model or a function returning one.  It
+prints the plan and writes the outputs as CSV (``--csv``).
 """
 
 from __future__ import annotations
@@ -79,6 +85,86 @@ def _bench(args, registry) -> int:
     return 0
 
 
+def _pairs(items: list[str] | None, what: str) -> dict[str, float]:
+    out = {}
+    for item in items or []:
+        for pair in item.split(","):
+            if not pair.strip():
+                continue
+            key, sep, value = pair.partition("=")
+            try:
+                if not sep:
+                    raise ValueError
+                out[key.strip()] = float(value)
+            except ValueError:
+                raise SystemExit(f"error: --{what} takes name=value pairs, got {pair!r}") from None
+    return out
+
+
+def _load_model(source: str):
+    """A model (and its netlist's initial state and span, if any) from a netlist or ``file.py[:name]``."""
+    import importlib.util
+    from pathlib import Path
+
+    from .errors import ModelError
+    from .model import Model
+
+    path, _, attr = source.partition(":") if not Path(source).exists() else (source, "", "")
+    file = Path(path)
+    if not file.exists():
+        raise ModelError(f"scene source {path!r} does not exist: give a netlist file or a Python file (file.py[:name]).")
+    if file.suffix.lower() in (".cir", ".net", ".sp", ".spice", ".ckt"):
+        from .netlist import read_netlist_file
+
+        imported = read_netlist_file(file)
+        span = (imported.tran.start, imported.tran.stop) if imported.tran else None
+        return imported.model, imported.initial, imported.velocity, span
+    if file.suffix != ".py":
+        raise ModelError(f"scene source {path!r}: expected a netlist (.cir, .net, .sp, .spice) or a Python file (.py).")
+    spec = importlib.util.spec_from_file_location(f"_lagrangian_scene_{file.stem}", file)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    names = [attr] if attr else ["model", "build"]
+    for name in names:
+        obj = getattr(module, name, None)
+        if obj is None:
+            continue
+        model = obj() if callable(obj) and not isinstance(obj, Model) else obj
+        if not isinstance(model, Model):
+            raise ModelError(f"{file}:{name} is not a lagrangian Model (nor a function returning one).")
+        return model, {}, {}, None
+    raise ModelError(f"{file} defines none of {', '.join(names)}: name the model with {file}:NAME.")
+
+
+def _scene(args) -> int:
+    import csv
+
+    import numpy as np
+
+    from .scene import Scene
+
+    model, initial, velocity, span = _load_model(args.source)
+    initial = {**initial, **_pairs(args.initial, "initial")}
+    velocity = {**velocity, **_pairs(args.velocity, "velocity")}
+    t_end = args.t_end if args.t_end is not None else (span or 10.0)
+    scene = Scene(model, args.output, t_end, tol=args.tol, initial=initial, velocity=velocity,
+                  params=_pairs(args.param, "param"), points=args.points, method=args.method)
+    print(scene.report())
+    res = scene.run()
+    if args.csv:
+        with open(args.csv, "w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(["t", *res.outputs])
+            for row in np.column_stack([res.t, *[res[o] for o in res.outputs]]):
+                writer.writerow([repr(float(x)) for x in row])
+        print(f"written: {args.csv}")
+    else:
+        for label in res.outputs:
+            values = res[label]
+            print(f"{label}: at t = {res.t[-1]:g}: {values[-1]:.10g} (min {np.min(values):.6g}, max {np.max(values):.6g})")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line ``lagrangian COMMAND``; return the exit status."""
     parser = argparse.ArgumentParser(prog="lagrangian", description=__doc__.splitlines()[0])
@@ -96,6 +182,18 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--list", action="store_true", help="list the benchmarks and exit")
     bench.add_argument("--no-chart", action="store_true", help="write CSV only")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
+    scene = sub.add_parser("scene", help="answer a question about a model with its smallest exact model")
+    scene.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name] defining a model")
+    scene.add_argument("--output", "-o", action="append", required=True,
+                       help="an output: coordinate, rate (x'), T/V/D/E/L, T[component], [component]; repeat for more")
+    scene.add_argument("--t-end", type=float, help="end time (default: the netlist's .tran stop, else 10)")
+    scene.add_argument("--tol", type=float, default=1e-8, help="relative tolerance (default 1e-8)")
+    scene.add_argument("--initial", action="append", help="initial coordinates name=value[,name=value]")
+    scene.add_argument("--velocity", action="append", help="initial velocities name=value[,name=value]")
+    scene.add_argument("--param", action="append", help="parameter values name=value[,name=value]")
+    scene.add_argument("--points", type=int, default=1001, help="output times (default 1001)")
+    scene.add_argument("--method", default="DOP853", help="integrator for nonlinear parts (default DOP853)")
+    scene.add_argument("--csv", help="write the outputs to this CSV file")
     args = parser.parse_args(argv)
     try:
         from .registry import default_registry
@@ -103,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
         registry = default_registry()
         if args.command == "bench":
             return _bench(args, registry)
+        if args.command == "scene":
+            return _scene(args)
     except LagrangianError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

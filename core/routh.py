@@ -53,6 +53,7 @@ import numpy as np
 import sympy as sp
 
 from .component import t
+from .derived import DerivedModel
 from .equations import Equations, _is_zero
 from .errors import ModelError, ReductionError, UnknownNameError
 from .model import Model
@@ -175,21 +176,23 @@ def ignorable(model: Model) -> list[str]:
 # -- helpers ----------------------------------------------------------------------------------------
 
 
-def _tidy(expr: sp.Expr, limit: int = 400) -> sp.Expr:
+def _tidy(expr: sp.Expr, limit: int = 150) -> sp.Expr:
     """A cheap simplification, skipped for large expressions (floats are kept as they are, not spread)."""
     expr = sp.sympify(expr)
     if expr.count_ops() > limit:
         return expr
     floats = {f: sp.Dummy() for f in expr.atoms(sp.Float)}
     try:
-        out = sp.trigsimp(sp.cancel(sp.together(expr.xreplace(floats))))
+        out = sp.cancel(sp.together(expr.xreplace(floats)))
+        if sp.count_ops(out) <= 80:  # trigsimp pays off on small expressions and costs seconds on large ones
+            out = sp.trigsimp(out)
     except (sp.PolynomialError, TypeError, ValueError):  # pragma: no cover - sympy corner cases
         return expr
     out = out.xreplace({d: f for f, d in floats.items()})
     return out if sp.count_ops(out) <= sp.count_ops(expr) else expr
 
 
-def _terms(expr: sp.Expr, limit: int = 400) -> sp.Expr:
+def _terms(expr: sp.Expr, limit: int = 150) -> sp.Expr:
     """A sum of simple terms (how R, V_eff and T read best), each tidied; large expressions as they are."""
     expr = _tidy(expr, limit)
     if expr.count_ops() > limit:
@@ -223,7 +226,7 @@ def _factors_vanishing(det: sp.Expr) -> list[sp.Expr]:
 # -- the reduced model ------------------------------------------------------------------------------
 
 
-class ReducedModel(Model):
+class ReducedModel(DerivedModel):
     """A model with its ignorable coordinates eliminated through the Routhian (make one with :func:`reduce`).
 
     It is a :class:`~lagrangian.Model`: ``lagrangian`` (``= −R``),
@@ -246,9 +249,8 @@ class ReducedModel(Model):
 
     def __init__(self, full: Model, ignorable: Sequence[str], momenta: Mapping[str, Any] | None = None,
                  _quadrature: Sequence[str] = (), _parent: "ReducedModel | None" = None):
-        super().__init__(f"{full.name} (reduced)", registry=full.registry, **full._options)
+        super().__init__(full, f"{full.name} (reduced)", self._build_equations)
         self.full = full
-        self._graph = full._graph
         self.ignored = list(ignorable)
         self._quadrature = tuple(_quadrature)
         if _parent is not None:
@@ -340,31 +342,6 @@ class ReducedModel(Model):
         return Equations.from_energies(coords, parts["T"], parts["V"], parts["G"], parts["D"], Q,
                                        parts["constraints"], full_eq.constraint_rate, quad)
 
-    # -- Model interface ---------------------------------------------------------
-    @property
-    def eq(self) -> Equations:
-        return self._get("equations", self._build_equations)
-
-    @property
-    def assembly(self):
-        return self.full.assembly
-
-    @property
-    def coordinates(self):
-        return list(self.eq.coordinates)
-
-    @property
-    def coordinate_names(self) -> list[str]:
-        return list(self.eq.names)
-
-    def add(self, *args, **kwargs):
-        raise ModelError(
-            f"{self.name!r} is a reduced model: add components to the full model {self.full.name!r} and reduce it again."
-        )
-
-    def node(self, name: str):
-        return self.add()
-
     # -- what the reduction found --------------------------------------------------
     def _show(self, expr):
         return self.full.eq.display(expr)
@@ -435,14 +412,15 @@ class ReducedModel(Model):
         return self._siblings[names]
 
     def simulate(self, t_end=10.0, *, initial=None, velocity=None, params=None, momenta=None,
-                 reconstruct: bool | Sequence[str] = False, **kwargs) -> Result:
+                 reconstruct: bool | Sequence[str] | None = None, **kwargs) -> Result:
         """Integrate the reduced equations (see :meth:`lagrangian.Model.simulate` for the options).
 
         ``momenta`` gives ``C`` by ignorable coordinate; otherwise the
         ignorable coordinates' velocities in ``velocity`` (a full-model
         state) give them.  ``reconstruct=True`` (or a list of names) also
         integrates the ignorable coordinates by quadrature, starting from
-        their values in ``initial``.  A start on a singular set of the
+        their values in ``initial``; ``False`` integrates none; by default,
+        those of :meth:`reconstructing` (none for :func:`reduce`'s model).  A start on a singular set of the
         reduction (``singularities``) with a nonzero momentum is refused.
         """
         initial, velocity = dict(initial or {}), dict(velocity or {})
@@ -468,7 +446,7 @@ class ReducedModel(Model):
                         f"the momentum of ignorable coordinate {n!r} has no value: give momenta={{{n!r}: ...}}, "
                         f"params={{{C.name!r}: ...}}, or its velocity in velocity= (a full-model state)."
                     )
-        target = self.reconstructing(reconstruct)
+        target = self if reconstruct is None else self.reconstructing(reconstruct)
         keep = set(target.coordinate_names)
         start = {k: val for k, val in initial.items() if k in keep}
         speed = {k: val for k, val in velocity.items() if k in keep and k not in self.ignored}

@@ -299,7 +299,7 @@ def test_momenta_from_the_full_state_equal_the_conserved_momentum(sph):
         red.simulate(1, initial={"theta_tilt": th}, velocity={"theta_turn": 1.0}, momenta={"theta_turn": 1.0})
     with pytest.raises(lg.ReductionError, match="has no value"):
         red.simulate(1, initial={"theta_tilt": th})
-    with pytest.raises(lg.ModelError, match="reduced model"):
+    with pytest.raises(lg.ModelError, match="derived from model"):
         red.add("mass", "extra", "p", m=1)
 
 

@@ -1,0 +1,582 @@
+"""Scenes: a model with the question asked of it, answered by the smallest exact model.
+
+A :class:`Scene` takes a model, the outputs wanted (coordinates, rates,
+energies, a component's energy or branch quantity, any expression), the time
+span and the tolerance.  Planning it builds the minimal model — every step
+exact, none an approximation:
+
+1. **pruning**: a coordinate is kept only if a requested output depends on
+   it, or the equations of a kept coordinate do (its position, rate or
+   acceleration appear there, or a loop constraint ties them); the rest —
+   disconnected parts, parts cut off by a prescribed motion, parts only
+   driven by the kept ones — is dropped.  Kept coordinates that do not
+   influence each other form separate *parts*, simulated separately.
+2. **reduction**: in each part, ignorable coordinates (see
+   :mod:`lagrangian.routh`) are eliminated through the Routhian and never
+   integrated, their momenta taken from the initial state; those whose
+   values are requested are reconstructed by quadrature, those whose rates
+   are requested are evaluated from ``∂R/∂C``; a part whose coordinates are
+   all ignorable moves uniformly and is solved in closed form.
+3. **constants and trivial parts**: coordinates held by prescribed motions or
+   driven joints are functions of time already (the report lists them);
+   components that contribute nothing (a zero parameter) are dropped with a
+   note.
+4. **linear parts**: a part that is linear time-invariant is solved exactly
+   by the matrix exponential; the others by a general integrator.
+5. **lazy outputs**: each output is computed from the parts' solutions only
+   when asked for, and only on the requested times.
+
+Where a simplification would be approximate — a weak coupling that could be
+cut — it is *offered* in the report with its estimated effect, never applied.
+
+>>> import sympy as sp, lagrangian as lg
+>>> m = lg.Model("two oscillators on one shaker")
+>>> _ = m.add("prescribed_motion", "shaker", "s", position=sp.sin(3 * lg.t) / 100)
+>>> for i in (1, 2):
+...     _ = m.add("mass", f"m{i}", f"p{i}", m=1)
+...     _ = m.add("spring", f"k{i}", ("s", f"p{i}"), k=4 * i)
+>>> start = dict(initial={"x_p1": 0.01, "x_p2": 0}, velocity={"x_p1": 0, "x_p2": 0})
+>>> scene = Scene(m, ["x_p1"], t_end=2, **start)
+>>> [part.coordinates for part in scene.plan.parts]
+[['x_p1']]
+>>> scene.plan.dropped["m2"]
+'acts only on x_p2, which the outputs do not depend on'
+>>> res = scene.run()
+>>> abs(float(res["x_p1"][-1]) - float(m.simulate(2, rtol=1e-12, atol=1e-14, **start)["x_p1"][-1])) < 1e-10
+True
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from .component import t
+from .derived import DerivedModel
+from .equations import Equations, _is_zero
+from .errors import ModelError, ReductionError, UnknownNameError
+from .model import Model
+from .simulation import Result, _lambdify
+
+__all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
+
+_ENERGIES = ("T", "V", "D", "E", "L")
+
+
+@dataclass
+class _Output:
+    label: str
+    expr: sp.Expr  # in the plain symbols of the full model
+    depends: set[int]  # coordinate indices (positions or rates)
+
+
+@dataclass
+class Part:
+    """One independently simulated part of a scene's minimal model."""
+
+    coordinates: list[str]  # full-model coordinates this part carries (integrated or not)
+    integrated: list[str]  # coordinates actually integrated
+    eliminated: list[str]  # ignorable coordinates eliminated through the Routhian
+    reconstructed: list[str]  # eliminated ones recovered by quadrature (their values are requested)
+    method: str  # "exact", "uniform", or the integrator's name
+    why: str  # why this solver path
+    model: Model = field(repr=False)
+    operations: int = 0
+
+
+@dataclass
+class Offer:
+    """An approximate simplification, offered, not applied."""
+
+    component: str
+    would_drop: list[str]
+    estimated_error: float
+    note: str
+
+
+@dataclass
+class ScenePlan:
+    """What the scene keeps, drops, eliminates, and how it solves each part."""
+
+    model: str
+    outputs: list[str]
+    parts: list[Part]
+    kept: list[str]
+    dropped: dict[str, str]
+    held: dict[str, str]
+    before: dict[str, int]
+    after: dict[str, int]
+    offers: list[Offer] = field(default_factory=list)
+
+    def report(self) -> str:
+        """The plan as text: kept, dropped and why, eliminated coordinates, solver paths, sizes."""
+        lines = [f"scene on model {self.model!r}: outputs {', '.join(self.outputs)}"]
+        lines.append(f"  before: {self.before['coordinates']} coordinates, {self.before['equations']} equations, "
+                     f"{self.before['operations']} operations")
+        lines.append(f"  after:  {self.after['coordinates']} coordinates solved for, {self.after['equations']} equations, "
+                     f"{self.after['operations']} operations, in {len(self.parts)} part(s)")
+        for k, part in enumerate(self.parts, 1):
+            lines.append(f"  part {k}: {', '.join(part.coordinates)} — {part.method} ({part.why})")
+            if part.eliminated:
+                lines.append(f"    eliminated through the Routhian: {', '.join(part.eliminated)}"
+                             + (f"; reconstructed by quadrature: {', '.join(part.reconstructed)}" if part.reconstructed else ""))
+        lines.append(f"  kept components: {', '.join(self.kept) if self.kept else '(none)'}")
+        for name, why in self.dropped.items():
+            lines.append(f"  dropped {name!r}: {why}")
+        for name, why in self.held.items():
+            lines.append(f"  held {name!r}: {why}")
+        for offer in self.offers:
+            lines.append(f"  offered, not applied: drop {offer.component!r} (would remove {', '.join(offer.would_drop)}): "
+                         f"{offer.note}; estimated change of the outputs {offer.estimated_error:.2e}")
+        return "\n".join(lines)
+
+
+class SceneResult:
+    """The scene's outputs on the requested times, each computed on first access.
+
+    ``res[label]`` is an output by the label it was requested with;
+    ``res.parts`` are the parts' :class:`~lagrangian.Result` objects;
+    ``res.t`` the time grid; ``res.computed`` the outputs computed so far.
+    """
+
+    def __init__(self, scene: "Scene", t: np.ndarray, parts: list[tuple[Part, Result]]):
+        self.scene = scene
+        self.t = t
+        self.parts = parts
+        self.computed: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, label: str) -> np.ndarray:
+        if label not in self.computed:
+            outputs = {o.label: o for o in self.scene._outputs}
+            if label not in outputs:
+                raise UnknownNameError("scene output", label, outputs)
+            self.computed[label] = self.scene._evaluate(outputs[label].expr, self)
+        return self.computed[label]
+
+    @property
+    def outputs(self) -> list[str]:
+        return [o.label for o in self.scene._outputs]
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        """Every output (computing those not yet computed)."""
+        return {label: self[label] for label in self.outputs}
+
+
+class Scene:
+    """A model, the outputs asked of it, the time span and tolerance; solved by the smallest exact model.
+
+    ``outputs`` are strings: a coordinate name (``"x_p"``), its rate
+    (``"x_p'"``), a whole-model energy (``"T"``, ``"V"``, ``"D"``, ``"E"``,
+    ``"L"``), a component's share (``"T[m1]"``, ``"V[k1]"``, ``"D[c1]"``),
+    a branch's integral quantity or its rate (``"[C1]"``, ``"[L1]'"``:
+    charge/current, displacement/velocity, flux/voltage as the domain
+    defines them); or SymPy expressions of the coordinates ``q(t)``, their
+    derivatives and ``t`` (labelled by their text).  ``initial``,
+    ``velocity`` and ``params`` are as for :meth:`lagrangian.Model.simulate`
+    (the full model's state); ``tol`` is the relative tolerance asked
+    (``atol = tol·1e-3``); ``method`` the integrator for nonlinear parts.
+    """
+
+    def __init__(self, model: Model, outputs: Sequence[Any], t_end: float | tuple[float, float] = 10.0, *,
+                 tol: float = 1e-8, initial: Mapping[str, float] | None = None, velocity: Mapping[str, float] | None = None,
+                 params: Mapping[str, float] | None = None, points: int = 1001, t_eval: Sequence[float] | None = None,
+                 method: str = "DOP853", offer: bool = True):
+        if isinstance(outputs, (str, sp.Basic)):
+            outputs = [outputs]
+        if not outputs:
+            raise ModelError("a scene needs at least one output (a coordinate name, 'E', 'T[m1]', an expression...).")
+        if not (isinstance(tol, (int, float)) and 0 < tol < 1):
+            raise ModelError(f"tol must be a number between 0 and 1, got {tol!r}.")
+        self.model = model
+        self.requested = list(outputs)
+        self.span = Model._span(t_end)
+        self.tol = float(tol)
+        self.initial = dict(initial or {})
+        self.velocity = dict(velocity or {})
+        self.params = dict(params or {})
+        self.grid = np.linspace(*self.span, points) if t_eval is None else np.asarray(t_eval, dtype=float)
+        self.method = method
+        self.offer = offer
+        eq = model.eq
+        for given in (self.initial, self.velocity):
+            for name in given:
+                if name not in eq.names:
+                    raise UnknownNameError("coordinate", name, eq.names)
+        self._outputs = [self._parse(o) for o in self.requested]
+        self._plan: ScenePlan | None = None
+
+    # -- outputs -----------------------------------------------------------------------
+    def _parse(self, spec: Any) -> _Output:
+        model, eq = self.model, self.model.eq
+        names = eq.names
+        if isinstance(spec, sp.Basic):
+            expr, label = eq.symbolic(spec), sp.sstr(spec)
+        elif not isinstance(spec, str):
+            raise ModelError(f"scene outputs are names or SymPy expressions, got {spec!r}.")
+        else:
+            label = spec.strip()
+            m = re.fullmatch(r"(T|V|D|E|L)?\[([^\]]+)\](')?", label)
+            if label in names:
+                expr = eq.sym.q[names.index(label)]
+            elif label.endswith("'") and label[:-1] in names:
+                expr = eq.sym.v[names.index(label[:-1])]
+            elif label in _ENERGIES:
+                expr = {"T": eq.T, "V": eq.V, "D": eq.D, "E": eq.T + eq.V, "L": eq.L}[label]
+            elif m:
+                part, comp, rate = m.groups()
+                contributions = model.assembly.contributions
+                if comp not in contributions:
+                    raise UnknownNameError("component", comp, contributions)
+                if part:
+                    c = contributions[comp]
+                    if rate:
+                        raise ModelError(f"scene output {label!r}: a rate applies to branch quantities ('[{comp}]'') only.")
+                    expr = eq.symbolic({"T": c.T, "V": c.V, "D": c.D, "E": sp.sympify(c.T) + sp.sympify(c.V),
+                                        "L": sp.sympify(c.T) - sp.sympify(c.V) + sp.sympify(c.G)}[part])
+                else:
+                    domain = model.component(comp).domain
+                    try:
+                        value = model.assembly.views[domain].branch_value(comp)
+                    except (NotImplementedError, KeyError):
+                        raise ModelError(f"scene output {label!r}: component {comp!r} has no branch quantity in the "
+                                         f"{domain} domain; ask for a coordinate or an energy instead.") from None
+                    expr = eq.symbolic(value.diff(t) if rate else value)
+            else:
+                choices = names + [f"{n}'" for n in names] + list(_ENERGIES) + ["T[<component>]", "[<component>]"]
+                raise UnknownNameError("scene output", label, choices)
+        from .routh import _depends, _drop
+
+        expr = sp.sympify(expr)
+        q, v = eq.sym.q, eq.sym.v
+        absent = [s for s in (*q, *v) if s in expr.free_symbols and not _depends(eq, expr, s)]
+        expr = _drop(expr, absent)  # e.g. an angle that cancels out of an energy
+        free = expr.free_symbols
+        depends = {i for i in range(len(names)) if q[i] in free or v[i] in free}
+        return _Output(label, expr, depends)
+
+    # -- planning ---------------------------------------------------------------------
+    @property
+    def plan(self) -> ScenePlan:
+        """The minimal model and the report (built once)."""
+        if self._plan is None:
+            self._plan = self._make_plan()
+        return self._plan
+
+    def report(self) -> str:
+        return self.plan.report()
+
+    def _dependencies(self) -> list[set[int]]:
+        """``deps[i]``: coordinates whose position, rate or acceleration appear in the equation of ``i``."""
+        eq = self.model.eq
+        n = len(eq.names)
+        q, v = eq.sym.q, eq.sym.v
+        index = {s: i for i, s in enumerate(q)} | {s: i for i, s in enumerate(v)}
+        deps = [set() for _ in range(n)]
+        for i in range(n):
+            free = eq.f[i].free_symbols | eq.Q[i].free_symbols
+            for j in range(n):
+                free |= eq.M[i, j].free_symbols
+                if not _is_zero(eq.M[i, j]):
+                    deps[i].add(j)
+            deps[i] |= {index[s] for s in free if s in index}
+        for c in eq.constraints:  # a loop ties its coordinates through the multiplier
+            tied = {index[s] for s in c.free_symbols if s in index}
+            for i in tied:
+                deps[i] |= tied
+        return deps
+
+    def _make_plan(self) -> ScenePlan:
+        model, eq = self.model, self.model.eq
+        names = eq.names
+        n = len(names)
+        deps = self._dependencies()
+        wanted = set().union(*(o.depends for o in self._outputs))
+        needed, stack = set(), list(wanted)
+        while stack:
+            i = stack.pop()
+            if i in needed:
+                continue
+            needed.add(i)
+            stack.extend(deps[i] - needed)
+        # parts: connected groups of the needed coordinates
+        groups: list[set[int]] = []
+        for i in sorted(needed):
+            touching = [g for g in groups if g & (deps[i] | {j for j in needed if i in deps[j]})]
+            merged = {i}.union(*touching) if touching else {i}
+            groups = [g for g in groups if g not in touching] + [merged]
+        groups.sort(key=min)
+        if not needed:  # outputs that depend on no coordinate (a function of time only)
+            groups = []
+        kept, dropped, held = self._components(needed)
+        self.plan_dropped = dropped
+        parts = [self._part(sorted(g)) for g in groups]
+        before = {"coordinates": n, "equations": eq.A.shape[0], "operations": _ops(eq)}
+        after = {
+            "coordinates": sum(len(p.integrated) for p in parts),
+            "equations": sum(p.model.eq.A.shape[0] if p.integrated else 0 for p in parts),
+            "operations": sum(p.operations for p in parts),
+        }
+        plan = ScenePlan(model.name, [o.label for o in self._outputs], parts, kept, dropped, held, before, after)
+        if self.offer:
+            plan.offers = self._offers(needed, deps)
+        return plan
+
+    def _components(self, needed: set[int]):
+        model, eq = self.model, self.model.eq
+        q, v = eq.sym.q, eq.sym.v
+        names = eq.names
+        kept, dropped, held = [], {}, {}
+        self._touch: dict[str, set[int]] = {}
+        shares = dict((name, share) for name, share in eq.load_shares)
+        for name, c in model.assembly.contributions.items():
+            comp = model.component(name)
+            exprs = [eq.symbolic(sp.sympify(getattr(c, p))) for p in ("T", "V", "D", "G")] + list(shares.get(name, []))
+            exprs = [e for e in exprs if not _is_zero(e)]
+            zeros = [p for p, value in comp.params.items() if isinstance(value, (int, float, sp.Number)) and value == 0
+                     and comp.parameters.get(p) is not None and comp.parameters[p].default != value]
+            if not exprs and zeros:
+                dropped[name] = f"contributes nothing ({', '.join(f'{p} = 0' for p in zeros)})"
+                continue
+            if getattr(comp, "role", None) == "across" and any(isinstance(x, sp.Expr) and x.has(t) for x in comp.params.values()):
+                held[name] = "imposes its across quantity (a position, a voltage) as a given function of time: no coordinate to solve for"
+            owned = {i for i, c_ in enumerate(eq.coordinates) if f"'{name}'" in c_.description}
+            if not exprs and not owned:
+                if name not in held:
+                    kept.append(name)
+                continue
+            touched = owned | {i for i in range(len(names)) for e in exprs if q[i] in e.free_symbols or v[i] in e.free_symbols}
+            self._touch[name] = touched
+            if touched & needed or not touched:
+                kept.append(name)
+            else:
+                dropped[name] = (f"acts only on {', '.join(names[i] for i in sorted(touched))}, "
+                                 f"which the outputs do not depend on")
+        return kept, dropped, held
+
+    def _part(self, idx: list[int]) -> Part:
+        full, eq = self.model, self.model.eq
+        names = [eq.names[i] for i in idx]
+        sub = self._submodel(idx) if len(idx) < len(eq.names) else full
+        requested_q = {eq.names[i] for o in self._outputs for i in o.depends if eq.sym.q[i] in o.expr.free_symbols}
+        part_model, eliminated, reconstructed = sub, [], []
+        try:
+            from . import routh
+
+            cyclic = routh.ignorable(sub) if not len(sub.eq.constraints) else []
+        except ModelError:  # pragma: no cover - defensive: a model the analysis cannot read
+            cyclic = []
+        if cyclic and len(cyclic) == len(names) and not _is_zero(sub.eq.L) and not sub.eq.L.has(t):
+            return Part(names, [], cyclic, [], "uniform", "every coordinate is ignorable and L does not depend on t: "
+                        "constant velocities, q = q₀ + q̇₀ (t − t₀)", sub, 0)
+        if cyclic and len(cyclic) < len(names):
+            try:
+                red = routh.reduce(sub, cyclic)
+                eliminated = list(cyclic)
+                reconstructed = [c for c in cyclic if c in requested_q]
+                part_model = red.reconstructing(reconstructed) if reconstructed else red
+            except ReductionError:
+                part_model, eliminated = sub, []
+        integrated = [nm for nm in part_model.coordinate_names if nm not in reconstructed]
+        values = self._part_params(part_model, eliminated)
+        exact = False
+        if _maybe_linear(part_model.eq):  # a cheap screen first: the full check differentiates every entry
+            try:
+                exact = part_model._linear(values)
+            except ModelError:
+                exact = False
+        if exact:
+            method, why = "exact", "linear time-invariant: matrix exponential, no integration error"
+        else:
+            method, why = self.method, f"nonlinear or time-varying: integrated at rtol {self.tol:g}"
+        return Part(names, integrated, eliminated, reconstructed, method, why, part_model, _ops(part_model.eq))
+
+    def _submodel(self, idx: list[int], minus: Mapping[str, sp.Expr] | None = None, share=None) -> DerivedModel:
+        full = self.model
+        eq = full.eq
+        keep = set(idx)
+        out_q = [eq.sym.q[i] for i in range(len(eq.names)) if i not in keep]
+        out_v = [eq.sym.v[i] for i in range(len(eq.names)) if i not in keep]
+        rows = sorted(idx)
+
+        def build() -> Equations:
+            from .routh import _drop
+
+            dropped = out_q + out_v
+            less = minus or {}
+            T, V, G, D = (_drop(e - less.get(p, 0), dropped) for p, e in (("T", eq.T), ("V", eq.V), ("G", eq.G), ("D", eq.D)))
+            Q = [_drop(eq.Q[i] - (share[i] if share is not None else 0), dropped) for i in rows]
+            constraints = [c for c in eq.constraints if c.free_symbols & {eq.sym.q[i] for i in rows}]
+            return Equations.from_energies([eq.coordinates[i] for i in rows], T, V, G, D, Q, constraints, eq.constraint_rate)
+
+        label = ", ".join(eq.names[i] for i in rows)
+        return DerivedModel(full, f"{full.name} [{label}]", build)
+
+    def _part_params(self, model: Model, eliminated: list[str]) -> dict[str, float]:
+        names = {s.name for s in model.parameters}
+        out = {k: v for k, v in self.params.items() if k in names}
+        if eliminated:
+            red = model if hasattr(model, "momenta_from") else None
+            if red is not None:
+                for n, value in red.momenta_from(self.initial, self.velocity, self.params).items():
+                    out[f"C_{n}"] = value
+        return out
+
+    def _offers(self, needed: set[int], deps: list[set[int]]) -> list[Offer]:
+        """Weak couplings whose removal would shrink the model, with their effect estimated (never applied).
+
+        A coupling is *weak* when its first numeric parameter is at most 1e-3 of the median of the same
+        parameter over the other components of its kind; its effect is estimated by solving the kept part
+        with and without it and comparing the requested coordinates.
+        """
+        model, eq = self.model, self.model.eq
+        touch = self._touch
+        wanted = set().union(*(o.depends for o in self._outputs))
+        offers = []
+        for name, touched in touch.items():
+            if len(touched) < 2 or not touched <= needed or name in self.plan_dropped:
+                continue
+            comp = model.component(name)
+            numeric = [(p, abs(float(v))) for p, v in comp.params.items()
+                       if isinstance(v, (int, float, sp.Number)) and not isinstance(v, bool) and v != 0]
+            if not numeric:
+                continue
+            pname, value = numeric[0]
+            peers = [abs(float(other.params[pname])) for other in model.components.values()
+                     if other.kind == comp.kind and other.name != name and isinstance(other.params.get(pname), (int, float, sp.Number))
+                     and other.params.get(pname) != 0]
+            if not peers or value > 1e-3 * float(np.median(peers)):
+                continue
+            reach, stack = set(), list(wanted)
+            while stack:
+                i = stack.pop()
+                if i in reach:
+                    continue
+                reach.add(i)
+                for other, t_ in touch.items():
+                    if other != name and i in t_:
+                        stack.extend(t_ - reach)
+            if reach >= needed:
+                continue
+            error = self._estimate_without(name, sorted(needed), sorted(reach), wanted)
+            offers.append(Offer(name, [eq.names[i] for i in sorted(needed - reach)], error,
+                                f"weak: {pname} = {value:g} is {value / float(np.median(peers)):.1e} of the other "
+                                f"{comp.kind}s' (median {float(np.median(peers)):g})"))
+            if len(offers) >= 3:
+                break
+        return offers
+
+    def _estimate_without(self, name: str, needed: list[int], reach: list[int], wanted: set[int]) -> float:
+        eq = self.model.eq
+        c = self.model.assembly.contributions[name]
+        share = dict(eq.load_shares).get(name, [0] * len(eq.names))
+        minus = {p: eq.symbolic(sp.sympify(getattr(c, p))) for p in ("T", "V", "D", "G")}
+        with_it = self._submodel(needed) if len(needed) < len(eq.names) else self.model
+        without = self._submodel(reach, minus=minus, share=share)
+        rtol = min(self.tol, 1e-8)
+
+        def run(model, idx):
+            initial = {eq.names[i]: self.initial.get(eq.names[i], 0.0) for i in idx}
+            velocity = {eq.names[i]: self.velocity.get(eq.names[i], 0.0) for i in idx if i in eq.inertial}
+            params = {k: v for k, v in self.params.items() if k in {s.name for s in model.parameters}}
+            return model.simulate(self.span, initial=initial, velocity=velocity, params=params, t_eval=self.grid,
+                                  rtol=rtol, atol=rtol * 1e-3)
+
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            a, b = run(with_it, needed), run(without, reach)
+        return max(float(np.max(np.abs(a[eq.names[i]] - b[eq.names[i]]))) for i in wanted)
+
+    # -- running ---------------------------------------------------------------------------
+    def run(self) -> SceneResult:
+        """Solve every part on the requested times; outputs are computed when read."""
+        plan = self.plan
+        results = []
+        for part in plan.parts:
+            results.append((part, self._solve(part)))
+        return SceneResult(self, self.grid, results)
+
+    def _solve(self, part: Part) -> Result:
+        initial = {k: v for k, v in self.initial.items() if k in part.coordinates}
+        velocity = {k: v for k, v in self.velocity.items() if k in part.coordinates}
+        missing = [n for n in part.coordinates if n not in self.initial] + \
+                  [f"{n}'" for n in part.coordinates if n not in self.velocity and n in self._inertial()]
+        if missing:
+            import warnings
+
+            from .simulation import InitialConditionWarning
+
+            warnings.warn(f"initial conditions not given, set to zero: {', '.join(missing)}", InitialConditionWarning, stacklevel=3)
+            initial = {n: initial.get(n, 0.0) for n in part.coordinates}
+            velocity = {n: velocity.get(n, 0.0) for n in part.coordinates if n in self._inertial()}
+        if part.method == "uniform":
+            tt = self.grid
+            q = {n: np.full_like(tt, initial.get(n, 0.0)) + velocity.get(n, 0.0) * (tt - self.span[0]) for n in part.coordinates}
+            v = {n: np.full_like(tt, velocity.get(n, 0.0)) for n in part.coordinates}
+            zero = np.zeros_like(tt)
+            return Result(tt, q, v, zero, zero, zero, model=part.model.name, method="uniform")
+        model = part.model
+        params = {k: v for k, v in self.params.items() if k in {s.name for s in model.parameters}}
+        common = dict(t_eval=self.grid, params=params)
+        if hasattr(model, "momenta_from"):  # a reduced model: momenta from the full state
+            return model.simulate(self.span, initial=initial, velocity=velocity,
+                                  method=part.method if part.method == "exact" else self.method,
+                                  **({} if part.method == "exact" else {"rtol": self.tol, "atol": self.tol * 1e-3}), **common)
+        if part.method == "exact":
+            return model.simulate(self.span, initial=initial, velocity=velocity, method="exact", **common)
+        return model.simulate(self.span, initial=initial, velocity=velocity, method=self.method,
+                              rtol=self.tol, atol=self.tol * 1e-3, **common)
+
+    def _inertial(self) -> set[str]:
+        eq = self.model.eq
+        return {eq.names[i] for i in eq.inertial}
+
+    def _evaluate(self, expr: sp.Expr, res: SceneResult) -> np.ndarray:
+        eq = self.model.eq
+        q, v = eq.sym.q, eq.sym.v
+        columns: dict[sp.Symbol, np.ndarray] = {}
+        for part, result in res.parts:
+            rates = {}
+            if part.eliminated and part.method != "uniform":
+                red = part.model
+                rates = {n: red.full.eq.symbolic(r) for n, r in red.rates.items()}
+            for n in part.coordinates:
+                i = eq.names.index(n)
+                if n in result.q:
+                    columns[q[i]] = result.q[n]
+                    columns[v[i]] = result.v[n] if n in result.v else None
+                if n in rates:
+                    columns[v[i]] = ("rate", rates[n], part, result)
+        values = self.model._values(self.params)
+        expr = expr.xreplace({s: sp.Float(x) for s, x in values.items()})
+        args, data = [], []
+        for s in sorted(expr.free_symbols - {t}, key=str):
+            col = columns.get(s)
+            if col is None:
+                raise ModelError(f"output needs {s}, which the scene did not compute (ask for it explicitly).")
+            if isinstance(col, tuple):
+                _, rate, part, result = col
+                col = part.model.numeric(self._part_params(part.model, part.eliminated)).evaluate(eq.display(rate), result)
+            args.append(s)
+            data.append(col)
+        fn = _lambdify([t, args], expr, self.model.assembly.signals)
+        return np.broadcast_to(np.asarray(fn(res.t, data), dtype=float), res.t.shape).copy()
+
+
+def _maybe_linear(eq: Equations) -> bool:
+    """False when the equations are plainly not linear time-invariant (state or time in ``A``, ``b`` not
+    polynomial in the state); True means "ask :func:`lagrangian.linear.state_space`"."""
+    state = set(eq.sym.q) | set(eq.sym.v)
+    if any(e.free_symbols & (state | {t}) for e in eq.A):
+        return False
+    return all(e.is_polynomial(*state) for e in eq.b)
+
+
+def _ops(eq: Equations) -> int:
+    return int(sum(sp.count_ops(e) for e in list(eq.A) + list(eq.b)))

@@ -1,0 +1,257 @@
+"""Scenes: the minimal model answers exactly what the full model answers, and refuses what is not exact.
+
+Each reduction kind is checked against the full model simulated tightly (agreement 1e-10 on the
+requested outputs), and each has a case where it must not apply.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import lagrangian as lg
+from lagrangian.scene import Scene
+
+TIGHT = {"rtol": 1e-13, "atol": 1e-15}
+
+
+def full_run(model, span, scene_kwargs, **extra):
+    return model.simulate(span, initial=scene_kwargs.get("initial"), velocity=scene_kwargs.get("velocity"),
+                          t_eval=np.linspace(0, span, scene_kwargs.get("points", 1001)), **TIGHT, **extra)
+
+
+def chain_and_solo(n=6):
+    """A chain of n masses on springs, and, elsewhere, a lone oscillator; a shaker drives two more oscillators."""
+    m = lg.Model("machine")
+    for i in range(1, n + 1):
+        m.add("mass", f"m{i}", f"p{i}", m=1 + 0.1 * i)
+        m.add("spring", f"k{i}", (f"p{i - 1}" if i > 1 else "ground", f"p{i}"), k=1 + 0.3 * i)
+    m.add("spring", "cubic_free", ("p1", "p3"), k=0.5)
+    m.add("mass", "solo", "s", m=2)
+    m.add("spring", "ks", ("ground", "s"), k=8)
+    m.add("damper", "cs", ("ground", "s"), c=0.3)
+    m.add("prescribed_motion", "shaker", "sh", position=sp.sin(3 * lg.t) / 10)
+    m.add("mass", "a", "pa", m=1)
+    m.add("spring", "ka", ("sh", "pa"), k=5)
+    m.add("mass", "b", "pb", m=1)
+    m.add("spring", "kb", ("sh", "pb"), k=2)
+    return m
+
+
+def state(model, seed=1):
+    rng = np.random.default_rng(seed)
+    eq = model.eq
+    return {"initial": {n: float(rng.uniform(-0.5, 0.5)) for n in eq.names},
+            "velocity": {eq.names[i]: float(rng.uniform(-0.5, 0.5)) for i in eq.inertial}}
+
+
+@pytest.fixture(scope="module")
+def machine():
+    model = chain_and_solo()
+    return model, state(model)
+
+
+def test_pruning_keeps_only_what_influences_the_outputs(machine):
+    model, start = machine
+    scene = Scene(model, ["x_s", "T[solo]"], 8, tol=1e-12, **start)
+    plan = scene.plan
+    assert [p.coordinates for p in plan.parts] == [["x_s"]]
+    assert plan.before["coordinates"] == 9 and plan.after["coordinates"] == 1
+    assert plan.after["operations"] < plan.before["operations"]
+    for name in ("m1", "k3", "cubic_free", "a", "kb"):
+        assert "the outputs do not depend on" in plan.dropped[name]
+    assert set(plan.kept) == {"solo", "ks", "cs"}
+    assert "shaker" in plan.held
+    res = scene.run()
+    ref = full_run(model, 8, start)
+    assert np.max(np.abs(res["x_s"] - ref["x_s"])) < 1e-10
+    assert np.max(np.abs(res["T[solo]"] - 0.5 * 2 * ref.v["x_s"] ** 2)) < 1e-10
+    assert "dropped 'm1'" in scene.report() and "part 1: x_s" in scene.report()
+
+
+def test_parts_cut_off_by_a_prescribed_motion_are_simulated_separately(machine):
+    model, start = machine
+    scene = Scene(model, ["x_pa", "x_pb", "x_p6"], 8, **start)
+    parts = [p.coordinates for p in scene.plan.parts]
+    assert sorted(parts) == sorted([["x_pa"], ["x_pb"], [f"x_p{i}" for i in range(1, 7)]])
+    assert all(p.method == "exact" for p in scene.plan.parts)  # each part is linear time-invariant
+    res = scene.run()
+    ref = full_run(model, 8, start)
+    for name in ("x_pa", "x_pb", "x_p6"):
+        assert np.max(np.abs(res[name] - ref[name])) < 1e-10, name
+
+
+def test_a_weak_coupling_is_kept_and_only_offered_with_its_effect():
+    """Two equal oscillators and a spring 1000 times weaker between them: over the beat time the energy
+    moves from one to the other, so cutting the coupling would be wrong — the scene keeps it."""
+    m = lg.Model("weakly coupled")
+    for i in (1, 2):
+        m.add("mass", f"m{i}", f"p{i}", m=1)
+        m.add("spring", f"k{i}", ("ground", f"p{i}"), k=1)
+    m.add("spring", "kc", ("p1", "p2"), k=1e-3)
+    start = {"initial": {"x_p1": 1.0, "x_p2": 0.0}, "velocity": {"x_p1": 0.0, "x_p2": 0.0}}
+    scene = Scene(m, ["x_p1"], 1600, points=4001, **start)
+    assert [p.coordinates for p in scene.plan.parts] == [["x_p1", "x_p2"]]
+    (offer,) = scene.plan.offers
+    assert offer.component == "kc" and offer.would_drop == ["x_p2"]
+    # by hand: normal modes ω₁ = 1, ω₂ = √(1 + 2κ); x₁ = cos(Δ t/2) cos(ω̄ t): the envelope at t = π/Δ is 0
+    w2 = math.sqrt(1 + 2e-3)
+    t = np.linspace(0, 1600, 4001)
+    x1 = 0.5 * (np.cos(t) + np.cos(w2 * t))
+    assert offer.estimated_error == pytest.approx(np.max(np.abs(x1 - np.cos(t))), rel=1e-3)
+    assert offer.estimated_error > 0.5  # not negligible at all
+    res = scene.run()
+    assert np.max(np.abs(res["x_p1"] - x1)) < 1e-9
+    assert "offered, not applied: drop 'kc'" in scene.report()
+
+
+def spherical():
+    model = lg.Model("spherical pendulum", dim=3)
+    model.add("link", "yoke", "yoke")
+    model.add("revolute", "turn", ("ground", "yoke"), axis=(0, 0, 1))
+    model.add("link", "arm", "arm", points={"bob": (0, 0, -1)})
+    model.add("revolute", "tilt", ("yoke", "arm"), axis=(1, 0, 0))
+    model.add("mass", "bob", "arm.bob", m=1)
+    model.add("gravity", "g", g=9.81)
+    return model
+
+
+SPH = {"initial": {"theta_turn": 0.2, "theta_tilt": 0.9}, "velocity": {"theta_turn": 1.7, "theta_tilt": -0.4}}
+
+
+def test_ignorable_coordinates_not_asked_for_are_never_integrated():
+    model = spherical()
+    scene = Scene(model, ["theta_tilt", "E"], 5, tol=1e-13, **SPH)
+    (part,) = scene.plan.parts
+    assert part.eliminated == ["theta_turn"] and part.reconstructed == [] and part.integrated == ["theta_tilt"]
+    res = scene.run()
+    assert res.parts[0][1].names == ["theta_tilt"]  # φ was not integrated
+    ref = full_run(model, 5, SPH)
+    assert np.max(np.abs(res["theta_tilt"] - ref["theta_tilt"])) < 1e-10
+    assert np.max(np.abs(res["E"] - ref.E)) < 1e-10  # E needs φ̇: evaluated from ∂R/∂C
+
+
+def test_ignorable_coordinates_asked_for_are_reconstructed():
+    model = spherical()
+    scene = Scene(model, ["theta_turn", "theta_turn'"], 5, tol=1e-12, **SPH)
+    (part,) = scene.plan.parts
+    assert part.reconstructed == ["theta_turn"]
+    res = scene.run()
+    ref = full_run(model, 5, SPH)
+    assert np.max(np.abs(res["theta_turn"] - ref["theta_turn"])) < 1e-10
+    assert np.max(np.abs(res["theta_turn'"] - ref.v["theta_turn"])) < 1e-10
+
+
+def test_a_coordinate_cyclic_in_T_but_driven_by_a_torque_is_not_eliminated():
+    model = spherical()
+    model.add("body_torque", "motor", "yoke", tau=(0, 0, 0.2))
+    scene = Scene(model, ["theta_tilt"], 3, tol=1e-12, **SPH)
+    (part,) = scene.plan.parts
+    assert part.eliminated == [] and set(part.integrated) == {"theta_turn", "theta_tilt"}
+    res = scene.run()
+    ref = full_run(model, 3, SPH)
+    assert np.max(np.abs(res["theta_tilt"] - ref["theta_tilt"])) < 1e-10
+
+
+def test_a_part_of_only_ignorable_coordinates_moves_uniformly():
+    m = lg.Model("drift", dim=2)
+    m.add("mass", "puck", "p", m=3)
+    m.add("mass", "bob", "b", m=1)
+    m.add("spring", "k", ("ground", "b"), k=1)
+    start = {"initial": {"x_p": 1, "y_p": 2, "x_b": 0.1, "y_b": 0}, "velocity": {"x_p": 0.5, "y_p": -1, "x_b": 0, "y_b": 0.2}}
+    scene = Scene(m, ["x_p", "y_p", "x_b"], 4, **start)
+    methods = {tuple(p.coordinates): p.method for p in scene.plan.parts}
+    assert methods[("x_p",)] == methods[("y_p",)] == "uniform"  # independent, and each moves uniformly
+    res = scene.run()
+    assert np.allclose(res["x_p"], 1 + 0.5 * res.t, atol=1e-14) and np.allclose(res["y_p"], 2 - res.t, atol=1e-14)
+    assert np.max(np.abs(res["x_b"] - 0.1 * np.cos(res.t))) < 1e-10
+
+
+def test_linear_electromechanical_network_is_solved_exactly():
+    """A moving-coil loudspeaker: RL coil driven by a sine, mass–spring–damper cone."""
+    m = lg.Model("loudspeaker")
+    m.add("voltage_source", "V1", ("n1", "0"), E=sp.sin(200 * lg.t))
+    m.add("resistor", "Re", ("n1", "n2"), R=6)
+    m.add("inductor", "Le", ("n2", "n3"), L=0.5e-3)
+    m.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=7)
+    m.add("mass", "Mms", "cone", m=0.02)
+    m.add("spring", "Kms", ("ground", "cone"), k=2000)
+    m.add("damper", "Rms", ("ground", "cone"), c=1.5)
+    zero = {"initial": {"q_Le": 0, "x_cone": 0}, "velocity": {"q_Le": 0, "x_cone": 0}}
+    scene = Scene(m, ["x_cone", "[Le]'"], 0.2, points=2001, **zero)
+    (part,) = scene.plan.parts
+    assert part.method == "exact"
+    res = scene.run()
+    ref = m.simulate(0.2, t_eval=np.linspace(0, 0.2, 2001), rtol=1e-13, atol=1e-16, method="Radau", **zero)
+    assert np.max(np.abs(res["x_cone"] - ref["x_cone"])) < 1e-10 * max(1.0, np.max(np.abs(ref["x_cone"])))
+    current = ref.quantity(m.assembly.views["electrical"].branch_value("Le").diff(lg.t))
+    assert np.max(np.abs(res["[Le]'"] - current)) < 1e-9
+
+
+def test_nonlinear_part_is_integrated_and_says_so():
+    model = spherical()
+    scene = Scene(model, ["theta_tilt"], 1, **SPH)
+    (part,) = scene.plan.parts
+    assert part.method == "DOP853" and "nonlinear" in part.why
+
+
+def test_outputs_are_lazy_and_bad_requests_are_clear(machine):
+    model, start = machine
+    scene = Scene(model, ["x_s", "V"], 2, **start)
+    res = scene.run()
+    assert res.computed == {}
+    _ = res["x_s"]
+    assert list(res.computed) == ["x_s"]  # V not computed until read
+    assert [p.coordinates for p in scene.plan.parts][0][0] == "x_p1"  # V needs the whole chain
+    with pytest.raises(lg.UnknownNameError, match="x_z"):
+        Scene(model, ["x_z"], 1)
+    with pytest.raises(lg.UnknownNameError, match="component 'nope'"):
+        Scene(model, ["T[nope]"], 1)
+    with pytest.raises(lg.ModelError, match="at least one output"):
+        Scene(model, [], 1)
+    with pytest.raises(lg.ModelError, match="tol"):
+        Scene(model, ["x_s"], 1, tol=2)
+    with pytest.raises(lg.UnknownNameError, match="scene output"):
+        res["x_p3"]
+
+
+def test_zero_valued_components_vanish_with_a_note():
+    m = lg.Model("osc")
+    m.add("mass", "m", "p", m=1)
+    m.add("spring", "k", ("ground", "p"), k=1)
+    m.add("damper", "c", ("ground", "p"), c=0)
+    m.add("force", "F", "p", F=0)
+    plan = Scene(m, ["x_p"], 1, initial={"x_p": 1}, velocity={"x_p": 0}).plan
+    assert plan.dropped == {"c": "contributes nothing (c = 0)", "F": "contributes nothing (F = 0)"}
+
+
+def test_command_line_scene(tmp_path):
+    source = tmp_path / "machine.py"
+    source.write_text(
+        "import lagrangian as lg\n"
+        "def build():\n"
+        "    m = lg.Model('m')\n"
+        "    for i in (1, 2, 3):\n"
+        "        m.add('mass', f'm{i}', f'p{i}', m=1)\n"
+        "        m.add('spring', f'k{i}', ('ground' if i == 1 else f'p{i-1}', f'p{i}'), k=1)\n"
+        "    m.add('mass', 'solo', 's', m=1)\n"
+        "    m.add('spring', 'ks', ('ground', 's'), k=4)\n"
+        "    return m\n"
+    )
+    out = tmp_path / "out.csv"
+    proc = subprocess.run([sys.executable, "-m", "lagrangian", "scene", f"{source}:build", "-o", "x_s", "-o", "T[solo]", "-o", "V[ks]",
+                           "--t-end", "3", "--initial", "x_s=1", "--velocity", "x_s=0", "--csv", str(out)],
+                          capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "part 1: x_s" in proc.stdout and "dropped 'm1'" in proc.stdout
+    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert np.max(np.abs(data[:, 1] - np.cos(2 * data[:, 0]))) < 1e-10
+    assert np.max(np.abs(data[:, 2] + data[:, 3] - 2.0)) < 1e-9  # the oscillator's energy ½ k x₀² = 2
+    bad = subprocess.run([sys.executable, "-m", "lagrangian", "scene", str(tmp_path / "none.py"), "-o", "x"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 1 and "does not exist" in bad.stderr
