@@ -296,13 +296,7 @@ class Scene:
         n = len(names)
         deps = self._dependencies()
         wanted = set().union(*(o.depends for o in self._outputs))
-        needed, stack = set(), list(wanted)
-        while stack:
-            i = stack.pop()
-            if i in needed:
-                continue
-            needed.add(i)
-            stack.extend(deps[i] - needed)
+        needed = _closure(wanted, lambda i: deps[i])
         # parts: connected groups of the needed coordinates
         groups: list[set[int]] = []
         for i in sorted(needed):
@@ -451,15 +445,7 @@ class Scene:
                      and other.params.get(pname) != 0]
             if not peers or value > 1e-3 * float(np.median(peers)):
                 continue
-            reach, stack = set(), list(wanted)
-            while stack:
-                i = stack.pop()
-                if i in reach:
-                    continue
-                reach.add(i)
-                for other, t_ in touch.items():
-                    if other != name and i in t_:
-                        stack.extend(t_ - reach)
+            reach = _closure(wanted, lambda i: set().union(*(t_ for other, t_ in touch.items() if other != name and i in t_)))
             if reach >= needed:
                 continue
             error = self._estimate_without(name, sorted(needed), sorted(reach), wanted)
@@ -567,6 +553,17 @@ class Scene:
             data.append(col)
         fn = _lambdify([t, args], expr, self.model.assembly.signals)
         return np.broadcast_to(np.asarray(fn(res.t, data), dtype=float), res.t.shape).copy()
+
+
+def _closure(start, neighbours) -> set[int]:
+    """Everything reachable from ``start`` through ``neighbours(i)``."""
+    seen, stack = set(), list(start)
+    while stack:
+        i = stack.pop()
+        if i not in seen:
+            seen.add(i)
+            stack.extend(neighbours(i) - seen)
+    return seen
 
 
 def _maybe_linear(eq: Equations) -> bool:
