@@ -55,7 +55,7 @@ import sympy as sp
 from .component import t
 from .derived import DerivedModel
 from .equations import Equations, _is_zero
-from .errors import ModelError, ReductionError, UnknownNameError
+from .errors import ReductionError, UnknownNameError
 from .model import Model
 from .simulation import Result
 
@@ -330,7 +330,6 @@ class ReducedModel(DerivedModel):
         keep = [i for i in range(len(full_eq.names))
                 if i in parts["K"] or full_eq.names[i] in self._quadrature]
         coords = [full_eq.coordinates[i] for i in keep]
-        n_full = len(full_eq.names)
         Q = [sp.Integer(0)] * len(keep)
         quad = {}
         for row, i in enumerate(keep):
@@ -338,7 +337,6 @@ class ReducedModel(DerivedModel):
                 Q[row] = parts["Q"][parts["K"].index(i)]
             else:
                 quad[row] = parts["rates"][parts["I"].index(i)]
-        del n_full
         return Equations.from_energies(coords, parts["T"], parts["V"], parts["G"], parts["D"], Q,
                                        parts["constraints"], full_eq.constraint_rate, quad)
 
