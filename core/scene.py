@@ -179,13 +179,15 @@ class Scene:
     derivatives and ``t`` (labelled by their text).  ``initial``,
     ``velocity`` and ``params`` are as for :meth:`lagrangian.Model.simulate`
     (the full model's state); ``tol`` is the relative tolerance asked
-    (``atol = tol·1e-3``); ``method`` the integrator for nonlinear parts.
+    (``atol = tol·1e-3``); ``method`` the integrator for nonlinear parts;
+    ``offer=False`` skips estimating approximate simplifications;
+    ``progress`` reports each part's progress as ``Model.simulate`` does.
     """
 
     def __init__(self, model: Model, outputs: Sequence[Any], t_end: float | tuple[float, float] = 10.0, *,
                  tol: float = 1e-8, initial: Mapping[str, float] | None = None, velocity: Mapping[str, float] | None = None,
                  params: Mapping[str, float] | None = None, points: int = 1001, t_eval: Sequence[float] | None = None,
-                 method: str = "DOP853", offer: bool = True):
+                 method: str = "DOP853", offer: bool = True, progress: bool | Any = False):
         if isinstance(outputs, (str, sp.Basic)):
             outputs = [outputs]
         if not outputs:
@@ -202,6 +204,7 @@ class Scene:
         self.grid = np.linspace(*self.span, points) if t_eval is None else np.asarray(t_eval, dtype=float)
         self.method = method
         self.offer = offer
+        self.progress = progress
         eq = model.eq
         for given in (self.initial, self.velocity):
             for name in given:
@@ -509,7 +512,7 @@ class Scene:
             return Result(tt, q, v, zero, zero, zero, model=part.model.name, method="uniform")
         model = part.model
         params = {k: v for k, v in self.params.items() if k in {s.name for s in model.parameters}}
-        common = dict(t_eval=self.grid, params=params)
+        common = dict(t_eval=self.grid, params=params, progress=self.progress)
         if hasattr(model, "momenta_from"):  # a reduced model: momenta from the full state
             return model.simulate(self.span, initial=initial, velocity=velocity,
                                   method=part.method if part.method == "exact" else self.method,
