@@ -11,11 +11,16 @@ test: setup
 	.venv/bin/python -m pytest -q
 
 benchmark: setup
+	.venv/bin/python -m pip install -q -e ".[bench]"
 	.venv/bin/python benchmarks/simulation.py
 	.venv/bin/python benchmarks/linear.py
 	.venv/bin/python benchmarks/spice.py
 	.venv/bin/python benchmarks/derivation.py
 	.venv/bin/python benchmarks/integrators.py
+	.venv/bin/python benchmarks/rhs.py
+	.venv/bin/python benchmarks/simulate.py
+	.venv/bin/python benchmarks/routh.py
+	.venv/bin/python benchmarks/scenes.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins

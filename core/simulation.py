@@ -10,6 +10,7 @@ an integrator failure, non-finite values — raises a
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -53,14 +54,48 @@ class NumericModel:
                 raise ModelError(
                     f"the equations need the time derivative {d} of a callable signal; give that signal as a SymPy expression of t."
                 )
-        self._solve_fn = _lambdify((t, q, self.vI), [A, b], signals)
+        self._solve_args = ((t, q, self.vI), [A, b], (t, q, v), energies)  # lambdified on first use
         self._flat_fn = None  # entries of A and b, for many states at once (built on first use)
         self._flat_exprs = (list(A), list(b), (t, q, self.vI), signals)
-        self._energy_fn = _lambdify((t, q, v), energies, signals)
         self.n = len(q)
         self.nI = len(eq.inertial)
         self.values = dict(values)
         self.signals = dict(signals)
+        self._compiled: Any = None  # lagrangian.codegen.CompiledModel, once compile() has built it
+        self._compile_tried = False
+        self.compile_note: str | None = None
+        self._fast: Any = None  # the CompiledModel that rhs() and energies() use (use_compiled)
+
+    @functools.cached_property
+    def _solve_fn(self):
+        args, exprs, _, _ = self._solve_args
+        return _lambdify(args, exprs, self.signals)
+
+    @functools.cached_property
+    def _energy_fn(self):
+        _, _, args, energies = self._solve_args
+        return _lambdify(args, energies, self.signals)
+
+    # -- compiled code (lagrangian.codegen) ------------------------------------------
+    def compile(self) -> Any:
+        """This model's compiled C functions (a :class:`lagrangian.codegen.CompiledModel`), built or
+        loaded from the disk cache on first call; None when the model cannot be compiled here (no C
+        compiler, Python-callable signals, ...), with the reason in ``compile_note``."""
+        if not self._compile_tried:
+            from .codegen import compile_model
+
+            self._compiled, self.compile_note = compile_model(self)
+            self._compile_tried = True
+        return self._compiled
+
+    def use_compiled(self, compiled: bool | str) -> str | None:
+        """Evaluate :meth:`rhs`, :meth:`velocities_many` and :meth:`energies` with compiled code
+        (``True``) or NumPy (``False``, or ``"auto"``: see ``Model.simulate``); a note when
+        compiled code was asked for but cannot be used."""
+        if compiled not in (True, False, "auto"):
+            raise ModelError(f"compiled must be True, False or 'auto', not {compiled!r}.")
+        self._fast = self.compile() if compiled is True else None
+        return self.compile_note if compiled is True and self._fast is None else None
 
     def solve(self, time: float, qv: np.ndarray, vI: np.ndarray) -> np.ndarray:
         """``u = (q̈_inertial, q̇_first_order)`` at one instant."""
@@ -94,6 +129,8 @@ class NumericModel:
 
     def velocities_many(self, times: np.ndarray, Y: np.ndarray) -> np.ndarray:
         """All generalized velocities at many states ``Y`` (columns), with one batched solve."""
+        if self._fast is not None:
+            return self._fast.velocities_many(times, Y)
         n, N = self.n, times.size
         v = np.empty((n, N))
         v[self.eq.inertial] = Y[n:]
@@ -115,6 +152,8 @@ class NumericModel:
         return v
 
     def rhs(self, time: float, y: np.ndarray) -> np.ndarray:
+        if self._fast is not None:
+            return self._fast.rhs(time, y)
         v, acc = self.velocities(time, y)
         return np.concatenate([v, acc])
 
@@ -132,6 +171,8 @@ class NumericModel:
         return np.broadcast_to(np.asarray(fn(res.t, q, v), dtype=float), res.t.shape).copy()
 
     def energies(self, time: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
+        if self._fast is not None:
+            return self._fast.energies(time, q, v)
         out = self._energy_fn(time, q, v)
         return tuple(np.broadcast_to(np.asarray(e, dtype=float), time.shape).copy() for e in out)
 

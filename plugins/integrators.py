@@ -22,6 +22,12 @@ Fixed-step (``step=``), written here on the contract of
   Lagrange–d'Alembert principle.  Order 2, symplectic for conservative
   models.
 
+With the stepping loop compiled to C (:mod:`lagrangian.codegen`; the
+Python sibling runs, with a note, when there is no C compiler):
+``dopri5_c`` (adaptive, the Dormand–Prince pair of ``RK45`` with its dense
+output), ``rk4_c`` and ``verlet_c`` (fixed-step, the same steps and
+refusals as ``rk4`` and ``verlet``).
+
 >>> import lagrangian as lg
 >>> m = lg.Model("osc")
 >>> _ = m.add("mass", "m", "p", m=1)
@@ -47,6 +53,7 @@ import sympy as sp
 
 from lagrangian import Component, Contribution, Example, IntegrationError, ModelError, Parameter, dot, hookimpl
 from lagrangian.bench import Benchmark
+from lagrangian.codegen import CompiledDormandPrince, CompiledFixedStep
 from lagrangian.integrate import FixedStepIntegrator, Integrator, Solution, Stepper
 
 __all__ = ["ScipyMethod", "ExplicitRungeKutta", "StormerVerlet", "GaussLegendre", "Variational", "INTEGRATORS"]
@@ -414,18 +421,25 @@ class Variational(FixedStepIntegrator):
         return Stepper(step, problem.to_canonical, problem.from_canonical)
 
 
+_RK45 = ScipyMethod("RK45", 5, "scipy: explicit Runge–Kutta 5(4) (Dormand–Prince)")
+_VERLET = StormerVerlet()
+
 INTEGRATORS: tuple[Integrator, ...] = (
     ScipyMethod("RK23", 3, "scipy: explicit Runge–Kutta 3(2) (Bogacki–Shampine)"),
-    ScipyMethod("RK45", 5, "scipy: explicit Runge–Kutta 5(4) (Dormand–Prince)"),
+    _RK45,
     ScipyMethod("DOP853", 8, "scipy: explicit Runge–Kutta of order 8 (Dormand–Prince)"),
     ScipyMethod("Radau", 5, "scipy: implicit Runge–Kutta Radau IIA of order 5, for stiff models", implicit=True, stiff=True),
     ScipyMethod("BDF", 5, "scipy: implicit backward differentiation formulas of order 1–5, for stiff models", implicit=True, stiff=True),
     ScipyMethod("LSODA", 12, "scipy: Adams/BDF switching on detected stiffness (ODEPACK)", implicit=True, stiff=True),
     RK4,
-    StormerVerlet(),
+    _VERLET,
     GaussLegendre("implicit_midpoint", 1, "implicit midpoint rule (1-stage Gauss–Legendre), symplectic, A-stable, order 2", fixed=True),
     GaussLegendre("gauss_legendre", 2, "Gauss–Legendre collocation (stages=1, 2, 3; default 2), symplectic, A-stable, order 2·stages"),
     Variational(),
+    # the stepping loop in C (lagrangian.codegen); the Python sibling runs when there is no C compiler
+    CompiledDormandPrince(_RK45),
+    CompiledFixedStep("rk4", RK4),
+    CompiledFixedStep("verlet", _VERLET),
 )
 
 

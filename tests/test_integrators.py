@@ -24,6 +24,7 @@ from lagrangian.integrate import EnergyDriftWarning, FixedStepIntegrator, Integr
 
 FIXED = ["rk4", "verlet", "implicit_midpoint", "gauss_legendre", "variational"]
 ADAPTIVE = ["RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
+COMPILED = ["dopri5_c", "rk4_c", "verlet_c"]  # stepping loops in C (see tests/test_codegen.py)
 
 
 @pytest.fixture(autouse=True)
@@ -96,11 +97,11 @@ def test_builtin_integrators_are_registered_by_the_integrators_plugin():
     reg = lg.default_registry()
     info = {p.name: p for p in reg.plugins()}
     assert info["integrators"].distribution == "lagrangian"
-    assert set(info["integrators"].integrators) == set(FIXED) | set(ADAPTIVE)
-    assert {n for n, m in reg.integrators.items() if m.kind == "fixed-step"} == set(FIXED)
-    assert {n for n, m in reg.integrators.items() if m.symplectic} == {"verlet", "implicit_midpoint", "gauss_legendre", "variational"}
-    assert {n for n, m in reg.integrators.items() if not m.implicit} == {"RK23", "RK45", "DOP853", "rk4", "verlet"}
-    assert {n for n, m in reg.integrators.items() if not m.first_order} == {"verlet", "variational"}
+    assert set(info["integrators"].integrators) == set(FIXED) | set(ADAPTIVE) | set(COMPILED)
+    assert {n for n, m in reg.integrators.items() if m.kind == "fixed-step"} == set(FIXED) | {"rk4_c", "verlet_c"}
+    assert {n for n, m in reg.integrators.items() if m.symplectic} == {"verlet", "verlet_c", "implicit_midpoint", "gauss_legendre", "variational"}
+    assert {n for n, m in reg.integrators.items() if not m.implicit} == {"RK23", "RK45", "DOP853", "rk4", "verlet", *COMPILED}
+    assert {n for n, m in reg.integrators.items() if not m.first_order} == {"verlet", "verlet_c", "variational"}
     assert {m.order for n, m in reg.integrators.items() if n in FIXED} == {2, 4}
 
 
