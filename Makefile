@@ -21,6 +21,7 @@ benchmark: setup
 	.venv/bin/python benchmarks/simulate.py
 	.venv/bin/python benchmarks/routh.py
 	.venv/bin/python benchmarks/scenes.py
+	.venv/bin/python benchmarks/impacts.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins

@@ -53,3 +53,31 @@ def test_duffing_plugin_periods_match_quadrature(tmp_path):
     assert len(pairs) == 3
     for sim, quad in pairs:
         assert float(sim) == pytest.approx(float(quad), rel=1e-5)
+
+
+def test_impulses_match_the_notes_closed_forms(tmp_path):
+    out = run("impulses.py", "--out", str(tmp_path / "impulses.png"), cwd=tmp_path)
+    assert out.count("symbolic agreement: True") == 2  # four-bar velocities; knife edge velocities and energy
+    assert "Q_x1 = F, Q_theta = 2*F*b*sin(theta)" in out
+    assert "y_c' = v*(4*e - 3)/7, theta' = 6*v*(e + 1)/(7*L)" in out
+    before, after = re.search(r"angular momentum about the edge: before (\S+), after (\S+)", out).groups()
+    assert before == after
+    errors = [float(x) for x in re.findall(r"max \|error\| = (\S+)", out)]
+    assert len(errors) == 2 and max(errors) < 1e-12
+    assert "velocity of the point 2*ell/3 from the struck end: 0" in out
+    assert "theta1' = 0, theta2' = P/(l2*m2)" in out
+    assert (tmp_path / "impulses.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_impacts_follow_the_closed_forms_and_come_to_rest(tmp_path):
+    out = run("impacts.py", "--out", str(tmp_path / "impacts.png"), cwd=tmp_path)
+    errors = [float(x) for x in re.findall(r"max \|t_\w − closed form\|.* = (\S+) s", out)]
+    assert len(errors) == 2 and max(errors) < 1e-9
+    assert float(re.search(r"max \|energy lost − .*\| = (\S+) J", out).group(1)) < 1e-9
+    gap = float(re.search(r"\(\|difference\| (\S+) s\)", out).group(1))
+    assert gap < 1e-3
+    height, speed = map(float, re.search(r"height (\S+) m, velocity (\S+) m/s", out).groups())
+    assert abs(height) < 1e-9 and abs(speed) < 1e-9
+    ratios = [float(x) for x in re.findall(r"omega after/before = (\S+)", out)]
+    assert len(ratios) == 5 and all(abs(r + 0.8) < 1e-9 for r in ratios)
+    assert (tmp_path / "impacts.png").read_bytes().startswith(b"\x89PNG")
