@@ -181,13 +181,19 @@ class Scene:
     (the full model's state); ``tol`` is the relative tolerance asked
     (``atol = tol·1e-3``); ``method`` the integrator for nonlinear parts;
     ``offer=False`` skips estimating approximate simplifications;
-    ``progress`` reports each part's progress as ``Model.simulate`` does.
+    ``progress`` reports each part's progress as ``Model.simulate`` does;
+    ``events`` are contacts (:mod:`lagrangian.impulse`: ``ground``, ``wall``,
+    ...): a part they act on is simulated with impacts
+    (:func:`~lagrangian.impulse.simulate_with_impacts`: no reduction, no
+    exact solve, as impulses change every momentum), an event on pruned
+    coordinates is dropped with a note.
     """
 
     def __init__(self, model: Model, outputs: Sequence[Any], t_end: float | tuple[float, float] = 10.0, *,
                  tol: float = 1e-8, initial: Mapping[str, float] | None = None, velocity: Mapping[str, float] | None = None,
                  params: Mapping[str, float] | None = None, points: int = 1001, t_eval: Sequence[float] | None = None,
-                 method: str = "DOP853", offer: bool = True, progress: bool | Any = False):
+                 method: str = "DOP853", offer: bool = True, progress: bool | Any = False,
+                 events: Sequence[Any] = ()):
         if isinstance(outputs, (str, sp.Basic)):
             outputs = [outputs]
         if not outputs:
@@ -205,6 +211,9 @@ class Scene:
         self.method = method
         self.offer = offer
         self.progress = progress
+        self.events = list(events)
+        if self.events and t_eval is not None:
+            raise ModelError("a scene with events gives its outputs on evenly spaced times: use points=, not t_eval=.")
         eq = model.eq
         for given in (self.initial, self.velocity):
             for name in given:
@@ -298,6 +307,12 @@ class Scene:
         names = eq.names
         n = len(names)
         deps = self._dependencies()
+        events = {}
+        for contact in self.events:  # an impact acts on every coordinate of its gap at once
+            gap = eq.symbolic(contact.gap(model))
+            events[contact] = touched = {i for i in range(n) if eq.sym.q[i] in gap.free_symbols}
+            for i in touched:
+                deps[i] |= touched
         wanted = set().union(*(o.depends for o in self._outputs))
         needed = _closure(wanted, lambda i: deps[i])
         # parts: connected groups of the needed coordinates
@@ -310,6 +325,10 @@ class Scene:
         if not needed:  # outputs that depend on no coordinate (a function of time only)
             groups = []
         kept, dropped, held = self._components(needed)
+        for contact, touched in events.items():
+            if not touched & needed:
+                dropped[f"event {contact.name}"] = "acts only on coordinates the outputs do not depend on"
+        self._events = {c: touched for c, touched in events.items() if touched & needed}
         self.plan_dropped = dropped
         parts = [self._part(sorted(g)) for g in groups]
         before = {"coordinates": n, "equations": eq.A.shape[0], "operations": _ops(eq)}
@@ -361,6 +380,10 @@ class Scene:
         sub = self._submodel(idx) if len(idx) < len(eq.names) else full
         requested_q = {eq.names[i] for o in self._outputs for i in o.depends if eq.sym.q[i] in o.expr.free_symbols}
         part_model, eliminated, reconstructed = sub, [], []
+        contacts = [c for c, touched in self._events.items() if touched & set(idx)]
+        if contacts:
+            return Part(names, names, [], [], "hybrid", f"impacts at {', '.join(c.name for c in contacts)}: integrated "
+                        f"at rtol {self.tol:g} between impacts located in time to {self.tol * 1e-3:g}", sub, _ops(sub.eq))
         try:
             from . import routh
 
@@ -504,6 +527,24 @@ class Scene:
             warnings.warn(f"initial conditions not given, set to zero: {', '.join(missing)}", InitialConditionWarning, stacklevel=3)
             initial = {n: initial.get(n, 0.0) for n in part.coordinates}
             velocity = {n: velocity.get(n, 0.0) for n in part.coordinates if n in self._inertial()}
+        if part.method == "hybrid":
+            from .impulse import simulate_with_impacts
+
+            idx = {self.model.eq.names.index(n) for n in part.coordinates}
+            contacts = [c for c, touched in self._events.items() if touched & idx]
+            params = {k: v for k, v in self.params.items() if k in {s.name for s in part.model.parameters}}
+            res = simulate_with_impacts(part.model, self.span, contacts, initial=initial, velocity=velocity, params=params,
+                                        points=len(self.grid), method=self.method, rtol=self.tol, atol=self.tol * 1e-3,
+                                        event_tol=self.tol * 1e-3)
+            keep = np.isin(res.t, self.grid)
+            keep[:-1] &= res.t[:-1] != res.t[1:]  # an impact exactly on an output time: the state after it
+            if keep.sum() != len(self.grid):  # pragma: no cover - the hybrid run outputs the grid itself
+                raise ModelError("the hybrid run did not return the requested output times.")
+            res.t = res.t[keep]
+            res.q = {k: v[keep] for k, v in res.q.items()}
+            res.v = {k: v[keep] for k, v in res.v.items()}
+            res.T, res.V, res.D = res.T[keep], res.V[keep], res.D[keep]
+            return res
         if part.method == "uniform":
             tt = self.grid
             q = {n: np.full_like(tt, initial.get(n, 0.0)) + velocity.get(n, 0.0) * (tt - self.span[0]) for n in part.coordinates}

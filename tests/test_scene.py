@@ -255,3 +255,33 @@ def test_command_line_scene(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "lagrangian", "scene", str(tmp_path / "none.py"), "-o", "x"],
                          capture_output=True, text=True)
     assert bad.returncode == 1 and "does not exist" in bad.stderr
+
+
+def test_events_make_their_part_hybrid_and_are_dropped_where_they_cannot_matter():
+    from lagrangian import impulse
+
+    m = lg.Model("ball and oscillator")
+    m.add("mass", "m", "ball", m=1)
+    m.add("gravity", "g", g=9.81)
+    m.add("mass", "mo", "p", m=1)
+    m.add("spring", "k", ("ground", "p"), k=4)
+    start = {"initial": {"x_ball": 1.0, "x_p": 0.2}, "velocity": {"x_ball": 0.0, "x_p": 0.0}}
+    bounce = impulse.ground("ball", e=0.5)
+    scene = Scene(m, ["x_ball"], 1.5, tol=1e-10, events=[bounce], points=301, **start)
+    (part,) = scene.plan.parts
+    assert part.coordinates == ["x_ball"] and part.method == "hybrid"
+    res = scene.run()
+    # by hand: first impact at √(2h/g), rebound e·√(2gh), second impact 2e√(2h/g) later
+    t1 = math.sqrt(2 / 9.81)
+    (impacts,) = [r.impacts for _, r in res.parts]
+    assert impacts[0].time == pytest.approx(t1, abs=1e-9)
+    after = res.t > t1
+    first = after & (res.t < t1 + 2 * 0.5 * t1)
+    v1 = 0.5 * math.sqrt(2 * 9.81)
+    tt = res.t[first] - t1
+    assert np.max(np.abs(res["x_ball"][first] - (v1 * tt - 9.81 * tt**2 / 2))) < 1e-8
+    assert len(res["x_ball"]) == 301
+    other = Scene(m, ["x_p"], 1.5, events=[bounce], **start)
+    assert "event ground(ball)" in other.plan.dropped and other.plan.parts[0].method == "exact"
+    with pytest.raises(lg.ModelError, match="points="):
+        Scene(m, ["x_ball"], 1.5, events=[bounce], t_eval=[0, 1], **start)
