@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-TOL = 1e-8
+TOL = 1e-10
 SCENES = ("shaker", "kepler", "top", "loudspeaker")
 
 
