@@ -80,6 +80,7 @@ import sympy as sp
 from .component import t
 from .errors import ModelError, NumericalError, SingularMassMatrixError, UnknownNameError, IntegrationError, closest
 from .simulation import Result, initial_state
+from .model import Model
 
 __all__ = [
     "Impulse",
@@ -1106,12 +1107,7 @@ def simulate_with_impacts(
 
     hy = _Hybrid(model, contacts, params)
     eq, n, k = hy.eq, hy.n, hy.k
-    try:
-        span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
-    except (TypeError, ValueError):
-        raise ModelError(f"t_end must be a number or a pair (t0, t1), got {t_end!r}.") from None
-    if len(span) != 2 or not np.all(np.isfinite(span)) or not span[1] > span[0]:
-        raise ModelError(f"the time span must end after it starts, got {span}.")
+    span = Model._span(t_end)
     solver_cls = getattr(ivp, method, None) if isinstance(method, str) else method
     if not (isinstance(solver_cls, type) and issubclass(solver_cls, ivp.OdeSolver)):
         raise ModelError(f"method {method!r} is not a SciPy ODE solver; use one of RK45, RK23, DOP853, Radau, BDF, LSODA.")
