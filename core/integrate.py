@@ -402,7 +402,8 @@ class Problem:
         autonomous = not A.has(time_symbol) and not b.has(time_symbol)
         state = q + [v[i] for i in self.inertial]
         linear = False
-        if autonomous and not self.constrained and not (A.free_symbols & set(state)):
+        if autonomous and not self.constrained and not (A.free_symbols & set(state)) and \
+                all(e.is_polynomial(*state) for e in b):  # a cheap screen before differentiating every entry
             J = b.jacobian(state)
             linear = not (J.free_symbols & set(state))
         quadratic = not (M.free_symbols & set(v))

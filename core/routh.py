@@ -176,7 +176,7 @@ def ignorable(model: Model) -> list[str]:
 # -- helpers ----------------------------------------------------------------------------------------
 
 
-def _tidy(expr: sp.Expr, limit: int = 150) -> sp.Expr:
+def _tidy(expr: sp.Expr, limit: int = 100) -> sp.Expr:
     """A cheap simplification, skipped for large expressions (floats are kept as they are, not spread)."""
     expr = sp.sympify(expr)
     if expr.count_ops() > limit:
@@ -192,7 +192,7 @@ def _tidy(expr: sp.Expr, limit: int = 150) -> sp.Expr:
     return out if sp.count_ops(out) <= sp.count_ops(expr) else expr
 
 
-def _terms(expr: sp.Expr, limit: int = 150) -> sp.Expr:
+def _terms(expr: sp.Expr, limit: int = 100) -> sp.Expr:
     """A sum of simple terms (how R, V_eff and T read best), each tidied; large expressions as they are."""
     expr = _tidy(expr, limit)
     if expr.count_ops() > limit:
