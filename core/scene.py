@@ -358,7 +358,7 @@ class Scene:
             if not exprs and zeros:
                 dropped[name] = f"contributes nothing ({', '.join(f'{p} = 0' for p in zeros)})"
                 continue
-            if getattr(comp, "role", None) == "across" and any(isinstance(x, sp.Expr) and x.has(t) for x in comp.params.values()):
+            if getattr(comp, "role", None) == "across" and any(isinstance(x, (sp.Expr, sp.MatrixBase)) and x.has(t) for x in comp.params.values()):
                 held[name] = "imposes its across quantity (a position, a voltage) as a given function of time: no coordinate to solve for"
             owned = {i for i, c_ in enumerate(eq.coordinates) if f"'{name}'" in c_.description}
             if not exprs and not owned:
