@@ -453,7 +453,11 @@ class ReducedModel(DerivedModel):
         if dropped:
             raise UnknownNameError("coordinate", dropped[0], self.full.eq.names)
         target._check_singular(start, params)
-        params = {k: v for k, v in params.items() if k in {s.name for s in target.parameters}}
+        known = {s.name for s in target.parameters}
+        unknown = [k for k in params if k not in known and k not in {s.name for s in self.full.parameters}]
+        if unknown:
+            raise UnknownNameError("parameter", unknown[0], known)
+        params = {k: v for k, v in params.items() if k in known}
         return Model.simulate(target, t_end, initial=start, velocity=speed, params=params, **kwargs)
 
     def _check_singular(self, initial: Mapping[str, float], params: Mapping[str, float]) -> None:

@@ -299,6 +299,8 @@ def test_momenta_from_the_full_state_equal_the_conserved_momentum(sph):
         red.simulate(1, initial={"theta_tilt": th}, velocity={"theta_turn": 1.0}, momenta={"theta_turn": 1.0})
     with pytest.raises(lg.ReductionError, match="has no value"):
         red.simulate(1, initial={"theta_tilt": th})
+    with pytest.raises(lg.UnknownNameError, match="'C_theta_trun'"):
+        red.simulate(1, initial={"theta_tilt": th}, params={"C_theta_turn": 1.0, "C_theta_trun": 1.0})
     with pytest.raises(lg.ModelError, match="derived from model"):
         red.add("mass", "extra", "p", m=1)
 
