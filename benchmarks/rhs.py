@@ -61,29 +61,13 @@ def ours_model(n: int):
 
 
 def kane(n: int):
-    """KanesMethod for the same pendulum, symbolic m_k, l_k, g (as PyDy users write it)."""
-    import sympy as sp
-    import sympy.physics.mechanics as me
+    """KanesMethod for the same pendulum, symbolic m_k, l_k, g (as PyDy users write it): benchmarks/derivation.py's."""
+    from derivation import kane as kanes_method, parameters
 
-    m, l, g = list(sp.symbols(f"m:{n}")), list(sp.symbols(f"l:{n}")), sp.Symbol("g")
-    q, u = me.dynamicsymbols(f"q:{n}"), me.dynamicsymbols(f"u:{n}")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    particles, loads, kd, P = [], [], [], O
-    for k in range(n):
-        A = N.orientnew(f"A{k}", "Axis", [q[k], N.z])
-        A.set_ang_vel(N, u[k] * N.z)
-        Pk = P.locatenew(f"P{k}", l[k] * A.x)
-        Pk.v2pt_theory(P, N, A)
-        particles.append(me.Particle(f"pa{k}", Pk, m[k]))
-        loads.append((Pk, -m[k] * g * N.y))
-        kd.append(q[k].diff() - u[k])
-        P = Pk
-    km = me.KanesMethod(N, q_ind=q, u_ind=u, kd_eqs=kd)
-    km.kanes_equations(particles, loads)
+    km, _, _ = kanes_method(n, shared=False)
+    m, l, g = parameters(n, shared=False)
     constants = {**{s: 1.0 for s in m + l}, g: G}
-    return km, q, u, constants
+    return km, list(km.q), list(km.u), constants
 
 
 def pydy_system(n: int):
