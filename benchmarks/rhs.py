@@ -9,13 +9,15 @@ peers, with ``sympy.physics.mechanics.KanesMethod``.  State
 Per-call time (µs, the median of repeated batches of calls, each at a
 random state, after a warm-up):
 
-- **ours**: ``lagrangian.codegen`` — the entries of ``A`` and ``b`` with
-  common subexpressions, the solve ``A u = b`` by LU in C, called through
-  ctypes (``CompiledModel.rhs``; the stepping loops ``dopri5_c``/``rk4_c``
-  call the same C function without Python: the ``ours C`` column, the
-  generated function called in a loop in C, beside ``hand C``, a C function
-  of the same pendulum written by hand — closed-form ``M`` and ``f``,
-  the same LU — called the same way);
+- **ours**: ``lagrangian.codegen`` — the tapes of ``A`` and ``b`` (every
+  common subexpression once), the solve ``A u = b`` by LU in C, called
+  through ctypes (``CompiledModel.rhs``), both ways the tapes run: the
+  model's ``native`` library (tapes printed as C, compiled) and the shared
+  ``tape`` interpreter (nothing compiled per model).  The stepping loops
+  ``dopri5_c``/``rk4_c`` call the same C functions without Python: the
+  ``native C`` and ``tape C`` columns, each called in a loop in C, beside
+  ``hand C``, a C function of the same pendulum written by hand —
+  closed-form ``M`` and ``f``, the same LU — called the same way;
 - **lambdify**: ``sympy.lambdify(cse=True)`` of Kane's ``M`` and forcing,
   then ``numpy.linalg.solve``;
 - **PyDy** ``System.generate_ode_function`` with the ``lambdify`` and the
@@ -23,9 +25,11 @@ random state, after a warm-up):
   reason otherwise).
 
 Code generation time (s; median of fresh processes, after the imports and
-the derivation): ours ``compile_model`` (C source + ``cc -O2``) with a cold
-cache (a temporary ``LAGRANGIAN_CACHE_DIR``), against PyDy's cython
-generator (Cython + C compile); lambdify's for reference.  All right-hand
+the derivation): ours ``compile_model`` native (tapes, C source, ``cc -O2``)
+with nothing in the cache (a temporary ``LAGRANGIAN_CACHE_DIR``; the
+runtime library compiles alongside, in parallel) and on the tape (recording
+the tapes; the runtime library built beforehand, as once per machine),
+against PyDy's cython generator (Cython + C compile).  All right-hand
 sides are checked against each other at a random state.
 
 Run: ``.venv/bin/python benchmarks/rhs.py [--sizes 3,6,10] [--repeat 3]``.  The last line is a JSON object.
@@ -84,7 +88,7 @@ HAND_C = r"""
 #include <math.h>
 #include <float.h>
 #define N %(n)d
-int lg_rhs(double t, const double *y, double *dy) {
+int lg_rhs(const void *ctx, double t, const double *y, double *dy) {
     double s[N], c[N], A[N * N], b[N];
     const double *q = y, *u = y + N;
     for (int i = 0; i < N; i++) { s[i] = sin(q[i]); c[i] = cos(q[i]); }
@@ -123,18 +127,26 @@ int lg_rhs(double t, const double *y, double *dy) {
 """
 
 DRIVER_C = r"""
-int lg_rhs(double t, const double *y, double *dy);
-/* calls evaluations at the states Y (nstates rows of dim), the last result in out */
-int bench(long calls, const double *Y, long nstates, long dim, double *out) {
+typedef int (*rhs_fn)(const void *ctx, double t, const double *y, double *dy);
+int lg_rhs(const void *ctx, double t, const double *y, double *dy);
+/* calls evaluations of f at the states Y (nstates rows of dim), the last result in out */
+int bench_fn(rhs_fn f, const void *ctx, long calls, const double *Y, long nstates, long dim, double *out) {
     int rc = 0;
-    for (long k = 0; k < calls; k++) rc |= lg_rhs(0.0, Y + (k %% nstates) * dim, out);
+    for (long k = 0; k < calls; k++) rc |= f(ctx, 0.0, Y + (k %% nstates) * dim, out);
     return rc;
 }
+int bench(long calls, const double *Y, long nstates, long dim, double *out) {
+    return bench_fn(lg_rhs, 0, calls, Y, nstates, dim, out);
+}
+"""
+TAPE_DRIVER_C = r"""
+int lg_rhs(const void *ctx, double t, const double *y, double *dy) { return 1; }  /* unused: the tape is passed in */
 """
 
 
-def c_loop_us(sources: list[str], states, calls: int, workdir: str, name: str) -> tuple[float, list]:
-    """Per-call µs of ``lg_rhs`` from ``sources`` called in a C loop (``cc -O2``), and its value at ``states[0]``."""
+def c_loop_us(sources: list[str], states, calls: int, workdir: str, name: str, tape=None) -> tuple[float, list]:
+    """Per-call µs of ``lg_rhs`` from ``sources`` called in a C loop (``cc -O2``), and its value at ``states[0]``;
+    with ``tape`` (a ``CompiledModel`` of kind ``"tape"``), of the tape interpreter's right-hand side instead."""
     import ctypes
 
     import numpy as np
@@ -154,12 +166,13 @@ def c_loop_us(sources: list[str], states, calls: int, workdir: str, name: str) -
     out = np.zeros(Y.shape[1])
     args = (ctypes.c_long(calls), Y.ctypes.data_as(ctypes.c_void_p), ctypes.c_long(Y.shape[0]), ctypes.c_long(Y.shape[1]),
             out.ctypes.data_as(ctypes.c_void_p))
+    bench = dll.bench if tape is None else (lambda *a: dll.bench_fn(ctypes.c_void_p(tape._rhs_ptr), ctypes.c_void_p(tape._ctx), *a))
     runs = []
     for _ in range(5):
         start = time.perf_counter()
-        dll.bench(*args)
+        bench(*args)
         runs.append((time.perf_counter() - start) / calls * 1e6)
-    dll.bench(ctypes.c_long(1), *args[1:])
+    bench(ctypes.c_long(1), *args[1:])
     return statistics.median(runs), out.tolist()
 
 
@@ -192,14 +205,16 @@ def child_codegen(method: str, n: int) -> dict:
     import lagrangian as lg
 
     lg.default_registry()
-    if method == "ours":
+    if method.startswith("ours"):
         from lagrangian import codegen
 
         numeric = ours_model(n).numeric()
         with tempfile.TemporaryDirectory() as cache:
             codegen.set_cache_dir(cache)
+            if method == "ours_tape":
+                codegen.runtime()  # built once per machine (as at installation), not per model
             start = time.perf_counter()
-            compiled, note = codegen.compile_model(numeric)
+            compiled, note = codegen.compile_model(numeric, "tape" if method == "ours_tape" else "native")
             seconds = time.perf_counter() - start
         if compiled is None:
             raise SystemExit(note)
@@ -234,12 +249,17 @@ def child_calls(n: int, calls: int) -> dict:
         if compiled is None:
             raise SystemExit(note)
         funcs["ours"] = lambda y, t: compiled.rhs(t, y)
+        tape, note = codegen.compile_model(model.numeric(), "tape")
+        if tape is None:
+            raise SystemExit(note)
+        funcs["ours_tape"] = lambda y, t: tape.rhs(t, y)
         # the generated C function and a hand-written one, each called in a loop in C
         Y = np.array(states)
         with open(compiled.path.with_suffix(".c")) as fh:
             generated = fh.read()
         out["ours_c"], ours_first = c_loop_us([generated], Y, 200000, cache, "ours")
         out["hand_c"], hand_first = c_loop_us([HAND_C % {"n": n, "g": G}], Y, 200000, cache, "hand")
+        out["ours_tape_c"], _ = c_loop_us([TAPE_DRIVER_C], Y, 200000, cache, "tape", tape=tape)
         hand_diff = float(np.max(np.abs(np.array(ours_first) - np.array(hand_first))))
     funcs["lambdify"] = lambdify_rhs(n)
     try:
@@ -299,8 +319,8 @@ def main() -> None:
     sizes = [int(s) for s in args.sizes.split(",")]
     print("planar n-link pendulum, m = l = 1, g = 9.81; right-hand side per call (µs, median of batches at random "
           "states) and code generation (s, median of fresh processes, cold cache)")
-    print(f"{'n':>3} {'ours':>7} {'ours C':>7} {'hand C':>7} {'lambdify':>9} {'PyDy lamb':>10} {'PyDy cython':>12} "
-          f"{'cython/ours':>12} | {'gen ours s':>11} {'gen cython s':>13} {'cython/ours':>12} | {'max diff':>9}")
+    print(f"{'n':>3} {'native':>7} {'tape':>6} {'native C':>9} {'tape C':>7} {'hand C':>7} {'lambdify':>9} {'PyDy lamb':>10} "
+          f"{'PyDy cython':>12} {'cython/ours':>12} | {'gen native':>11} {'gen tape':>9} {'gen cython':>11} {'cython/native':>14} | {'max diff':>9}")
     last = None
     notes = set()
     for n in sizes:
@@ -310,8 +330,8 @@ def main() -> None:
         us, why = calls["us"], calls["why"]
         notes.update(f"{k}: {v}" for k, v in why.items())
         gen = {}
-        for method in ("ours", "pydy_cython"):
-            if method != "ours" and method not in us:
+        for method in ("ours", "ours_tape", "pydy_cython"):
+            if not method.startswith("ours") and method not in us:
                 gen[method] = None
                 continue
             runs = [run(["codegen", method, str(n)]) for _ in range(args.repeat)]
@@ -320,18 +340,23 @@ def main() -> None:
             if not good:
                 notes.add(f"{method} code generation: {runs[0]['error']}")
         cy = us.get("pydy_cython")
-        print(f"{n:>3} {us['ours']:>7.2f} {us['ours_c']:>7.3f} {us['hand_c']:>7.3f} {us['lambdify']:>9.2f} {fmt(us.get('pydy_lambdify')):>10} "
-              f"{fmt(cy):>12} {fmt(cy / us['ours'] if cy else None, '.1f'):>12} | {gen['ours']:>11.3f} "
-              f"{fmt(gen['pydy_cython'], '.3f'):>13} {fmt(gen['pydy_cython'] / gen['ours'] if gen['pydy_cython'] else None, '.1f'):>12} | "
-              f"{max(calls['diff'].values()):>9.1e}")
+        print(f"{n:>3} {us['ours']:>7.2f} {us['ours_tape']:>6.2f} {us['ours_c']:>9.3f} {us['ours_tape_c']:>7.3f} {us['hand_c']:>7.3f} "
+              f"{us['lambdify']:>9.2f} {fmt(us.get('pydy_lambdify')):>10} {fmt(cy):>12} "
+              f"{fmt(cy / max(us['ours'], us['ours_tape']) if cy else None, '.1f'):>12} | {gen['ours']:>11.3f} "
+              f"{gen['ours_tape']:>9.4f} {fmt(gen['pydy_cython'], '.3f'):>11} "
+              f"{fmt(gen['pydy_cython'] / gen['ours'] if gen['pydy_cython'] else None, '.1f'):>14} | {max(calls['diff'].values()):>9.1e}")
         last = {"n": n, "ours_us": round(us["ours"], 3), "lambdify_us": round(us["lambdify"], 3),
                 "pydy_cython_us": None if cy is None else round(cy, 3), "ours_codegen_s": round(gen["ours"], 4),
-                "pydy_cython_codegen_s": None if gen["pydy_cython"] is None else round(gen["pydy_cython"], 4)}
+                "pydy_cython_codegen_s": None if gen["pydy_cython"] is None else round(gen["pydy_cython"], 4),
+                "ours_tape_us": round(us["ours_tape"], 3), "ours_tape_codegen_s": round(gen["ours_tape"], 5)}
     for note in sorted(notes):
         print("note:", note)
-    print("ours: CompiledModel.rhs called from Python (ctypes), as solve_ivp or a Python loop calls it; ours C and "
-          "hand C: the generated lg_rhs and a hand-written C function of the same system (same LU), called in a loop "
-          "in C, as the compiled stepping loops (dopri5_c, rk4_c, verlet_c) call it")
+    print("native, tape: CompiledModel.rhs called from Python (ctypes), as solve_ivp or a Python loop calls it, for the "
+          "model's native library and for the tape interpreter; native C, tape C, hand C: the generated lg_rhs, the tape "
+          "interpreter, and a hand-written C function of the same system (same LU), called in a loop in C, as the "
+          "compiled stepping loops (dopri5_c, rk4_c, verlet_c) call them; gen native: tapes + C source + cc -O2 with "
+          "nothing in the cache (the runtime library compiled alongside); gen tape: recording the tapes, with the "
+          "runtime library already built (once per machine)")
     print(json.dumps(last))
 
 

@@ -9,13 +9,19 @@ Each run is a fresh process, timed after its imports (``sympy``,
 ``scipy.integrate``, and ``lagrangian`` with its plugins, or
 ``sympy.physics.mechanics`` and PyDy's ``System`` and code generators),
 from building the model to the trajectory — derivation, code generation
-and compilation (with a cold cache: a new temporary
-``LAGRANGIAN_CACHE_DIR``), integration (``ours_warm``: the same run again
-with the library already in the cache, for information):
+and compilation, integration — each with a new temporary
+``LAGRANGIAN_CACHE_DIR`` holding nothing of the model:
 
 - **ours**: ``Model.simulate(10, method="dopri5_c", rtol=1e-8, atol=1e-8)``
-  — Dormand–Prince 5(4) with its stepping loop in C around the compiled
-  right-hand side (the energy check included);
+  — Dormand–Prince 5(4) with its stepping loop in C (the energy check
+  included), with the default ``compiled="auto"``: the model's tapes run by
+  the tape interpreter, nothing compiled for the model.  The cache holds
+  only the runtime library (interpreter and stepping loops, the same for
+  every model), built beforehand as once per machine.  For information:
+  ``ours_first_ever`` — the same with an empty cache (the runtime library
+  compiled during the run); ``ours_native`` — ``compiled=True``, the
+  model's native library compiled during the run; ``ours_warm`` — the run
+  again with that native library in the cache;
 - **PyDy**: ``KanesMethod`` → ``System`` → ``generate_ode_function``
   with the ``cython`` and the ``lambdify`` generators →
   ``System.integrate(rtol=1e-8, atol=1e-8)`` (``scipy.integrate.odeint``,
@@ -50,7 +56,7 @@ def initial_angles(n: int) -> list[float]:
     return [-math.pi / 2 + 0.4 * (-1) ** k for k in range(n)]
 
 
-def child_ours() -> dict:
+def child_ours(compiled) -> dict:
     import numpy as np
     import scipy.integrate  # noqa: F401
     import sympy  # noqa: F401
@@ -64,10 +70,18 @@ def child_ours() -> dict:
     model = ours_model(N_LINKS)
     init = {f"theta_j{k}": a for k, a in enumerate(initial_angles(N_LINKS))}
     res = model.simulate(T_END, initial=init, velocity={k: 0.0 for k in init}, t_eval=grid, method="dopri5_c",
-                         rtol=RTOL, atol=RTOL)
+                         rtol=RTOL, atol=RTOL, compiled=compiled)
     seconds = time.perf_counter() - start
     return {"seconds": seconds, "q": [res[f"theta_j{k}"].tolist() for k in range(N_LINKS)], "nfev": res.nfev,
             "notes": [n for n in res.notes if "compiled" in n]}
+
+
+def child_runtime() -> dict:
+    from lagrangian import codegen
+
+    start = time.perf_counter()
+    path = codegen.runtime()
+    return {"seconds": time.perf_counter() - start, "path": str(path)}
 
 
 def child_pydy(generator: str) -> dict:
@@ -118,7 +132,8 @@ def main() -> None:
     ap.add_argument("--child", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
-        print(json.dumps(child_ours() if args.child == "ours" else child_pydy(args.child.split("_")[1])))
+        child = {"ours": lambda: child_ours("auto"), "ours_native": lambda: child_ours(True), "runtime": child_runtime}
+        print(json.dumps(child[args.child]() if args.child in child else child_pydy(args.child.split("_")[1])))
         return
     import numpy as np
 
@@ -131,31 +146,42 @@ def main() -> None:
     except ImportError as exc:
         peers = []
         why["pydy"] = f"not installed ({exc}); pip install -e '.[bench]'"
-    for which in ["ours", "ours_warm", *peers]:
+    setups = {  # what the cache holds before each timed run: (child, what to run first in the same cache)
+        "ours": ("ours", ["runtime"]),
+        "ours_first_ever": ("ours", []),
+        "ours_native": ("ours_native", ["runtime"]),
+        "ours_warm": ("ours", ["ours_native"]),
+        **{p: (p, []) for p in peers},
+    }
+    for which, (child, before) in setups.items():
         runs = []
-        if which == "ours_warm":  # the same model run again: its library comes from the cache
+        for _ in range(args.repeat):
             with tempfile.TemporaryDirectory() as cache:
-                run("ours", cache)
-                runs = [run("ours", cache) for _ in range(args.repeat)]
-        for _ in range(args.repeat if which != "ours_warm" else 0):
-            with tempfile.TemporaryDirectory() as cache:  # cold cache every time
-                runs.append(run(which, cache))
+                for step in before:
+                    run(step, cache)
+                runs.append(run(child, cache))
         good = [r for r in runs if "seconds" in r]
         if not good:
             why[which] = runs[0]["error"]
             continue
         error = float(np.max(np.abs(np.array(good[0]["q"]) - ref)))
         rows[which] = {"seconds": statistics.median(r["seconds"] for r in good), "error": error,
-                       "nfev": good[0].get("nfev")}
+                       "nfev": good[0].get("nfev"), "notes": good[0].get("notes", [])}
     print(f"planar {N_LINKS}-link pendulum, {T_END:g} s, rtol = atol = {RTOL:g}, {POINTS} output times; fresh process "
-          f"per run (median of {args.repeat}), cold cache; error: max |Δθ| against DOP853 at rtol 1e-13")
-    print(f"{'who':<16} {'end-to-end s':>13} {'max error':>10} {'time / ours':>12}   (ours_warm: run again, library from the cache)")
+          f"per run (median of {args.repeat}), nothing of the model cached; error: max |Δθ| against DOP853 at rtol 1e-13")
+    print(f"{'who':<16} {'end-to-end s':>13} {'max error':>10} {'time / ours':>12}")
     ours = rows.get("ours")
     for which, row in rows.items():
         ratio = row["seconds"] / ours["seconds"] if ours else float("nan")
         print(f"{which:<16} {row['seconds']:>13.3f} {row['error']:>10.2e} {ratio:>12.1f}")
     for which, reason in why.items():
         print(f"{which}: no figure — {reason}")
+    print("ours: the default (compiled='auto': the tape interpreter; the runtime library built beforehand, once per "
+          "machine); ours_first_ever: an empty cache (the runtime library compiled in the run); ours_native: "
+          "compiled=True (the model's C compiled in the run); ours_warm: compiled='auto' with that library cached")
+    for which in ("ours", "ours_native", "ours_warm"):
+        if which in rows:
+            print(f"{which}: {'; '.join(rows[which]['notes'])}")
     best = min((rows[p] for p in peers if p in rows), key=lambda r: r["seconds"], default=None)
     if best is not None and ours:
         print(f"PyDy's best ({min((p for p in peers if p in rows), key=lambda p: rows[p]['seconds'])}) takes "

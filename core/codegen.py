@@ -1,52 +1,63 @@
-"""Compiled models: C code for the right-hand side, built once and cached on disk.
+"""Compiled models: the right-hand side in C, without compiling anything per model unless asked.
 
-:func:`compile_model` turns a :class:`~lagrangian.simulation.NumericModel`
-into C: the entries of ``A(t, q, q̇)`` and ``b(t, q, q̇)`` of the solve
-``A u = b`` (see :mod:`lagrangian.equations`) with common subexpressions
-eliminated (:func:`sympy.cse`, SymPy's C99 printer), the solve itself done
-in C by a small dense LU factorization with partial pivoting (``M⁻¹`` is
-never formed symbolically), so that one call of ``lg_rhs`` gives the
-derivative of the state ``(q, q̇_inertial)``; the energies ``T``, ``V``,
-``D`` and the Jacobi integral; and stepping loops in C — an adaptive Dormand–Prince 5(4) pair
-with dense output, classical Runge–Kutta and Störmer–Verlet — which the
-integrators ``dopri5_c``, ``rk4_c`` and ``verlet_c`` (registered by the
-built-in integrators plugin) run without returning to Python per step.
+A :class:`~lagrangian.simulation.NumericModel` is recorded as two tapes
+(:mod:`lagrangian.tape`, :func:`programs`): straight-line programs for the
+entries of ``A(t, q, q̇)`` and ``b(t, q, q̇)`` of the solve ``A u = b`` (see
+:mod:`lagrangian.equations`), and for ``T, V, D, L`` and the momenta (the
+energies and the Jacobi integral), every common subexpression computed
+once.  Recording takes about a millisecond.  The tapes are then run one of
+two ways (:func:`compile_model`'s ``kind``):
+
+- **the tape interpreter** (``"tape"``), a loop over the instructions in the
+  *runtime library* — C that is the same for every model, compiled once per
+  compiler and kept in the cache: a model runs the moment its equations are
+  derived;
+- **native code** (``"native"``), the tapes printed as straight-line C and
+  compiled into the model's own library: about twice as fast per evaluation,
+  after a C compilation of 0.1–0.5 s (once: the library is cached).
+
+``"auto"`` takes the native library when it is already in the cache, else
+the tape.  Either way the solve itself is done in C by a small dense LU
+factorization with partial pivoting (``M⁻¹`` is never formed symbolically),
+so that one call gives the derivative of the state ``(q, q̇_inertial)``; and
+the runtime library holds stepping loops in C — an adaptive Dormand–Prince
+5(4) pair with dense output, classical Runge–Kutta and Störmer–Verlet —
+which the integrators ``dopri5_c``, ``rk4_c`` and ``verlet_c`` (registered
+by the built-in integrators plugin) run without returning to Python per
+step.
 
 The system C compiler (``cc``, ``gcc`` or ``clang``; :func:`set_compiler`
-or the environment variable ``LAGRANGIAN_CC`` choose another) builds a
-shared library (``-O2 -shared -fPIC``) loaded with :mod:`ctypes`: no
-dependency beyond a C compiler.  Two libraries in fact, compiled at the
-same time: the model's own functions, and the stepping loops, which are
-the same for every model (they call the model's ``lg_rhs`` through a
-function pointer) and so are compiled once per compiler.  Libraries are
-cached on disk, keyed by a hash of the generated source (which holds the
-model's expressions with its numeric parameter values), the compiler and
-its flags, so that the same model starts at once the second time.
+or the environment variable ``LAGRANGIAN_CC`` choose another) builds shared
+libraries (``-O2 -ffp-contract=off -shared -fPIC``: no fused multiply–adds, so that native code and the tape give the same numbers) loaded with :mod:`ctypes`: no dependency
+beyond a C compiler.  Libraries are cached on disk, keyed by a hash of their
+source (for a native library: the model's expressions with its numeric
+parameter values), the compiler and its flags.  :func:`runtime` builds the
+runtime library ahead of time (as an installation step would).
 
-Measured on the planar n-link pendulum (``benchmarks/rhs.py``): one
-evaluation takes 0.07–0.5 µs in C for n = 3–10 (a hand-written C function
-of the same system with the same LU takes as long) and 1–2.5 µs called
-from Python; generating and compiling takes 0.2–0.6 s.  The cache lives in
-``$LAGRANGIAN_CACHE_DIR``, else ``$XDG_CACHE_HOME/lagrangian``, else
-``~/.cache/lagrangian`` (:func:`cache_dir`, :func:`set_cache_dir`); it is
-safe to delete at any time — a missing or corrupt entry is rebuilt, and
+Measured on the planar n-link pendulum (``benchmarks/rhs.py``), n = 3–10:
+one evaluation in C takes 0.2–1.2 µs on the tape and 0.1–0.5 µs native (a
+hand-written C function of the same system with the same LU takes about as
+long as native); called from Python, 1.2–2.2 µs and 1.1–1.5 µs.  The cache
+lives in ``$LAGRANGIAN_CACHE_DIR``, else ``$XDG_CACHE_HOME/lagrangian``,
+else ``~/.cache/lagrangian`` (:func:`cache_dir`, :func:`set_cache_dir`); it
+is safe to delete at any time — a missing or corrupt entry is rebuilt, and
 entries are written to a temporary file and renamed, so that two processes
 never see half a library.
 
 When no compiler is found, compilation fails, or the model uses a time
-signal given as a Python callable (which C cannot call), nothing crashes:
-:func:`compile_model` returns ``None`` with the reason, which
-``Model.simulate`` logs and puts in ``Result.notes`` before using the NumPy
-path.  A singular matrix met in C raises
-:class:`~lagrangian.SingularMassMatrixError`, a non-finite derivative
-:class:`~lagrangian.NumericalError`.
+signal given as a Python callable (which C cannot call) or a function the
+tape does not know, nothing crashes: :func:`compile_model` returns ``None``
+with the reason, which ``Model.simulate`` logs and puts in
+``Result.notes`` before using the NumPy path.  A singular matrix met in C
+raises :class:`~lagrangian.SingularMassMatrixError`, a non-finite
+derivative :class:`~lagrangian.NumericalError`.
 
 >>> import tempfile, lagrangian as lg
 >>> set_cache_dir(tempfile.mkdtemp())          # a private cache for this example
 >>> m = lg.Model("oscillator")
 >>> _ = m.add("mass", "m", "p", m=2)
 >>> _ = m.add("spring", "k", ("ground", "p"), k=8)
->>> compiled, note = compile_model(m.numeric())  # (None, why) without a C compiler
+>>> compiled, note = compile_model(m.numeric(), "tape")  # (None, why) without a C compiler
 >>> rhs = compiled.rhs if compiled is not None else m.numeric().rhs
 >>> rhs(0.0, np.array([1.0, 0.5]))                # (q̇, q̈ = −k q / m)
 array([ 0.5, -4. ])
@@ -76,16 +87,19 @@ from typing import Any
 import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
-from sympy.printing.c import C99CodePrinter
 
 from .component import t as time_symbol
 from .errors import ModelError, NumericalError, SingularMassMatrixError
 from .integrate import FixedStepIntegrator, Integrator, Solution, _grid
+from .tape import OPS, Program, TapeError, record
 
 __all__ = [
     "CompiledModel",
     "compile_model",
     "generate_source",
+    "programs",
+    "run_program",
+    "runtime",
     "cache_dir",
     "set_cache_dir",
     "compiler",
@@ -98,9 +112,9 @@ __all__ = [
 _log = logging.getLogger("lagrangian")
 
 #: Flags of every compilation (part of the cache key).
-FLAGS = ("-O2", "-shared", "-fPIC")
+FLAGS = ("-O2", "-ffp-contract=off", "-shared", "-fPIC")
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
-CODEGEN_VERSION = "1"
+CODEGEN_VERSION = "2"
 _DIVERGED = 1e30
 _settings: dict[str, Any] = {"cache_dir": None, "compiler": None}
 
@@ -173,40 +187,6 @@ def _compiler_identity(path: str) -> str:
 # ---------------------------------------------------------------------------
 
 
-class _Printer(C99CodePrinter):
-    """SymPy's C99 printer, with small integer powers as products (``pow`` is slow and not always inlined),
-    the model's symbols printed as C array elements (``names``), and terms left in SymPy's order."""
-
-    def __init__(self, names: dict | None = None):
-        super().__init__({"order": "none"})
-        self.names = {} if names is None else names
-
-    def _print_Symbol(self, expr):
-        name = self.names.get(expr)
-        return name if name is not None else super()._print_Symbol(expr)
-
-    def _print_Pow(self, expr):
-        base, exp = expr.as_base_exp()
-        if exp.is_Integer and 2 <= abs(int(exp)) <= 6:
-            b = self.parenthesize(base, 1000)  # always wrapped
-            prod = "*".join([f"({self._print(base)})" if not base.is_Atom else b] * abs(int(exp)))
-            return f"({prod})" if exp > 0 else f"(1.0/({prod}))"
-        return super()._print_Pow(expr)
-
-
-def _c_block(exprs: list[sp.Expr], targets: list[str], names: dict, indent: str = "    ") -> list[str]:
-    """C statements assigning ``exprs`` to ``targets``, with common subexpressions in temporaries; ``names``
-    maps the model's symbols to their C spelling (``q[0]``, ...)."""
-    printer = _Printer(names)
-    temps, reduced = sp.cse([sp.sympify(e) for e in exprs], symbols=sp.numbered_symbols("w"))
-    lines = [f"{indent}const double {printer.doprint(s)} = {printer.doprint(e)};" for s, e in temps]
-    lines += [f"{indent}{target} = {printer.doprint(e)};" for target, e in zip(targets, reduced)]
-    if printer._not_supported:
-        what = ", ".join(sorted({type(e).__name__ for e in printer._not_supported}))
-        raise _Unavailable(f"the equations use functions the C printer does not know ({what})")
-    return lines
-
-
 def _arrays(numeric) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
     """The entries of ``A`` and ``b``, and ``T, V, D, L`` and the momenta ``p = ∂L/∂q̇`` (for the Jacobi integral
     ``h = p·q̇ − L``), with the parameter values substituted."""
@@ -217,15 +197,17 @@ def _arrays(numeric) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
     return a_entries, b_entries, energies
 
 
-def generate_source(numeric) -> str:
-    """The C source of ``numeric``'s library (a :class:`~lagrangian.simulation.NumericModel`): ``lg_matrix``
-    (the entries of ``A`` and ``b``), ``lg_rhs`` (that and the LU solve: the state derivative) and
-    ``lg_energies`` (``T``, ``V``, ``D``, Jacobi integral); the stepping loops are a library of their own.
+def programs(numeric) -> tuple[Program, Program]:
+    """The two tapes (:mod:`lagrangian.tape`) of ``numeric``, recorded once and kept on it: ``A`` and ``b`` from
+    ``(t, q, q̇_inertial)``, and ``T, V, D, L, p`` from ``(t, q, q̇)``.
 
     Raises an internal error (turned into a note by :func:`compile_model`)
     when the model cannot be compiled: time signals given as Python
-    callables, or functions the C printer does not know.
+    callables, or functions the tape does not know.
     """
+    found = getattr(numeric, "_tapes", None)
+    if found is not None:
+        return found
     eq = numeric.eq
     a_entries, b_entries, energies = _arrays(numeric)
     callables = sorted({f.func.__name__ for e in [*a_entries, *b_entries, *energies] for f in sp.sympify(e).atoms(AppliedUndef)})
@@ -234,133 +216,230 @@ def generate_source(numeric) -> str:
             f"the model uses time signal(s) given as Python callables ({', '.join(callables) or 'derivatives'}), "
             f"which compiled code cannot call; give them as SymPy expressions of t to compile"
         )
+    q, v = list(eq.sym.q), list(eq.sym.v)
+    try:
+        matrix = record([*a_entries, *b_entries], [time_symbol, *q, *(v[i] for i in eq.inertial)])
+        energy = record(energies, [time_symbol, *q, *v])
+    except TapeError as exc:
+        raise _Unavailable(str(exc)) from None
+    numeric._tapes = (matrix, energy)
+    return numeric._tapes
+
+
+def generate_source(numeric) -> str:
+    """The C source of ``numeric``'s native library (a :class:`~lagrangian.simulation.NumericModel`):
+    its tapes (:func:`programs`) printed as straight-line C — ``lg_matrix`` (the entries of ``A`` and ``b``),
+    ``lg_rhs`` (that and the LU solve: the state derivative) and ``lg_energies`` (``T``, ``V``, ``D``,
+    Jacobi integral); the stepping loops are in the runtime library, shared by every model.
+    """
+    eq = numeric.eq
+    matrix, energy = programs(numeric)
     n, nI = numeric.n, numeric.nI
     first = list(eq.first_order)
-    m = int(math.isqrt(len(a_entries)))
-    q, v = eq.sym.q, eq.sym.v
-    cq = {s: f"q[{i}]" for i, s in enumerate(q)}
-    cvI = {v[i]: f"vI[{j}]" for j, i in enumerate(eq.inertial)}
-    cv = {s: f"v[{i}]" for i, s in enumerate(v)}
-    ct = {time_symbol: "t"}
-    matrix = _c_block(a_entries + b_entries, [f"A[{k}]" for k in range(m * m)] + [f"b[{k}]" for k in range(m)],
-                      {**cq, **cvI, **ct})
-    energy = _c_block(energies, ["out[0]", "out[1]", "out[2]", "L"] + [f"p[{i}]" for i in range(n)], {**cq, **cv, **ct})
+    m = int(math.isqrt(len(numeric._flat_exprs[0])))
+    inputs_m = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + j: f"vI[{j}]" for j in range(nI)}}
+    inputs_e = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + i: f"v[{i}]" for i in range(n)}}
+    body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(m * m)] + [f"b[{k}]" for k in range(m)], "    ")
+    body_e = energy.c_lines(inputs_e, [f"o[{k}]" for k in range(4 + n)], "    ")
 
     def table(values):
         return "{" + ", ".join(map(str, values or [0])) + "}"
 
     coordinates = ", ".join(numeric.eq.names).replace("*/", "* /")
-    header = f"""/* Generated by lagrangian.codegen {CODEGEN_VERSION}; coordinates {coordinates}; do not edit. */
-#include <math.h>
-#include <float.h>
-#include <string.h>
-
-#define NQ {n}
-#define NI {nI}
-#define NF {len(first)}
-#define NM {m}
-#define DIM {n + nI}
-static const int INERTIAL[] = {table(eq.inertial)};
-static const int FIRST[] = {table(first)};
-"""
-    body = [
+    return "\n".join([
+        f"/* Generated by lagrangian.codegen {CODEGEN_VERSION}; coordinates {coordinates}; do not edit. */",
+        _HEADER,
+        f"#define NQ {n}",
+        f"#define NI {nI}",
+        f"#define NF {len(first)}",
+        f"#define NM {m}",
+        f"static const int INERTIAL[] = {table(eq.inertial)};",
+        f"static const int FIRST[] = {table(first)};",
+        _SOLVE,
         "int lg_dims(int *out) { out[0] = NQ; out[1] = NI; out[2] = NM; out[3] = NF; return 0; }",
         "",
         "/* The entries of A (row-major, NM x NM) and b of the solve A u = b, u = (accelerations, first-order rates, multipliers). */",
-        "void lg_matrix(double t, const double *q, const double *vI, double *A, double *b) {",
-        *matrix,
+        "int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
+        *body_m,
+        "    return 0;",
         "}",
         "",
-        "/* T, V, D and the Jacobi integral h at (t, q, v), v: the rates of all coordinates. */",
-        "static void energy1(double t, const double *q, const double *v, double *out) {",
-        "    double L, p[NQ];",
-        *energy,
-        "    double h = -L;",
-        "    for (int i = 0; i < NQ; i++) h += v[i] * p[i];",
-        "    out[3] = h;",
+        "/* T, V, D, L and the momenta p at (t, q, v), v: the rates of all coordinates. */",
+        "static void energy_terms(double t, const double *q, const double *v, double *o) {",
+        *body_e,
         "}",
-        "",
-        _RUNTIME,
-    ]
-    return header + "\n".join(body) + "\n"
+        _NATIVE,
+    ]) + "\n"
 
 
-# The solve and the state derivative (compiled with the model, whose sizes are then constants).
-_RUNTIME = r"""
-void lg_energies(long N, const double *t, const double *q, const double *v, double *out) {
-    for (long k = 0; k < N; k++) energy1(t[k], q + k * NQ, v + k * NQ, out + 4 * k);
-}
+_HEADER = """#include <math.h>
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+"""
 
+# The solve and the state derivative: one text, in the runtime library (sizes as arguments) and in every native
+# library (sizes as constants, which the C compiler folds into the loops).
+_SOLVE = r"""
 /* LU with partial pivoting, in place; b becomes the solution. 0: solved, 1: singular, 2: not finite. */
-static int lu_solve(double *A, double *b) {
+static int lu_solve(int nm, double *A, double *b) {
     double amax = 0.0;
-    for (int i = 0; i < NM * NM; i++) {
+    for (int i = 0; i < nm * nm; i++) {
         double a = fabs(A[i]);
         if (!(a <= DBL_MAX)) return 2;
         if (a > amax) amax = a;
     }
-    const double tiny = NM * DBL_EPSILON * amax;
-    if (!(amax > 0.0)) return 1;
-    for (int k = 0; k < NM; k++) {
+    const double tiny = nm * DBL_EPSILON * amax;
+    if (nm && !(amax > 0.0)) return 1;
+    for (int k = 0; k < nm; k++) {
         int p = k;
-        double best = fabs(A[k * NM + k]);
-        for (int i = k + 1; i < NM; i++) {
-            double a = fabs(A[i * NM + k]);
+        double best = fabs(A[k * nm + k]);
+        for (int i = k + 1; i < nm; i++) {
+            double a = fabs(A[i * nm + k]);
             if (a > best) { best = a; p = i; }
         }
         if (!(best > tiny)) return best == best ? 1 : 2;
         if (p != k) {
-            for (int j = k; j < NM; j++) { double s = A[k * NM + j]; A[k * NM + j] = A[p * NM + j]; A[p * NM + j] = s; }
+            for (int j = k; j < nm; j++) { double s = A[k * nm + j]; A[k * nm + j] = A[p * nm + j]; A[p * nm + j] = s; }
             double s = b[k]; b[k] = b[p]; b[p] = s;
         }
-        const double inv = 1.0 / A[k * NM + k];
-        for (int i = k + 1; i < NM; i++) {
-            const double f = A[i * NM + k] * inv;
+        const double inv = 1.0 / A[k * nm + k];
+        for (int i = k + 1; i < nm; i++) {
+            const double f = A[i * nm + k] * inv;
             if (f != 0.0) {
-                for (int j = k + 1; j < NM; j++) A[i * NM + j] -= f * A[k * NM + j];
+                for (int j = k + 1; j < nm; j++) A[i * nm + j] -= f * A[k * nm + j];
                 b[i] -= f * b[k];
             }
         }
     }
-    for (int k = NM - 1; k >= 0; k--) {
+    for (int k = nm - 1; k >= 0; k--) {
         double s = b[k];
-        for (int j = k + 1; j < NM; j++) s -= A[k * NM + j] * b[j];
-        b[k] = s / A[k * NM + k];
+        for (int j = k + 1; j < nm; j++) s -= A[k * nm + j] * b[j];
+        b[k] = s / A[k * nm + k];
     }
     return 0;
 }
 
-/* dy/dt at (t, y), y = (q, q'_inertial). 0: fine, 1: singular matrix, 2: not finite. */
-int lg_rhs(double t, const double *y, double *dy) {
-    double A[NM * NM], b[NM];
-    const double *q = y, *vI = y + NQ;
-    lg_matrix(t, q, vI, A, b);
-    int rc = lu_solve(A, b);
-    if (rc) return rc;
-    for (int j = 0; j < NI; j++) { dy[INERTIAL[j]] = vI[j]; dy[NQ + j] = b[j]; }
-    for (int j = 0; j < NF; j++) dy[FIRST[j]] = b[NI + j];
-    for (int i = 0; i < DIM; i++) if (!isfinite(dy[i])) return 2;
+/* dy/dt from the solution u = b of A u = b at y = (q, q'_inertial). 0: fine, 2: not finite. */
+static int state_rate(int nq, int ni, int nf, const int *inertial, const int *first, const double *y, const double *b,
+                      double *dy) {
+    for (int j = 0; j < ni; j++) { dy[inertial[j]] = y[nq + j]; dy[nq + j] = b[j]; }
+    for (int j = 0; j < nf; j++) dy[first[j]] = b[ni + j];
+    for (int i = 0; i < nq + ni; i++) if (!isfinite(dy[i])) return 2;
     return 0;
 }
 
+/* T, V, D and the Jacobi integral h = p.v - L into out[0..3], from o = (T, V, D, L, p). */
+static void energy_out(int nq, const double *v, const double *o, double *out) {
+    double h = -o[3];
+    for (int i = 0; i < nq; i++) h += v[i] * o[4 + i];
+    out[0] = o[0]; out[1] = o[1]; out[2] = o[2]; out[3] = h;
+}
+"""
+
+# The native library's entry points (its sizes are constants; ctx is unused: the functions are the model).
+_NATIVE = r"""
+int lg_rhs(const void *ctx, double t, const double *y, double *dy) {
+    double A[NM * NM + 1], b[NM + 1];
+    lg_matrix(ctx, t, y, y + NQ, A, b);
+    int rc = lu_solve(NM, A, b);
+    return rc ? rc : state_rate(NQ, NI, NF, INERTIAL, FIRST, y, b, dy);
+}
+
+void lg_energies(const void *ctx, long N, const double *t, const double *q, const double *v, double *out) {
+    double o[4 + NQ];
+    for (long k = 0; k < N; k++) {
+        energy_terms(t[k], q + k * NQ, v + k * NQ, o);
+        energy_out(NQ, v + k * NQ, o, out + 4 * k);
+    }
+}
 """
 
 
-# The stepping loops: compiled once per compiler into a library of their own (model-independent), so that
-# a model compiles only its own functions.
-_LOOPS = r"""
-/* lagrangian.codegen: the stepping loops, the same for every model; they call the model's lg_rhs through f. */
-#include <math.h>
-#include <float.h>
-#include <string.h>
+def _interpreter() -> str:
+    """The C interpreter of tapes: one ``case`` per operation of :data:`lagrangian.tape.OPS`."""
+    cases = "\n".join(f"        case {k}: r[c[1]] = {template}; break;" for k, (_, template) in enumerate(OPS.values()))
+    return r"""
+/* A tape (lagrangian.tape.Program): registers = inputs, constants, temporaries; rows (op, dst, x, y, z). */
+typedef struct { int nin, nconst, ninstr, nout; const double *consts; const int *code; const int *out; } lg_prog;
+/* A model as two tapes: A and b from (t, q, q'_inertial); T, V, D, L, p from (t, q, q'). */
+typedef struct { int nq, ni, nf, nm; const int *inertial, *first; lg_prog matrix, energy; } lg_tape;
 
-typedef int (*rhs_fn)(double t, const double *y, double *dy);
+static void run(const lg_prog *p, double *r) {
+    memcpy(r + p->nin, p->consts, p->nconst * sizeof(double));
+    for (const int *c = p->code, *end = p->code + 5 * p->ninstr; c < end; c += 5) {
+        const double x = r[c[2]], y = r[c[3]], z = r[c[4]];
+        (void)y; (void)z;
+        switch (c[0]) {
+""" + cases + r"""
+        }
+    }
+}
+
+#define ON_STACK 4096
+/* Run p on the inputs (t, a[na], b[nb]); its outputs into out. 0: done, 2: out of memory. */
+static int run_on(const lg_prog *p, double t, const double *a, int na, const double *b, int nb, double *out) {
+    double stack[ON_STACK];
+    const int nreg = p->nin + p->nconst + p->ninstr + 1;
+    double *r = nreg <= ON_STACK ? stack : malloc(nreg * sizeof(double));
+    if (!r) return 2;
+    r[0] = t;
+    memcpy(r + 1, a, na * sizeof(double));
+    if (nb) memcpy(r + 1 + na, b, nb * sizeof(double));
+    run(p, r);
+    for (int k = 0; k < p->nout; k++) out[k] = r[p->out[k]];
+    if (r != stack) free(r);
+    return 0;
+}
+
+/* Run p on inputs in[nin]: its outputs into out (N sets of inputs, rows). 0: done, 2: out of memory. */
+int lg_prog_eval(const lg_prog *p, long N, const double *in, double *out) {
+    for (long k = 0; k < N; k++) {
+        const double *row = in + k * p->nin;
+        if (run_on(p, p->nin ? row[0] : 0.0, row + 1, p->nin ? p->nin - 1 : 0, row, 0, out + k * p->nout)) return 2;
+    }
+    return 0;
+}
+
+int lg_tape_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {
+    const lg_tape *m = ctx;
+    double o[m->nm * m->nm + m->nm + 1];
+    int rc = run_on(&m->matrix, t, q, m->nq, vI, m->ni, o);
+    memcpy(A, o, m->nm * m->nm * sizeof(double));
+    memcpy(b, o + m->nm * m->nm, m->nm * sizeof(double));
+    return rc;
+}
+
+int lg_tape_rhs(const void *ctx, double t, const double *y, double *dy) {
+    const lg_tape *m = ctx;
+    const int nm = m->nm;
+    double o[nm * nm + nm + 1];
+    int rc = run_on(&m->matrix, t, y, m->nq, y + m->nq, m->ni, o);
+    if (!rc) rc = lu_solve(nm, o, o + nm * nm);
+    return rc ? rc : state_rate(m->nq, m->ni, m->nf, m->inertial, m->first, y, o + nm * nm, dy);
+}
+
+void lg_tape_energies(const void *ctx, long N, const double *t, const double *q, const double *v, double *out) {
+    const lg_tape *m = ctx;
+    const int nq = m->nq;
+    double o[4 + nq];
+    for (long k = 0; k < N; k++) {
+        if (run_on(&m->energy, t[k], q + k * nq, nq, v + k * nq, nq, o)) { for (int i = 0; i < 4; i++) out[4 * k + i] = NAN; continue; }
+        energy_out(nq, v + k * nq, o, out + 4 * k);
+    }
+}
+"""
+
+
+# The stepping loops, the same for every model: they call the model's right-hand side through f(ctx, ...).
+_LOOPS = r"""
+typedef int (*rhs_fn)(const void *ctx, double t, const double *y, double *dy);
 
 /* All rates v (length nq) at many states (rows of Y, N x dim). Returns -1 or the index of the first failure. */
-long lg_velocities(rhs_fn f, int nq, int dim, long N, const double *t, const double *Y, double *V) {
+long lg_velocities(rhs_fn f, const void *ctx, int nq, int dim, long N, const double *t, const double *Y, double *V) {
     double dy[dim];
     for (long k = 0; k < N; k++) {
-        if (f(t[k], Y + k * dim, dy)) return k;
+        if (f(ctx, t[k], Y + k * dim, dy)) return k;
         memcpy(V + k * nq, dy, nq * sizeof(double));
     }
     return -1;
@@ -381,7 +460,7 @@ static void fail_at(int dim, double *fail, double t, const double *y) { fail[0] 
 
 /* Dormand-Prince 5(4) with error control (as scipy's RK45) and its quartic dense output on tout.
    Status: 0 done; 1 singular matrix, 2 not finite, 3 step size too small, 4 diverged (state at fail). */
-int lg_dopri5(rhs_fn f, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
+int lg_dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
               double max_step, double first_step, double *Y, long *counts, double *fail) {
     static const double C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
     static const double A[7][6] = {
@@ -406,7 +485,7 @@ int lg_dopri5(rhs_fn f, int dim, double t0, double t1, const double *y0, long no
     memcpy(y, y0, sizeof y);
     for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
     limit *= 1e30;
-    rc = f(t, y, K[0]); nfev++;
+    rc = f(ctx, t, y, K[0]); nfev++;
     if (rc) { fail_at(dim, fail, t, y); counts[0] = nfev; return rc; }
     while (o < nout && tout[o] <= t0) { memcpy(Y + o * dim, y, sizeof y); o++; }
     double h = first_step;
@@ -416,7 +495,7 @@ int lg_dopri5(rhs_fn f, int dim, double t0, double t1, const double *y0, long no
         h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
         if (h0 > t1 - t0) h0 = t1 - t0;
         for (int i = 0; i < dim; i++) ys[i] = y[i] + h0 * K[0][i];
-        rc = f(t + h0, ys, f1); nfev++;
+        rc = f(ctx, t + h0, ys, f1); nfev++;
         double d2 = 0.0;
         if (!rc) { for (int i = 0; i < dim; i++) err[i] = f1[i] - K[0][i]; d2 = rms_scaled(dim, err, scale) / h0; }
         double dm = d1 > d2 ? d1 : d2, h1;
@@ -443,7 +522,7 @@ int lg_dopri5(rhs_fn f, int dim, double t0, double t1, const double *y0, long no
                     for (int j = 0; j < s; j++) acc += A[s][j] * K[j][i];
                     target[i] = y[i] + hstep * acc;
                 }
-                rc = f(s == 6 ? tnew : t + C[s] * hstep, target, K[s]); nfev++;
+                rc = f(ctx, s == 6 ? tnew : t + C[s] * hstep, target, K[s]); nfev++;
                 if (rc == 1) { fail_at(dim, fail, t + C[s] * hstep, target); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 1; }
                 if (rc) bad = 1;
             }
@@ -499,7 +578,7 @@ int lg_dopri5(rhs_fn f, int dim, double t0, double t1, const double *y0, long no
    separable models only: A constant, b independent of the velocities). Outputs tout: a step's state when
    within 1e-7 h of it, else cubic Hermite interpolation between the neighbouring steps.
    Status as lg_dopri5 (4: diverged). */
-int lg_fixed(rhs_fn f, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,
+int lg_fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,
              long *counts, double *fail) {
     double y[dim], ynew[dim], fv[dim], fnew[dim], k2[dim], k3[dim], k4[dim], ys[dim];
     long nfev = 0, o = 0;
@@ -508,25 +587,25 @@ int lg_fixed(rhs_fn f, int nq, int dim, int method, double t0, double h, long N,
     memcpy(y, y0, sizeof y);
     for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
     limit *= 1e30;
-    rc = f(t0, y, fv); nfev++;
+    rc = f(ctx, t0, y, fv); nfev++;
     if (rc) { fail_at(dim, fail, t0, y); counts[0] = nfev; return rc; }
     while (o < nout && (tout[o] - t0) / h < 1e-7) { memcpy(Y + o * dim, y, sizeof y); o++; }
     for (long k = 1; k <= N && o < nout; k++) {
         const double t = t0 + (k - 1) * h, tn = t0 + k * h;
         if (method == 0) {
             for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * fv[i];
-            if ((rc = f(t + 0.5 * h, ys, k2))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
+            if ((rc = f(ctx, t + 0.5 * h, ys, k2))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
             for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * k2[i];
-            if ((rc = f(t + 0.5 * h, ys, k3))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
+            if ((rc = f(ctx, t + 0.5 * h, ys, k3))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
             for (int i = 0; i < dim; i++) ys[i] = y[i] + h * k3[i];
-            if ((rc = f(tn, ys, k4))) { fail_at(dim, fail, tn, ys); break; }
+            if ((rc = f(ctx, tn, ys, k4))) { fail_at(dim, fail, tn, ys); break; }
             for (int i = 0; i < dim; i++) ynew[i] = y[i] + h / 6.0 * (fv[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
             nfev += 3;
-            if ((rc = f(tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
+            if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
             nfev++;
         } else {  /* y = (q, v), f = (v, a): v += h/2 a; q += h v; a = a(q); v += h/2 a */
             for (int i = 0; i < nq; i++) { ynew[nq + i] = y[nq + i] + 0.5 * h * fv[nq + i]; ynew[i] = y[i] + h * ynew[nq + i]; }
-            if ((rc = f(tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
+            if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
             nfev++;
             for (int i = 0; i < nq; i++) { ynew[nq + i] += 0.5 * h * fnew[nq + i]; fnew[i] = ynew[nq + i]; }
         }
@@ -549,6 +628,15 @@ int lg_fixed(rhs_fn f, int nq, int dim, int method, double t0, double h, long N,
     return rc;
 }
 """
+
+
+
+def _runtime_source() -> str:
+    """The runtime library: the tape interpreter and the stepping loops (model-independent: compiled once per
+    compiler and kept in the cache)."""
+    return "\n".join([f"/* lagrangian.codegen {CODEGEN_VERSION}: runtime (tape interpreter, stepping loops); do not edit. */",
+                      _HEADER, _SOLVE, _interpreter(), _LOOPS])
+
 
 # ---------------------------------------------------------------------------
 # Build, cache, load
@@ -627,18 +715,17 @@ def _finish(directory: Path, job: tuple, cc: str) -> ctypes.CDLL:
     return ctypes.CDLL(str(directory / f"{key}.so"))
 
 
-def _libraries(directory: Path, source: str, cc: str) -> tuple[ctypes.CDLL, ctypes.CDLL, str, bool]:
-    """The model's library and the stepping loops' library, from the cache or compiled (both at once)."""
-    key, loops_key = _key(source, cc), "loops-" + _key(_LOOPS, cc)
-    found = {name: _load_cached(directory, k) for name, k in (("model", key), ("loops", loops_key))}
-    missing = {name: (k, text) for name, k, text in (("model", key, source), ("loops", loops_key, _LOOPS))
-               if found[name] is None}
+def _libraries(directory: Path, wanted: dict[str, tuple[str, str]], cc: str) -> dict[str, tuple[ctypes.CDLL, bool]]:
+    """``{name: (library, from_cache)}`` for ``wanted`` ``{name: (key, source)}``: each from the cache, or
+    compiled (all the missing ones at once, in parallel)."""
+    found = {name: _load_cached(directory, key) for name, (key, _) in wanted.items()}
+    missing = [name for name, lib in found.items() if lib is None]
     if missing:
         directory.mkdir(parents=True, exist_ok=True)
         jobs, failure = {}, None
-        for name, (k, text) in missing.items():
+        for name in missing:
             try:
-                jobs[name] = _start(directory, k, text, cc)
+                jobs[name] = _start(directory, *wanted[name], cc)
             except _Unavailable as exc:
                 failure = failure or exc
         for name, job in jobs.items():  # finish every job started, even after a failure
@@ -648,19 +735,53 @@ def _libraries(directory: Path, source: str, cc: str) -> tuple[ctypes.CDLL, ctyp
                 failure = failure or exc
         if failure is not None:
             raise failure
-    return found["model"], found["loops"], key, "model" not in missing
+    return {name: (lib, name not in missing) for name, lib in found.items()}
 
 
-def compile_model(numeric) -> tuple[CompiledModel | None, str | None]:
-    """``(CompiledModel, None)`` for ``numeric``, from the cache or freshly built; ``(None, reason)`` when it cannot be.
+def runtime() -> Path:
+    """Build the runtime library (tape interpreter and stepping loops) now if it is not in the cache, and return
+    its path — what an installation step or a container image would run once, so that no model ever waits for
+    the C compiler unless it asks for native code.
+
+    Raises :class:`~lagrangian.ModelError` with the reason when there is no
+    usable C compiler or cache directory.
+    """
+    cc = compiler()
+    if cc is None:
+        raise ModelError("no C compiler found (none of cc, gcc, clang on the PATH, or LAGRANGIAN_CC); install one.")
+    directory, source = cache_dir(), _runtime_source()
+    key = "runtime-" + _key(source, cc)
+    try:
+        _libraries(directory, {"runtime": (key, source)}, cc)
+    except (_Unavailable, OSError) as exc:
+        raise ModelError(f"the runtime library could not be built in {directory}: {exc}") from None
+    return directory / f"{key}.so"
+
+
+#: What ``compile_model`` can build: native code, the tape interpreter, or whichever is ready at once.
+KINDS = ("native", "tape", "auto")
+
+
+def compile_model(numeric, kind: str = "native") -> tuple[CompiledModel | None, str | None]:
+    """``(CompiledModel, None)`` for ``numeric``, or ``(None, reason)`` when it cannot be compiled here.
+
+    ``kind``: ``"native"`` — the model's tapes printed as C and compiled
+    into a library of its own (from the cache when built before; else a C
+    compilation of 0.1–0.5 s); ``"tape"`` — the tapes run by the runtime
+    library's interpreter, which is the same for every model (compiled once
+    per compiler, then cached), so nothing is compiled per model; ``"auto"``
+    — the native library when it is already in the cache, else the tape.
 
     Never raises for a missing compiler, a failed compilation, an
     unwritable cache or callable signals: the reason comes back (and is
     logged) so that the caller can use the NumPy path.
     """
+    if kind not in KINDS:
+        raise ModelError(f"compile_model: kind must be one of {', '.join(map(repr, KINDS))}, not {kind!r}.")
     start = time.perf_counter()
     try:
-        source = generate_source(numeric)
+        programs(numeric)
+        source = generate_source(numeric) if kind != "tape" else None
         codegen_s = time.perf_counter() - start
         cc = compiler()
         if cc is None:
@@ -668,59 +789,142 @@ def compile_model(numeric) -> tuple[CompiledModel | None, str | None]:
             raise _Unavailable(f"no C compiler found ({f'{wanted!r} is not a program on the PATH' if wanted else 'none of cc, gcc, clang on the PATH'}); "
                                f"install one or set LAGRANGIAN_CC")
         directory = cache_dir()
+        runtime = _runtime_source()
+        libraries = {"runtime": ("runtime-" + _key(runtime, cc), runtime)}
+        if source is not None:
+            key = _key(source, cc)
+            if kind == "native" or (directory / f"{key}.so").exists():
+                libraries["model"] = (key, source)
         try:
-            lib, loops, key, from_cache = _libraries(directory, source, cc)
+            built = _libraries(directory, libraries, cc)
         except OSError as exc:
             raise _Unavailable(f"the cache directory {directory} is not usable ({exc}); set LAGRANGIAN_CACHE_DIR") from None
     except _Unavailable as exc:
         note = f"compiled code not used ({exc}): the NumPy path evaluates the model instead"
         _log.info(note)
         return None, note
-    compiled = CompiledModel(numeric, lib, loops, key, directory / f"{key}.so", from_cache=from_cache,
-                             codegen_seconds=codegen_s, build_seconds=time.perf_counter() - start)
+    name = "model" if "model" in built else "runtime"
+    lib, from_cache = built[name]
+    compiled = CompiledModel(numeric, built["runtime"][0], lib if name == "model" else None, libraries[name][0],
+                             directory / f"{libraries[name][0]}.so", from_cache=from_cache, codegen_seconds=codegen_s,
+                             build_seconds=time.perf_counter() - start)
     return compiled, None
+
+
+class _Prog(ctypes.Structure):
+    _fields_ = [("nin", ctypes.c_int), ("nconst", ctypes.c_int), ("ninstr", ctypes.c_int), ("nout", ctypes.c_int),
+                ("consts", ctypes.c_void_p), ("code", ctypes.c_void_p), ("out", ctypes.c_void_p)]
+
+
+class _Tape(ctypes.Structure):
+    _fields_ = [("nq", ctypes.c_int), ("ni", ctypes.c_int), ("nf", ctypes.c_int), ("nm", ctypes.c_int),
+                ("inertial", ctypes.c_void_p), ("first", ctypes.c_void_p), ("matrix", _Prog), ("energy", _Prog)]
+
+
+def run_program(program: Program, inputs) -> np.ndarray:
+    """Run a tape (:class:`lagrangian.tape.Program`) in the runtime library's C interpreter: ``inputs`` one row
+    per evaluation (``N × n_inputs``, or one row), the outputs ``N × n_outputs`` (or one row).  The interpreter
+    models run on, exposed for checking tapes against other evaluations.
+
+    >>> import sympy as sp
+    >>> from lagrangian.tape import record
+    >>> x = sp.Symbol("x")
+    >>> tape = record([sp.cos(x) ** 2 + sp.sin(x) ** 2, x ** 3], [x])
+    >>> out = run_program(tape, [[0.5], [2.0]]) if compiler() else np.array([tape.evaluate([0.5]), tape.evaluate([2.0])])
+    >>> out.round(12).tolist()                         # (the Python reference when there is no C compiler)
+    [[1.0, 0.125], [1.0, 8.0]]
+    """
+    lib = ctypes.CDLL(str(runtime()))
+    rows = np.atleast_2d(np.asarray(inputs, dtype=float))
+    if rows.shape[1] != program.n_inputs:
+        raise ModelError(f"run_program: the tape has {program.n_inputs} inputs, the rows have {rows.shape[1]}.")
+    rows = np.ascontiguousarray(rows)
+    keep = [np.ascontiguousarray(a if len(a) else [0], dtype=d) for a, d in
+            ((program.constants, np.float64), (program.code.ravel(), np.int32), (program.outputs, np.int32))]
+    prog = _Prog(program.n_inputs, len(program.constants), len(program.code), program.n_outputs,
+                 *(a.ctypes.data for a in keep))
+    out = np.empty((rows.shape[0], program.n_outputs))
+    lib.lg_prog_eval.argtypes, lib.lg_prog_eval.restype = [ctypes.c_void_p, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p], ctypes.c_int
+    if lib.lg_prog_eval(ctypes.addressof(prog), rows.shape[0], rows.ctypes.data, out.ctypes.data):
+        raise NumericalError("run_program: out of memory for the tape's registers")
+    return out if np.ndim(inputs) == 2 else out[0]
 
 
 class CompiledModel:
     """The compiled functions of one :class:`~lagrangian.simulation.NumericModel` (see :func:`compile_model`).
 
-    ``from_cache`` says whether the library came from the disk cache (else
-    it was just built); ``path`` is the library; ``key`` its cache key;
-    ``codegen_seconds`` and ``build_seconds`` the time spent generating the
-    source and, in all, getting the library.
+    ``kind`` is ``"native"`` (the model's own library) or ``"tape"`` (its
+    tapes run by the shared interpreter); ``from_cache`` says whether the
+    library came from the disk cache (else it was just built); ``path`` is
+    the library; ``key`` its cache key; ``codegen_seconds`` and
+    ``build_seconds`` the time spent recording and printing the tapes and,
+    in all, getting the library.
     """
 
-    def __init__(self, numeric, lib: ctypes.CDLL, loops: ctypes.CDLL, key: str, path: Path, *, from_cache: bool,
-                 codegen_seconds: float, build_seconds: float):
-        self.numeric, self.lib, self.loops, self.key, self.path = numeric, lib, loops, key, path
+    def __init__(self, numeric, runtime: ctypes.CDLL, lib: ctypes.CDLL | None, key: str, path: Path, *,
+                 from_cache: bool, codegen_seconds: float, build_seconds: float):
+        self.numeric, self.loops, self.lib, self.key, self.path = numeric, runtime, lib, key, path
+        self.kind = "tape" if lib is None else "native"
         self.from_cache, self.codegen_seconds, self.build_seconds = from_cache, codegen_seconds, build_seconds
         self.n, self.nI, self.dim = numeric.n, numeric.nI, numeric.n + numeric.nI
-        dims = (ctypes.c_int * 4)()
-        lib.lg_dims(dims)
-        self.m = dims[2]
-        if (dims[0], dims[1]) != (self.n, self.nI):  # pragma: no cover - a stale or foreign library
-            raise NumericalError(f"the compiled library {path} does not belong to this model; delete it and retry.")
-        dbl, ptr, lng = ctypes.c_double, ctypes.c_void_p, ctypes.c_long
-        lib.lg_rhs.argtypes, lib.lg_rhs.restype = [dbl, ptr, ptr], ctypes.c_int
-        lib.lg_matrix.argtypes, lib.lg_matrix.restype = [dbl, ptr, ptr, ptr, ptr], None
-        lib.lg_energies.argtypes, lib.lg_energies.restype = [lng, ptr, ptr, ptr, ptr], None
-        cint = ctypes.c_int
-        loops.lg_velocities.argtypes, loops.lg_velocities.restype = [ptr, cint, cint, lng, ptr, ptr, ptr], lng
-        loops.lg_dopri5.argtypes = [ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, ptr, ptr, ptr]
-        loops.lg_dopri5.restype = cint
-        loops.lg_fixed.argtypes = [ptr, cint, cint, cint, dbl, dbl, lng, ptr, lng, ptr, ptr, ptr, ptr]
-        loops.lg_fixed.restype = cint
-        self._rhs_c = lib.lg_rhs
-        self._rhs_ptr = ctypes.cast(lib.lg_rhs, ctypes.c_void_p).value  # what the loops call
+        self.m = int(math.isqrt(len(numeric._flat_exprs[0])))
+        dbl, ptr, lng, cint = ctypes.c_double, ctypes.c_void_p, ctypes.c_long, ctypes.c_int
+        if lib is not None:
+            dims = (ctypes.c_int * 4)()
+            lib.lg_dims(dims)
+            if (dims[0], dims[1], dims[2]) != (self.n, self.nI, self.m):  # pragma: no cover - a stale or foreign library
+                raise NumericalError(f"the compiled library {path} does not belong to this model; delete it and retry.")
+            rhs, matrix, energies = lib.lg_rhs, lib.lg_matrix, lib.lg_energies
+            self._ctx = None
+        else:
+            rhs, matrix, energies = runtime.lg_tape_rhs, runtime.lg_tape_matrix, runtime.lg_tape_energies
+            self._ctx, self._keep = self._tape(numeric)
+        rhs.argtypes, rhs.restype = [ptr, dbl, ptr, ptr], cint
+        matrix.argtypes, matrix.restype = [ptr, dbl, ptr, ptr, ptr, ptr], cint
+        energies.argtypes, energies.restype = [ptr, lng, ptr, ptr, ptr, ptr], None
+        runtime.lg_velocities.argtypes, runtime.lg_velocities.restype = [ptr, ptr, cint, cint, lng, ptr, ptr, ptr], lng
+        runtime.lg_dopri5.argtypes = [ptr, ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, ptr, ptr, ptr]
+        runtime.lg_dopri5.restype = cint
+        runtime.lg_fixed.argtypes = [ptr, ptr, cint, cint, cint, dbl, dbl, lng, ptr, lng, ptr, ptr, ptr, ptr]
+        runtime.lg_fixed.restype = cint
+        self._rhs_c, self._matrix_c, self._energies_c = rhs, matrix, energies
+        self._rhs_ptr = ctypes.cast(rhs, ctypes.c_void_p).value  # what the loops call
         self._y = np.zeros(max(self.dim, 1))
         self._dy = np.zeros(max(self.dim, 1))
         self._yp, self._dyp = self._y.ctypes.data, self._dy.ctypes.data
+
+    def _tape(self, numeric) -> tuple[int, list]:
+        """The interpreter's description of this model (a C struct pointing into arrays kept alive here)."""
+        eq = numeric.eq
+        keep: list = []
+
+        def array(values, dtype):
+            a = np.ascontiguousarray(values if len(values) else [0], dtype=dtype)
+            keep.append(a)
+            return a.ctypes.data
+
+        def prog(p: Program) -> _Prog:
+            return _Prog(p.n_inputs, len(p.constants), len(p.code), p.n_outputs, array(p.constants, np.float64),
+                         array(p.code.ravel(), np.int32), array(p.outputs, np.int32))
+
+        matrix, energy = programs(numeric)
+        tape = _Tape(self.n, self.nI, len(eq.first_order), self.m, array(eq.inertial, np.int32),
+                     array(list(eq.first_order), np.int32), prog(matrix), prog(energy))
+        keep.append(tape)
+        return ctypes.addressof(tape), keep
+
+    def describe(self) -> str:
+        """What evaluates the model: ``native code (<key>.so, from the cache)`` or ``the tape interpreter (…)``."""
+        if self.kind == "native":
+            return f"native code ({self.path.name}{', from the cache' if self.from_cache else ', built now'})"
+        matrix, _ = programs(self.numeric)
+        return f"the tape interpreter ({len(matrix.code)} instructions per evaluation; nothing compiled for this model)"
 
     # -- one state ----------------------------------------------------------------
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """``dy/dt`` at ``(t, y)``, ``y = (q, q̇_inertial)``: the same as ``NumericModel.rhs``, in C."""
         self._y[: self.dim] = y
-        rc = self._rhs_c(t, self._yp, self._dyp)
+        rc = self._rhs_c(self._ctx, t, self._yp, self._dyp)
         if rc:
             self._raise(rc, t, self._y[: self.dim].copy())
         return self._dy[: self.dim].copy()
@@ -730,7 +934,7 @@ class CompiledModel:
         A, b = np.zeros((self.m, self.m)), np.zeros(self.m)
         q = np.ascontiguousarray(q, dtype=float)
         vI = np.ascontiguousarray(vI, dtype=float)
-        self.lib.lg_matrix(t, q.ctypes.data, vI.ctypes.data if vI.size else None, A.ctypes.data, b.ctypes.data)
+        self._matrix_c(self._ctx, t, q.ctypes.data, vI.ctypes.data if vI.size else None, A.ctypes.data, b.ctypes.data)
         return A, b
 
     def _raise(self, rc: int, t: float, y: np.ndarray):
@@ -748,11 +952,11 @@ class CompiledModel:
         times = np.ascontiguousarray(times, dtype=float)
         rows = np.ascontiguousarray(np.asarray(Y, dtype=float).T)
         out = np.empty((times.size, self.n))
-        k = self.loops.lg_velocities(self._rhs_ptr, self.n, self.dim, times.size, times.ctypes.data, rows.ctypes.data,
+        k = self.loops.lg_velocities(self._rhs_ptr, self._ctx, self.n, self.dim, times.size, times.ctypes.data, rows.ctypes.data,
                                      out.ctypes.data)
         if k >= 0:
             dy = np.empty(self.dim)
-            self._raise(self.lib.lg_rhs(times[k], rows[k].ctypes.data, dy.ctypes.data) or 2, times[k], rows[k])
+            self._raise(self._rhs_c(self._ctx, times[k], rows[k].ctypes.data, dy.ctypes.data) or 2, times[k], rows[k])
         return out.T.copy()
 
     def _energies(self, times, q, v) -> np.ndarray:
@@ -760,7 +964,7 @@ class CompiledModel:
         qr = np.ascontiguousarray(np.asarray(q, dtype=float).T)
         vr = np.ascontiguousarray(np.asarray(v, dtype=float).T)
         out = np.empty((times.size, 4))
-        self.lib.lg_energies(times.size, times.ctypes.data, qr.ctypes.data, vr.ctypes.data, out.ctypes.data)
+        self._energies_c(self._ctx, times.size, times.ctypes.data, qr.ctypes.data, vr.ctypes.data, out.ctypes.data)
         return out
 
     def energies(self, times: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -790,7 +994,7 @@ class CompiledModel:
         Y = np.full((t_eval.size, self.dim), np.nan)
         counts = np.zeros(3, dtype=np.int64)  # long is 64-bit on the platforms we build on
         fail = np.zeros(self.dim + 1)
-        status = self.loops.lg_dopri5(self._rhs_ptr, self.dim, float(t_span[0]), float(t_span[1]), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
+        status = self.loops.lg_dopri5(self._rhs_ptr, self._ctx, self.dim, float(t_span[0]), float(t_span[1]), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
                                     float(rtol), float(atol), float(max_step) if math.isfinite(max_step) else 1e300,
                                     float(first_step or 0.0), Y.ctypes.data, counts.ctypes.data, fail.ctypes.data)
         message = self._run(status, fail, "dopri5_c") if status else ""
@@ -804,7 +1008,7 @@ class CompiledModel:
         counts = np.zeros(2, dtype=np.int64)
         fail = np.zeros(self.dim + 1)
         code = {"rk4": 0, "verlet": 1}[method]
-        status = self.loops.lg_fixed(self._rhs_ptr, self.n, self.dim, code, float(t0), float(h), int(N), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
+        status = self.loops.lg_fixed(self._rhs_ptr, self._ctx, self.n, self.dim, code, float(t0), float(h), int(N), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
                                    Y.ctypes.data, counts.ctypes.data, fail.ctypes.data)
         message = self._run(status, fail, method) if status else ""
         return Y.T, int(counts[0]), message
@@ -823,6 +1027,17 @@ def _compiled_or_note(problem, name: str, sibling) -> tuple[CompiledModel | None
         _log.info(note)
         return None, note
     return compiled, None
+
+
+#: Evaluations beyond which a run on the tape says that native code would be worth its compilation.
+LONG_RUN = 500_000
+
+
+def _long_run_hint(compiled: CompiledModel, nfev: int) -> list[str]:
+    if compiled.kind != "tape" or nfev < LONG_RUN:
+        return []
+    return [f"a long run ({nfev} evaluations): compiled=True builds native code for this model, about twice as fast "
+            f"per evaluation as the tape, compiled once (0.1–0.5 s) and then kept in the cache for every later run"]
 
 
 class CompiledDormandPrince(Integrator):
@@ -866,8 +1081,8 @@ class CompiledDormandPrince(Integrator):
         problem.report(float(t_span[1]))
         done = np.all(np.isfinite(Y), axis=0)
         count = int(np.argmin(done)) if not done.all() else t_eval.size
-        notes = [f"{self.name}: {nstep} steps in compiled code ({compiled.path.name}"
-                 f"{', from the cache' if compiled.from_cache else ', built now'})"]
+        notes = [f"{self.name}: {nstep} steps in compiled code, the model evaluated by {compiled.describe()}",
+                 *_long_run_hint(compiled, nfev)]
         return Solution(np.asarray(t_eval)[:count], Y[:, :count], nfev, -1 if message else 0, message, notes)
 
 
@@ -918,5 +1133,6 @@ class CompiledFixedStep(FixedStepIntegrator):
         between = int(np.sum(np.abs(k - np.rint(k)) >= 1e-7))
         if between:
             notes.append(f"{between} output time(s) fall between steps: cubic Hermite interpolation (error O(h⁴))")
-        notes.append(f"{self.name}: {N} steps in compiled code ({compiled.path.name})")
+        notes.append(f"{self.name}: {N} steps in compiled code, the model evaluated by {compiled.describe()}")
+        notes += _long_run_hint(compiled, nfev)
         return Solution(t_eval[:count], Y[:, :count], nfev, -1 if message else 0, message, notes, h)

@@ -355,6 +355,21 @@ class Problem:
                 "f": eq.f.xreplace(subs), "A": eq.A.xreplace(subs), "b": eq.b.xreplace(subs), "q": q, "v": v}
 
     @functools.cached_property
+    def _conservative(self) -> tuple[bool, str]:
+        """Whether the energy is conserved, and why not (the cheap part of :attr:`structure`, which the energy
+        check needs on every run: no derivatives taken)."""
+        eq, values = self.numeric.eq, self.numeric.values
+        subs = {s: sp.Float(v) for s, v in values.items()}
+        reasons = []
+        if eq.D.xreplace(subs) != 0:
+            reasons.append("it dissipates energy (Rayleigh function D ≠ 0)")
+        if any(x.xreplace(subs) != 0 for x in eq.Q):
+            reasons.append("applied forces or sources do work on it (generalized forces Q ≠ 0)")
+        if eq.L.xreplace(subs).has(time_symbol):
+            reasons.append("its Lagrangian depends on time (prescribed motions or time-varying parameters)")
+        return not reasons and not self.constrained, "; ".join(reasons)
+
+    @functools.cached_property
     def structure(self) -> Structure:
         """The :class:`Structure` of this problem (derived symbolically once)."""
         s = self._sym
@@ -388,16 +403,9 @@ class Problem:
             if not sources:
                 sources.append("velocity-dependent applied forces")
             why["velocity_free"] = f"its forces depend on the velocities of {listed(f_dep)} through {' and '.join(sources)}"
-        reasons = []
-        if s["D"] != 0:
-            reasons.append("it dissipates energy (Rayleigh function D ≠ 0)")
-        if any(x != 0 for x in s["Q"]):
-            reasons.append("applied forces or sources do work on it (generalized forces Q ≠ 0)")
-        if s["L"].has(time_symbol):
-            reasons.append("its Lagrangian depends on time (prescribed motions or time-varying parameters)")
-        conservative = not reasons and not self.constrained
+        conservative, reasons = self._conservative
         if reasons:
-            why["conservative"] = "; ".join(reasons)
+            why["conservative"] = reasons
         A, b = s["A"], s["b"]
         autonomous = not A.has(time_symbol) and not b.has(time_symbol)
         state = q + [v[i] for i in self.inertial]
@@ -799,7 +807,7 @@ def integrate(
     q = sol_y[:n]
     T, V, D = numeric.energies(sol_t, q, v)
     all_notes = [*notes, *sol.notes]
-    if problem.structure.conservative and sol_t.size > 1 and energy_tol is not False:
+    if problem._conservative[0] and sol_t.size > 1 and energy_tol is not False:
         all_notes.append(_energy_check(problem, integrator, sol_t, q, v, T, V, options, energy_tol, model))
     return Result(
         evaluator=numeric.evaluate,

@@ -331,19 +331,24 @@ class Model:
         otherwise — and says what and why in ``Result.method`` and
         ``Result.notes`` (see :func:`lagrangian.integrate.choose`).
 
-        ``compiled`` chooses how the right-hand side is evaluated for methods
-        stepped in Python: ``True`` — C code generated and compiled once
-        (:mod:`lagrangian.codegen`; cached on disk, so later runs of the same
-        model load it at once), falling back to NumPy with a note in
-        ``Result.notes`` when there is no C compiler; ``False`` — NumPy;
-        ``"auto"`` (default) — compiled code when this model has already been
-        compiled in this process (by ``compiled=True`` or a ``*_c`` method),
-        NumPy otherwise.  Measured on the n-link pendulum (n = 3–10), a first
-        compilation costs 0.2–0.6 s and saves 10–35 µs per evaluation (about
-        1–2 µs instead of 11–35), so it pays only beyond 2–5·10⁴ evaluations,
-        more than most runs take; for long runs the methods with a compiled
-        stepping loop (``dopri5_c``, ``rk4_c``, ``verlet_c``) are faster
-        still, and always use compiled code.
+        ``compiled`` chooses how the right-hand side, the energies and the
+        outputs are evaluated (:mod:`lagrangian.codegen`): ``"auto"``
+        (default) — this model's native library when it has been built
+        before (in this process or in the disk cache), else its tapes run by
+        the tape interpreter, which is compiled once per machine and shared by
+        every model, so nothing is compiled for the model and it runs the
+        moment its equations are derived; ``"tape"`` — always the tape;
+        ``True`` (or ``"native"``) — native code: the model's tapes printed as
+        C and compiled once (0.1–0.5 s; cached on disk, so later runs of the
+        same model load it at once), about twice as fast per evaluation as the
+        tape, which pays for runs beyond 10⁵–10⁶ evaluations; ``False`` —
+        NumPy.  Without a C compiler, or for a model with Python-callable
+        signals, compiled code falls back to NumPy (with a note in
+        ``Result.notes`` when it was asked for).  Measured on the n-link
+        pendulum (n = 3–10): 1.2–2.2 µs per evaluation from Python on the
+        tape, 1.1–1.5 native, 11–44 with NumPy; in the stepping loops of
+        ``dopri5_c``, ``rk4_c`` and ``verlet_c``, 0.2–1.2 µs on the tape and
+        0.1–0.5 native.
 
         >>> import lagrangian as lg
         >>> m = lg.Model("free fall")
@@ -443,9 +448,9 @@ class Model:
         integrator = resolve(method, self.registry.integrators)
         span = self._span(t_end)
         numeric = self.numeric(params)
-        auto = numeric._compiled is not None or getattr(integrator, "needs_compiled", False)
-        note = numeric.use_compiled(auto if compiled == "auto" else compiled)
-        if note and compiled is True:  # a method with a compiled loop says so itself
+        note = numeric.use_compiled(compiled)
+        if note and not getattr(integrator, "needs_compiled", False):  # compiled code asked for, not usable (a
+            # method with a compiled loop says so itself)
             notes = [*notes, note]
         y0, defaulted = initial_state(self.eq, initial or {}, velocity or {})
         self._check_constraints(numeric, span[0], y0)

@@ -61,8 +61,8 @@ class NumericModel:
         self.nI = len(eq.inertial)
         self.values = dict(values)
         self.signals = dict(signals)
-        self._compiled: Any = None  # lagrangian.codegen.CompiledModel, once compile() has built it
-        self._compile_tried = False
+        self._builds: dict[str, Any] = {}  # kind → lagrangian.codegen.CompiledModel (or None: cannot), see compile()
+        self._mode = "auto"  # what compile() builds when a method with a compiled loop asks (use_compiled sets it)
         self.compile_note: str | None = None
         self._fast: Any = None  # the CompiledModel that rhs() and energies() use (use_compiled)
 
@@ -77,25 +77,38 @@ class NumericModel:
         return _lambdify(args, energies, self.signals)
 
     # -- compiled code (lagrangian.codegen) ------------------------------------------
-    def compile(self) -> Any:
-        """This model's compiled C functions (a :class:`lagrangian.codegen.CompiledModel`), built or
-        loaded from the disk cache on first call; None when the model cannot be compiled here (no C
-        compiler, Python-callable signals, ...), with the reason in ``compile_note``."""
-        if not self._compile_tried:
+    def compile(self, kind: str | None = None) -> Any:
+        """This model's compiled functions (a :class:`lagrangian.codegen.CompiledModel`), built once per kind:
+        ``"native"`` (its own C library, compiled or from the disk cache), ``"tape"`` (the shared tape
+        interpreter: nothing compiled for this model), ``"auto"`` (native when already built or in the cache,
+        else the tape); ``None``: the kind :meth:`use_compiled` chose.  ``None`` comes back when the model cannot
+        be compiled here (no C compiler, Python-callable signals, ...), with the reason in ``compile_note``."""
+        kind = kind or self._mode
+        if kind == "auto" and self._builds.get("native") is not None:
+            return self._builds["native"]
+        if kind not in self._builds:
             from .codegen import compile_model
 
-            self._compiled, self.compile_note = compile_model(self)
-            self._compile_tried = True
-        return self._compiled
+            built, note = compile_model(self, kind)
+            self._builds[kind] = built
+            if built is not None:
+                self._builds.setdefault(built.kind, built)
+            if note:
+                self.compile_note = note
+        return self._builds[kind]
 
     def use_compiled(self, compiled: bool | str) -> str | None:
-        """Evaluate :meth:`rhs`, :meth:`velocities_many` and :meth:`energies` with compiled code
-        (``True``) or NumPy (``False``, or ``"auto"``: see ``Model.simulate``); a note when
-        compiled code was asked for but cannot be used."""
-        if compiled not in (True, False, "auto"):
-            raise ModelError(f"compiled must be True, False or 'auto', not {compiled!r}.")
-        self._fast = self.compile() if compiled is True else None
-        return self.compile_note if compiled is True and self._fast is None else None
+        """Evaluate :meth:`rhs`, :meth:`velocities_many` and :meth:`energies` with compiled code (``True`` or
+        ``"native"``: native; ``"tape"``: the tape interpreter; ``"auto"``: whichever :meth:`compile` has at
+        once) or NumPy (``False``); see ``Model.simulate``.  A note when compiled code was asked for
+        but cannot be used."""
+        kinds = {True: "native", "native": "native", "tape": "tape", "auto": "auto", False: None}
+        if not any(compiled is k or (isinstance(k, str) and compiled == k) for k in kinds):
+            raise ModelError(f"compiled must be True, False, 'auto', 'native' or 'tape', not {compiled!r}.")
+        kind = kinds[compiled]
+        self._mode = kind or "auto"
+        self._fast = self.compile(kind) if kind else None
+        return self.compile_note if compiled not in (False, "auto") and self._fast is None else None
 
     def solve(self, time: float, qv: np.ndarray, vI: np.ndarray) -> np.ndarray:
         """``u = (q̈_inertial, q̇_first_order)`` at one instant."""

@@ -36,3 +36,7 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ examples/plugins/cu
     .venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test]" -e examples/plugins/cubic-spring
     touch "$stamp"
 fi
+# The runtime library of compiled models (tape interpreter, stepping loops): built once per machine and cached,
+# so that no model waits for the C compiler.  Without a compiler models run on NumPy: not an error.
+.venv/bin/python -c "import lagrangian.codegen as c; c.runtime()" 2>/dev/null \
+    || echo "setup: note: no C compiler found; models will be evaluated with NumPy (slower)"

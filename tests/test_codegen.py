@@ -1,4 +1,5 @@
-"""Compiled models (lagrangian.codegen): the C right-hand side, its disk cache, the compiled stepping loops.
+"""Compiled models (lagrangian.codegen): the C right-hand side (native and on the tape interpreter), its disk
+cache, the compiled stepping loops.
 
 References are independent of the code under test: the NumPy path
 (``sympy.lambdify`` + ``numpy.linalg.solve``) for the right-hand side,
@@ -97,23 +98,44 @@ MODELS = {"pendulum3": lambda: pendulum(3), "four_bar": four_bar, "rc_ladder": r
 
 @pytest.fixture(scope="module")
 def built():
-    """Each model with its NumPy and compiled functions (compiled once for the whole module)."""
+    """Each model with its NumPy and native compiled functions (compiled once for the whole module)."""
     out = {}
     for name, build in MODELS.items():
         model = build()
         numeric = model.numeric()
         compiled, note = codegen.compile_model(numeric)
-        assert compiled is not None, note
+        assert compiled is not None and compiled.kind == "native", note
         out[name] = (model, numeric, compiled)
     return out
+
+
+@pytest.fixture(scope="module")
+def tapes(built):
+    """The same models on the tape interpreter."""
+    out = {}
+    for name, (_, numeric, _) in built.items():
+        compiled, note = codegen.compile_model(numeric, "tape")
+        assert compiled is not None and compiled.kind == "tape", note
+        out[name] = compiled
+    return out
+
+
+@pytest.fixture(params=["native", "tape"])
+def kind(request):
+    return request.param
+
+
+def pick(built, tapes, name, kind):
+    model, numeric, native = built[name]
+    return model, numeric, native if kind == "native" else tapes[name]
 
 
 # -- the right-hand side ----------------------------------------------------------------------------
 
 
 @pytest.mark.parametrize("name", list(MODELS))
-def test_compiled_rhs_equals_the_numpy_rhs_on_random_states(built, name):
-    model, numeric, compiled = built[name]
+def test_compiled_rhs_equals_the_numpy_rhs_on_random_states(built, tapes, name, kind):
+    model, numeric, compiled = pick(built, tapes, name, kind)
     numeric.use_compiled(False)  # the reference: NumPy
     eq = model.eq
     assert name != "four_bar" or len(eq.multipliers) > 0
@@ -128,8 +150,8 @@ def test_compiled_rhs_equals_the_numpy_rhs_on_random_states(built, name):
 
 
 @pytest.mark.parametrize("name", list(MODELS))
-def test_compiled_energies_and_velocities_equal_the_numpy_ones(built, name):
-    _, numeric, compiled = built[name]
+def test_compiled_energies_and_velocities_equal_the_numpy_ones(built, tapes, name, kind):
+    _, numeric, compiled = pick(built, tapes, name, kind)
     numeric.use_compiled(False)  # the reference: NumPy
     rng = np.random.default_rng(4)
     N = 7
@@ -144,23 +166,61 @@ def test_compiled_energies_and_velocities_equal_the_numpy_ones(built, name):
     assert np.allclose(compiled.jacobi(times, Y[: numeric.n], v_np), h_np, rtol=1e-12, atol=1e-12)
 
 
-def test_simulate_with_compiled_true_matches_numpy_and_keeps_the_numpy_default(built):
+def test_every_choice_of_compiled_matches_numpy_and_auto_runs_the_tape_until_native_is_built(built):
     model = pendulum(2)
     init = {"theta_j0": 0.4, "theta_j1": -0.2}
     vel = {"theta_j0": 0.0, "theta_j1": 0.0}
     plain = model.simulate(2.0, initial=init, velocity=vel, points=21, compiled=False)
     assert model.numeric()._fast is None
-    fast = model.simulate(2.0, initial=init, velocity=vel, points=21, compiled=True)
-    assert model.numeric()._fast is not None
-    for name in plain.names:
-        assert np.allclose(fast[name], plain[name], rtol=0, atol=1e-9)
-    assert np.allclose(fast.E, plain.E, atol=1e-9)
-    with pytest.raises(lg.ModelError, match="compiled must be True, False or 'auto'"):
+    auto = model.simulate(2.0, initial=init, velocity=vel, points=21)  # the default: nothing built yet → the tape
+    assert model.numeric()._fast.kind == "tape"
+    native = model.simulate(2.0, initial=init, velocity=vel, points=21, compiled=True)
+    assert model.numeric()._fast.kind == "native" and not model.numeric()._fast.from_cache
+    tape = model.simulate(2.0, initial=init, velocity=vel, points=21, compiled="tape")
+    assert model.numeric()._fast.kind == "tape"
+    for res in (auto, native, tape):
+        for name in plain.names:
+            assert np.allclose(res[name], plain[name], rtol=0, atol=1e-9)
+        assert np.allclose(res.E, plain.E, atol=1e-9)
+    again = pendulum(2)  # a new model object: "auto" now finds the native library in the disk cache
+    looped = again.simulate(2.0, initial=init, velocity=vel, points=21, method="dopri5_c")
+    assert again.numeric()._fast.kind == "native" and again.numeric()._fast.from_cache
+    assert any("native code" in n and "from the cache" in n for n in looped.notes)
+    with pytest.raises(lg.ModelError, match="compiled must be True, False, 'auto', 'native' or 'tape'"):
         model.simulate(1.0, initial=init, velocity=vel, compiled="yes")
+    with pytest.raises(lg.ModelError, match="kind must be one of"):
+        codegen.compile_model(model.numeric(), "fast")
 
 
-def test_a_singular_matrix_in_c_raises_the_same_error_as_numpy(built):
-    _, numeric, compiled = built["four_bar"]
+def test_the_tape_compiles_nothing_per_model_and_the_runtime_is_built_once(tmp_path, monkeypatch):
+    monkeypatch.setattr(codegen, "_settings", {"cache_dir": str(tmp_path), "compiler": None})
+    path = codegen.runtime()
+    assert path.exists() and path.parent == tmp_path and path.name.startswith("runtime-")
+    assert codegen.runtime() == path  # from the cache the second time
+    for k in (2.0, 3.0, 5.0):
+        res = oscillator(k).simulate(1.0, initial={"x_p": 1.0}, velocity={"x_p": 0.0}, points=5, method="dopri5_c",
+                                     rtol=1e-10, atol=1e-12)
+        assert any("tape interpreter" in n for n in res.notes)
+        assert np.allclose(res["x_p"], np.cos(math.sqrt(k) * res.t), atol=1e-8)
+    assert sorted(p.suffix for p in tmp_path.iterdir() if not p.name.startswith(".")) == [".c", ".json", ".so"]
+    monkeypatch.setenv("LAGRANGIAN_CC", "/nonexistent/lagrangian-test-cc")
+    with pytest.raises(lg.ModelError, match="no C compiler"):
+        codegen.runtime()
+
+
+def test_a_long_run_on_the_tape_says_native_code_would_pay(monkeypatch):
+    monkeypatch.setattr(codegen, "LONG_RUN", 1000)
+    kw = dict(initial={"x_p": 1.0}, velocity={"x_p": 0.0}, points=5, method="dopri5_c", rtol=1e-10, atol=1e-12)
+    model = oscillator(7.0)
+    on_tape = model.simulate(20.0, compiled="tape", **kw)
+    assert on_tape.nfev > 1000 and any("compiled=True builds native code" in n for n in on_tape.notes)
+    native = model.simulate(20.0, compiled=True, **kw)
+    assert not any("compiled=True builds native code" in n for n in native.notes)
+    assert np.allclose(native["x_p"], on_tape["x_p"], rtol=0, atol=1e-12)
+
+
+def test_a_singular_matrix_in_c_raises_the_same_error_as_numpy(built, tapes, kind):
+    _, numeric, compiled = pick(built, tapes, "four_bar", kind)
     numeric.use_compiled(False)
     y = np.zeros(numeric.n + numeric.nI)  # all links along x: the loop's Jacobian loses rank
     with pytest.raises(SingularMassMatrixError) as numpy_error:
@@ -171,8 +231,8 @@ def test_a_singular_matrix_in_c_raises_the_same_error_as_numpy(built):
     assert "singular" in str(c_error.value)
 
 
-def test_non_finite_values_raise_a_numerical_error(built):
-    _, numeric, compiled = built["pendulum3"]
+def test_non_finite_values_raise_a_numerical_error(built, tapes, kind):
+    _, numeric, compiled = pick(built, tapes, "pendulum3", kind)
     y = np.zeros(numeric.n + numeric.nI)
     y[0] = np.inf
     with pytest.raises(NumericalError, match="not finite"):
@@ -360,8 +420,8 @@ def test_verlet_c_keeps_the_energy_bounded_and_refuses_non_separable_models(buil
                                        velocity={"q_L2": 0})
 
 
-def test_compiled_loops_report_singular_matrices_and_divergence(built):
-    _, numeric, compiled = built["four_bar"]
+def test_compiled_loops_report_singular_matrices_and_divergence(built, tapes, kind):
+    _, numeric, compiled = pick(built, tapes, "four_bar", kind)
     y0 = np.zeros(numeric.n + numeric.nI)  # all links along x: the loop's Jacobian loses rank
     with pytest.raises(SingularMassMatrixError, match="singular"):
         compiled.dopri5((0.0, 1.0), y0, np.array([0.0, 1.0]), rtol=1e-6, atol=1e-9, max_step=np.inf, first_step=None)

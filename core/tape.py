@@ -1,0 +1,368 @@
+"""Straight-line programs ("tapes") from SymPy expressions: the one intermediate form of compiled models.
+
+:func:`record` turns a list of SymPy expressions of some input symbols into
+a :class:`Program`: a flat list of instructions ``(op, dst, x, y, z)`` over
+a register file holding the inputs, the constants and the temporaries, in
+which every distinct subexpression is computed once (SymPy's expressions
+are hash-consed, so a dictionary from expression to register *is* common
+subexpression elimination).  Recording is a single pass over the
+expression graph — milliseconds where :func:`sympy.cse` takes tenths of a
+second — and the program is then either
+
+- **interpreted** by a small C loop over the instructions, compiled once
+  per machine and shared by every model (:mod:`lagrangian.codegen`,
+  ``compiled="tape"``): no compilation per model, so a model runs the
+  moment its equations are derived; or
+- **printed** as straight-line C (:meth:`Program.c_lines`), compiled per
+  model into native code (``compiled=True``): the fastest per evaluation,
+  after a C compilation of a tenth of a second or more (then cached).
+
+Both run the same operations in the same order (compiled without fused
+multiply–adds), so they agree to the last bit.
+Integer powers become products (by squaring), half-integer powers square
+roots, quotients one division per term.  The operations are those of
+:data:`OPS`; an expression with anything else (an unevaluated integral, a
+Python-callable time signal, ``zoo``) raises :class:`TapeError` naming it,
+which compiled models turn into a note and the NumPy path.
+
+>>> import sympy as sp
+>>> x, y = sp.symbols("x y")
+>>> prog = record([sp.sin(x) ** 2 + y / sp.sin(x), sp.sqrt(x * y)], [x, y])
+>>> len(prog.code), prog.n_inputs, prog.n_outputs    # sin(x) computed once
+(6, 2, 2)
+>>> prog.evaluate([0.5, 2.0])                       # a reference interpreter in Python
+[4.4015081..., 1.0]
+>>> print("\\n".join(prog.c_lines({0: "x", 1: "y"}, ["out[0]", "out[1]"])))
+const double w0 = sin(x);
+const double w1 = w0 * w0;
+...
+out[1] = w5;
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+__all__ = ["OPS", "Program", "TapeError", "record"]
+
+
+class TapeError(Exception):
+    """An expression the tape cannot hold; the message names what (turned into a note by compiled models)."""
+
+
+#: The operations: name → (number of operands, C expression of the operands ``x``, ``y``, ``z``).
+#: Their order is the opcode; the interpreter's ``switch`` and the printed C come from this one table.
+OPS: dict[str, tuple[int, str]] = {
+    "add": (2, "x + y"), "sub": (2, "x - y"), "mul": (2, "x * y"), "div": (2, "x / y"), "neg": (1, "-x"),
+    "pow": (2, "pow(x, y)"), "sqrt": (1, "sqrt(x)"), "exp": (1, "exp(x)"), "log": (1, "log(x)"),
+    "sin": (1, "sin(x)"), "cos": (1, "cos(x)"), "tan": (1, "tan(x)"), "asin": (1, "asin(x)"),
+    "acos": (1, "acos(x)"), "atan": (1, "atan(x)"), "atan2": (2, "atan2(x, y)"), "sinh": (1, "sinh(x)"),
+    "cosh": (1, "cosh(x)"), "tanh": (1, "tanh(x)"), "asinh": (1, "asinh(x)"), "acosh": (1, "acosh(x)"),
+    "atanh": (1, "atanh(x)"), "abs": (1, "fabs(x)"), "sign": (1, "(double)((x > 0) - (x < 0))"),
+    "heaviside": (2, "(x > 0 ? 1.0 : (x < 0 ? 0.0 : y))"), "floor": (1, "floor(x)"), "ceil": (1, "ceil(x)"),
+    "min": (2, "fmin(x, y)"), "max": (2, "fmax(x, y)"), "mod": (2, "x - y * floor(x / y)"),
+    "lt": (2, "(double)(x < y)"), "le": (2, "(double)(x <= y)"), "gt": (2, "(double)(x > y)"),
+    "ge": (2, "(double)(x >= y)"), "eq": (2, "(double)(x == y)"), "ne": (2, "(double)(x != y)"),
+    "and": (2, "(double)(x != 0 && y != 0)"), "or": (2, "(double)(x != 0 || y != 0)"),
+    "not": (1, "(double)(x == 0)"), "select": (3, "(x != 0 ? y : z)"), "erf": (1, "erf(x)"),
+    "erfc": (1, "erfc(x)"), "gamma": (1, "tgamma(x)"), "loggamma": (1, "lgamma(x)"),
+}
+CODE = {name: k for k, name in enumerate(OPS)}
+_PY = {  # the same operations in Python, for Program.evaluate (a reference, not a fast path)
+    "add": lambda x, y, z: x + y, "sub": lambda x, y, z: x - y, "mul": lambda x, y, z: x * y,
+    "div": lambda x, y, z: x / y if y else math.copysign(math.inf, x) * math.copysign(1.0, y) if x else math.nan,
+    "neg": lambda x, y, z: -x, "pow": lambda x, y, z: x ** y, "sqrt": lambda x, y, z: math.sqrt(x),
+    "atan2": lambda x, y, z: math.atan2(x, y), "abs": lambda x, y, z: abs(x),
+    "sign": lambda x, y, z: float((x > 0) - (x < 0)), "heaviside": lambda x, y, z: 1.0 if x > 0 else 0.0 if x < 0 else y,
+    "ceil": lambda x, y, z: float(math.ceil(x)), "floor": lambda x, y, z: float(math.floor(x)),
+    "min": lambda x, y, z: min(x, y), "max": lambda x, y, z: max(x, y), "mod": lambda x, y, z: x - y * math.floor(x / y),
+    "lt": lambda x, y, z: float(x < y), "le": lambda x, y, z: float(x <= y), "gt": lambda x, y, z: float(x > y),
+    "ge": lambda x, y, z: float(x >= y), "eq": lambda x, y, z: float(x == y), "ne": lambda x, y, z: float(x != y),
+    "and": lambda x, y, z: float(x != 0 and y != 0), "or": lambda x, y, z: float(x != 0 or y != 0),
+    "not": lambda x, y, z: float(x == 0), "select": lambda x, y, z: y if x != 0 else z,
+    "gamma": lambda x, y, z: math.gamma(x), "loggamma": lambda x, y, z: math.lgamma(x),
+}
+for _name in OPS:
+    if _name not in _PY:  # one-argument functions of the math module: sin, exp, erf, ...
+        _PY[_name] = (lambda f: lambda x, y, z: f(x))(getattr(math, _name))
+
+_FUNCTIONS = {
+    sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.asin: "asin", sp.acos: "acos", sp.atan: "atan",
+    sp.sinh: "sinh", sp.cosh: "cosh", sp.tanh: "tanh", sp.asinh: "asinh", sp.acosh: "acosh", sp.atanh: "atanh",
+    sp.exp: "exp", sp.Abs: "abs", sp.sign: "sign", sp.floor: "floor", sp.ceiling: "ceil", sp.erf: "erf",
+    sp.erfc: "erfc", sp.gamma: "gamma", sp.loggamma: "loggamma",
+}
+_BINARY = {sp.atan2: "atan2", sp.Mod: "mod"}
+_RELATIONS = {sp.StrictLessThan: "lt", sp.LessThan: "le", sp.StrictGreaterThan: "gt", sp.GreaterThan: "ge",
+              sp.Equality: "eq", sp.Unequality: "ne"}
+_FOLDS = {sp.Min: "min", sp.Max: "max", sp.And: "and", sp.Or: "or"}
+
+
+@dataclass
+class Program:
+    """A straight-line program.
+
+    Registers ``0 … n_inputs−1`` hold the inputs (in the order given to
+    :func:`record`), the next ``len(constants)`` the constants, the rest the
+    temporaries; ``code`` is an ``int32`` array of rows ``(op, dst, x, y, z)``
+    (``op`` indexes :data:`OPS`; unused operands are 0), executed in order;
+    ``outputs`` are the registers holding the results.
+    """
+
+    n_inputs: int
+    constants: np.ndarray
+    code: np.ndarray
+    outputs: np.ndarray
+
+    @property
+    def n_registers(self) -> int:
+        return self.n_inputs + len(self.constants) + len(self.code)
+
+    @property
+    def n_outputs(self) -> int:
+        return len(self.outputs)
+
+    def evaluate(self, inputs: Sequence[float]) -> list[float]:
+        """Run the program in Python (slowly; the reference the C interpreter is tested against)."""
+        r = [*map(float, inputs), *map(float, self.constants), *([0.0] * len(self.code))]
+        names = list(OPS)
+        for op, dst, x, y, z in self.code.tolist():
+            try:
+                value = _PY[names[op]](r[x], r[y], r[z])
+            except (ValueError, ZeroDivisionError):  # outside the domain: C gives NaN (every branch is computed)
+                value = math.nan
+            except OverflowError:
+                value = math.inf
+            r[dst] = value if isinstance(value, float) else math.nan  # a complex power of a negative base: NaN in C
+        return [r[k] for k in self.outputs.tolist()]
+
+    def c_lines(self, inputs: dict[int, str], targets: Sequence[str], indent: str = "") -> list[str]:
+        """Straight-line C: one ``const double wK = …;`` per instruction, then ``target = …;`` per output.
+        ``inputs`` spells each input register (``{0: "t", 1: "q[0]", …}``)."""
+        first = self.n_inputs + len(self.constants)
+        names = dict(inputs)
+        for k, c in enumerate(self.constants.tolist()):
+            names[self.n_inputs + k] = "NAN" if c != c else f"({c!r})" if c < 0 else repr(c)
+        op_names = list(OPS)
+        lines = []
+        for op, dst, x, y, z in self.code.tolist():
+            arity, template = OPS[op_names[op]]
+            spelled = {"x": names[x], "y": names[y], "z": names[z]}
+            text = "".join(spelled.get(ch, ch) if ch in "xyz" and _alone(template, i) else ch for i, ch in enumerate(template))
+            names[dst] = f"w{dst - first}"
+            lines.append(f"{indent}const double {names[dst]} = {text};")
+        lines += [f"{indent}{target} = {names[k]};" for target, k in zip(targets, self.outputs.tolist())]
+        return lines
+
+
+def _alone(template: str, i: int) -> bool:
+    """Whether ``template[i]`` is an operand name rather than a letter of a word (``exp``, ``fmax``)."""
+    return not (i > 0 and template[i - 1].isalnum()) and not (i + 1 < len(template) and template[i + 1].isalnum())
+
+
+class _Recorder:
+    def __init__(self, inputs: Sequence[sp.Symbol]):
+        self.n_inputs = len(inputs)
+        self.memo: dict = {s: k for k, s in enumerate(inputs)}
+        if len(self.memo) != len(inputs):
+            raise TapeError("the inputs of a tape must be distinct symbols")
+        self.constants: dict[float | str, int] = {}  # value (or "nan") → −1 − index (relocated at the end)
+        self.code: list[tuple[int, int, int, int, int]] = []
+
+    # registers ---------------------------------------------------------------
+    def const(self, value: float, nan: bool = False) -> int:
+        """The register of a constant; NaN only when ``nan`` (a Piecewise with no branch for some inputs)."""
+        if not math.isfinite(value) and not (nan and math.isnan(value)):
+            raise TapeError(f"the equations contain a non-finite constant ({value})")
+        key = float(value)
+        if key == 0.0:
+            key = 0.0  # one register for 0.0 and -0.0
+        elif key != key:
+            key = "nan"  # NaN is not equal to itself: a key that is
+        reg = self.constants.get(key)
+        if reg is None:
+            reg = self.constants[key] = -1 - len(self.constants)
+        return reg
+
+    def emit(self, op: str, x: int, y: int = 0, z: int = 0, key=None) -> int:
+        key = (op, x, y, z) if key is None else key
+        reg = self.memo.get(key)
+        if reg is None:
+            reg = self.n_inputs + len(self.code)
+            self.code.append((CODE[op], reg, x, y, z))
+            self.memo[key] = reg
+        return reg
+
+    # expressions -------------------------------------------------------------
+    def reg(self, e) -> int:
+        found = self.memo.get(e)
+        if found is not None:
+            return found
+        out = self._expr(e)
+        self.memo[e] = out
+        return out
+
+    def _expr(self, e) -> int:
+        if e.is_Number or e.is_NumberSymbol:
+            return self.const(float(e))
+        if e.is_Symbol:
+            raise TapeError(f"the symbol {e} has no value (not an input, not a parameter with a value)")
+        if e.is_Add:
+            return self._add(e.args)
+        if e.is_Mul:
+            return self._mul(e.args)
+        if e.is_Pow:
+            base, exp = e.args
+            if base is sp.E:
+                return self.emit("exp", self.reg(exp))
+            return self._pow(base, exp)
+        func = e.func
+        if func in _FUNCTIONS:
+            return self.emit(_FUNCTIONS[func], self.reg(e.args[0]))
+        if func is sp.log:
+            if len(e.args) == 2:
+                return self.emit("div", self.emit("log", self.reg(e.args[0])), self.emit("log", self.reg(e.args[1])))
+            return self.emit("log", self.reg(e.args[0]))
+        if func in _BINARY:
+            return self.emit(_BINARY[func], self.reg(e.args[0]), self.reg(e.args[1]))
+        if func in _RELATIONS:
+            return self.emit(_RELATIONS[func], self.reg(e.args[0]), self.reg(e.args[1]))
+        if func in _FOLDS:
+            regs = [self.reg(a) for a in e.args]
+            out = regs[0]
+            for r in regs[1:]:
+                out = self.emit(_FOLDS[func], out, r)
+            return out
+        if func is sp.Not:
+            return self.emit("not", self.reg(e.args[0]))
+        if e is sp.true or e is sp.false:
+            return self.const(1.0 if e is sp.true else 0.0)
+        if func is sp.Heaviside:
+            h0 = self.reg(e.args[1]) if len(e.args) > 1 else self.const(0.5)
+            return self.emit("heaviside", self.reg(e.args[0]), h0)
+        if func is sp.Piecewise:
+            pieces = list(e.args)
+            out = self.const(math.nan, nan=True) if pieces[-1].cond is not sp.true else self.reg(pieces.pop().expr)
+            for piece in reversed(pieces):
+                out = self.emit("select", self.reg(piece.cond), self.reg(piece.expr), out)
+            return out
+        if isinstance(e, (AppliedUndef, sp.Derivative)):
+            raise TapeError(f"{e} is a time signal given as a Python callable, which compiled code cannot call; "
+                            f"give it as a SymPy expression of t")
+        if e.is_number:  # a constant the cases above do not name (sin(1), Catalan, ...)
+            try:
+                return self.const(float(e))
+            except (TypeError, ValueError):
+                pass
+        raise TapeError(f"the equations use {type(e).__name__}, which compiled code does not evaluate")
+
+    def _add(self, terms) -> int:
+        plus, minus = [], []
+        for term in terms:
+            coeff, rest = term.as_coeff_Mul()
+            if rest is sp.S.One:
+                (plus if coeff >= 0 else minus).append(self.const(abs(float(coeff))))
+                continue
+            r = self.reg(rest)
+            c = float(coeff)
+            if abs(c) != 1.0:
+                r = self.emit("mul", self.const(abs(c)), r)
+            (plus if c > 0 else minus).append(r)
+        if plus:
+            out = plus[0]
+            for r in plus[1:]:
+                out = self.emit("add", out, r)
+        else:
+            out = self.emit("neg", minus.pop(0))
+        for r in minus:
+            out = self.emit("sub", out, r)
+        return out
+
+    def _mul(self, factors) -> int:
+        coeff, num, den = 1.0, [], []
+        for f in factors:
+            if f.is_Number:
+                coeff *= float(f)
+            elif f.is_Pow and f.exp.is_Number and f.exp < 0 and f.base is not sp.E:
+                den.append(self._pow(f.base, -f.exp))
+            else:
+                num.append(self.reg(f))
+        out = None
+        for r in num:
+            out = r if out is None else self.emit("mul", out, r)
+        if den:
+            d = den[0]
+            for r in den[1:]:
+                d = self.emit("mul", d, r)
+            if out is None:
+                return self.emit("div", self.const(coeff), d)
+            out = self.emit("div", out, d)
+        if out is None:
+            return self.const(coeff)
+        if coeff == -1.0:
+            return self.emit("neg", out)
+        return out if coeff == 1.0 else self.emit("mul", self.const(coeff), out)
+
+    def _pow(self, base, exp) -> int:
+        if exp.is_Integer:
+            k = int(exp)
+            if k < 0:
+                return self.emit("div", self.const(1.0), self._power(self.reg(base), -k))
+            return self._power(self.reg(base), k)
+        if exp.is_Rational and exp.q == 2:  # x^(p/2) = sqrt(x)^p
+            root = self.emit("sqrt", self.reg(base))
+            k = int(exp.p)
+            return self._power(root, k) if k > 0 else self.emit("div", self.const(1.0), self._power(root, -k))
+        return self.emit("pow", self.reg(base), self.reg(exp))
+
+    def _power(self, r: int, k: int) -> int:
+        """``r ** k`` for an integer ``k ≥ 0`` by squaring (``x*x``, ``(x*x)*(x*x)``, …; each power kept for reuse)."""
+        if k == 0:
+            return self.const(1.0)
+        if k == 1:
+            return r
+        key = ("power", r, k)
+        found = self.memo.get(key)
+        if found is not None:
+            return found
+        half = self._power(r, k // 2)
+        out = self.emit("mul", half, half)
+        if k % 2:
+            out = self.emit("mul", out, r)
+        self.memo[key] = out
+        return out
+
+    def program(self, outputs: list[int]) -> Program:
+        constants = np.array([math.nan if v == "nan" else v for v in sorted(self.constants, key=lambda v: -self.constants[v])],
+                             dtype=float)
+        n_in, n_const = self.n_inputs, len(constants)
+
+        def place(reg):
+            return n_in - 1 - reg if reg < 0 else reg + n_const if reg >= n_in else reg
+
+        code = np.array(self.code, dtype=np.int64).reshape(-1, 5)
+        if code.size:
+            operands = code[:, 1:]
+            code[:, 1:] = np.where(operands < 0, n_in - 1 - operands, np.where(operands >= n_in, operands + n_const, operands))
+            # operands a unary/binary op does not use are 0 (an input register): harmless, never read
+            for k, (name, (arity, _)) in enumerate(OPS.items()):
+                rows = code[:, 0] == k
+                code[rows, 2 + arity:] = 0
+        return Program(n_in, constants, code.astype(np.int32), np.array([place(r) for r in outputs], dtype=np.int32))
+
+
+def record(exprs: Sequence, inputs: Sequence[sp.Symbol]) -> Program:
+    """The :class:`Program` computing ``exprs`` from ``inputs`` (symbols), subexpressions computed once.
+
+    Raises :class:`TapeError` for an expression the tape cannot hold (an
+    unknown function, a symbol that is not an input, a non-finite constant).
+    """
+    rec = _Recorder(list(inputs))
+    outputs = [rec.reg(sp.sympify(e)) for e in exprs]
+    return rec.program(outputs)
