@@ -62,6 +62,7 @@ from .equations import Equations, _is_zero
 from .errors import ModelError, ReductionError, UnknownNameError
 from .model import Model
 from .simulation import Result, _lambdify
+from .tape import size
 
 __all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
 
@@ -620,4 +621,5 @@ def _maybe_linear(eq: Equations) -> bool:
 
 
 def _ops(eq: Equations) -> int:
-    return int(sum(sp.count_ops(e) for e in list(eq.A) + list(eq.b)))
+    """Operations to evaluate ``A`` and ``b`` once, every common subexpression once (the size of their tape)."""
+    return size(list(eq.A) + list(eq.b))

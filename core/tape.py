@@ -49,7 +49,7 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-__all__ = ["OPS", "Program", "TapeError", "record"]
+__all__ = ["OPS", "Program", "TapeError", "record", "size"]
 
 
 class TapeError(Exception):
@@ -167,12 +167,13 @@ def _alone(template: str, i: int) -> bool:
 
 
 class _Recorder:
-    def __init__(self, inputs: Sequence[sp.Symbol]):
+    def __init__(self, inputs: Sequence[sp.Symbol], opaque: bool = False):
+        self.opaque = opaque  # unknown symbols and functions become leaves (size(): counting, not running)
         self.n_inputs = len(inputs)
         self.memo: dict = {s: k for k, s in enumerate(inputs)}
         if len(self.memo) != len(inputs):
             raise TapeError("the inputs of a tape must be distinct symbols")
-        self.constants: dict[float | str, int] = {}  # value (or "nan") → −1 − index (relocated at the end)
+        self.constants: dict = {}  # value (or "nan", or size()'s leaves) → −1 − index (relocated at the end)
         self.code: list[tuple[int, int, int, int, int]] = []
 
     # registers ---------------------------------------------------------------
@@ -211,6 +212,8 @@ class _Recorder:
     def _expr(self, e) -> int:
         if e.is_Number or e.is_NumberSymbol:
             return self.const(float(e))
+        if self.opaque and (e.is_Symbol or isinstance(e, (AppliedUndef, sp.Derivative))):
+            return self.constants.setdefault(("leaf", e), -1 - len(self.constants))  # a leaf of its own, no instruction
         if e.is_Symbol:
             raise TapeError(f"the symbol {e} has no value (not an input, not a parameter with a value)")
         if e.is_Add:
@@ -260,6 +263,9 @@ class _Recorder:
                 return self.const(float(e))
             except (TypeError, ValueError):
                 pass
+        if self.opaque:  # an operation the tape does not know: one instruction on its arguments
+            args = [self.reg(a) for a in e.args if isinstance(a, sp.Basic)] or [self.const(0.0)]
+            return self.emit("add", args[0], args[-1], key=("opaque", e))
         raise TapeError(f"the equations use {type(e).__name__}, which compiled code does not evaluate")
 
     def _add(self, terms) -> int:
@@ -357,6 +363,24 @@ class _Recorder:
         return Program(n_in, constants, code.astype(np.int32), np.array([place(r) for r in outputs], dtype=np.int32))
 
 
+def size(exprs: Sequence) -> int:
+    """The number of instructions the tape of ``exprs`` would have — the operations evaluating them costs once
+    every common subexpression is computed once.  Any expression can be counted: symbols and unknown
+    functions count as leaves and single operations.
+
+    >>> x, y = sp.symbols("x y")
+    >>> size([sp.sin(x) ** 2 + y / sp.sin(x)]), sp.count_ops(sp.sin(x) ** 2 + y / sp.sin(x))
+    (4, 5)
+    """
+    rec = _Recorder([], opaque=True)
+    try:
+        for e in exprs:
+            rec.reg(sp.sympify(e))
+    except RecursionError:
+        raise TapeError("an expression is nested too deeply for the tape (more than ~900 levels)") from None
+    return len(rec.code)
+
+
 def record(exprs: Sequence, inputs: Sequence[sp.Symbol]) -> Program:
     """The :class:`Program` computing ``exprs`` from ``inputs`` (symbols), subexpressions computed once.
 
@@ -364,5 +388,8 @@ def record(exprs: Sequence, inputs: Sequence[sp.Symbol]) -> Program:
     unknown function, a symbol that is not an input, a non-finite constant).
     """
     rec = _Recorder(list(inputs))
-    outputs = [rec.reg(sp.sympify(e)) for e in exprs]
+    try:
+        outputs = [rec.reg(sp.sympify(e)) for e in exprs]
+    except RecursionError:
+        raise TapeError("an expression is nested too deeply for the tape (more than ~900 levels)") from None
     return rec.program(outputs)
