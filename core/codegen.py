@@ -631,6 +631,7 @@ int lg_fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, 
 
 
 
+@functools.lru_cache(maxsize=1)
 def _runtime_source() -> str:
     """The runtime library: the tape interpreter and the stepping loops (model-independent: compiled once per
     compiler and kept in the cache)."""
@@ -821,6 +822,19 @@ class _Tape(ctypes.Structure):
                 ("inertial", ctypes.c_void_p), ("first", ctypes.c_void_p), ("matrix", _Prog), ("energy", _Prog)]
 
 
+def _array(values, dtype, keep: list) -> int:
+    """The address of ``values`` as a C array (one element at least), the array kept alive in ``keep``."""
+    a = np.ascontiguousarray(values if len(values) else [0], dtype=dtype)
+    keep.append(a)
+    return a.ctypes.data
+
+
+def _prog(p: Program, keep: list) -> _Prog:
+    """The interpreter's view of a tape, pointing into arrays kept alive in ``keep``."""
+    return _Prog(p.n_inputs, len(p.constants), len(p.code), p.n_outputs, _array(p.constants, np.float64, keep),
+                 _array(p.code.ravel(), np.int32, keep), _array(p.outputs, np.int32, keep))
+
+
 def run_program(program: Program, inputs) -> np.ndarray:
     """Run a tape (:class:`lagrangian.tape.Program`) in the runtime library's C interpreter: ``inputs`` one row
     per evaluation (``N × n_inputs``, or one row), the outputs ``N × n_outputs`` (or one row).  The interpreter
@@ -839,10 +853,8 @@ def run_program(program: Program, inputs) -> np.ndarray:
     if rows.shape[1] != program.n_inputs:
         raise ModelError(f"run_program: the tape has {program.n_inputs} inputs, the rows have {rows.shape[1]}.")
     rows = np.ascontiguousarray(rows)
-    keep = [np.ascontiguousarray(a if len(a) else [0], dtype=d) for a, d in
-            ((program.constants, np.float64), (program.code.ravel(), np.int32), (program.outputs, np.int32))]
-    prog = _Prog(program.n_inputs, len(program.constants), len(program.code), program.n_outputs,
-                 *(a.ctypes.data for a in keep))
+    keep: list = []
+    prog = _prog(program, keep)
     out = np.empty((rows.shape[0], program.n_outputs))
     lib.lg_prog_eval.argtypes, lib.lg_prog_eval.restype = [ctypes.c_void_p, ctypes.c_long, ctypes.c_void_p, ctypes.c_void_p], ctypes.c_int
     if lib.lg_prog_eval(ctypes.addressof(prog), rows.shape[0], rows.ctypes.data, out.ctypes.data):
@@ -897,19 +909,9 @@ class CompiledModel:
         """The interpreter's description of this model (a C struct pointing into arrays kept alive here)."""
         eq = numeric.eq
         keep: list = []
-
-        def array(values, dtype):
-            a = np.ascontiguousarray(values if len(values) else [0], dtype=dtype)
-            keep.append(a)
-            return a.ctypes.data
-
-        def prog(p: Program) -> _Prog:
-            return _Prog(p.n_inputs, len(p.constants), len(p.code), p.n_outputs, array(p.constants, np.float64),
-                         array(p.code.ravel(), np.int32), array(p.outputs, np.int32))
-
         matrix, energy = programs(numeric)
-        tape = _Tape(self.n, self.nI, len(eq.first_order), self.m, array(eq.inertial, np.int32),
-                     array(list(eq.first_order), np.int32), prog(matrix), prog(energy))
+        tape = _Tape(self.n, self.nI, len(eq.first_order), self.m, _array(eq.inertial, np.int32, keep),
+                     _array(list(eq.first_order), np.int32, keep), _prog(matrix, keep), _prog(energy, keep))
         keep.append(tape)
         return ctypes.addressof(tape), keep
 
