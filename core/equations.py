@@ -36,43 +36,16 @@ import sympy as sp
 
 from .assembly import Assembly
 from .component import t
-from .derive import Derivation, Rewriter, float_value
+from .derive import Derivation, Rewriter
 from .errors import ModelError
+from .identity import is_zero
 
 __all__ = ["Equations"]
 
 
 def _is_zero(expr: sp.Expr) -> bool:
-    """Whether ``expr`` is identically zero.
-
-    Structural zero first; then a value away from zero at one generic point proves it is not (no expansion);
-    only what that cannot settle is expanded.
-    """
-    if expr == 0:
-        return True
-    if _nonzero_somewhere(expr):
-        return False
-    return sp.expand(expr) == 0
-
-
-_GOLDEN = 0.6180339887498949
-
-
-def _nonzero_somewhere(expr: sp.Expr) -> bool:
-    values = {}
-    for k, s in enumerate(sorted(expr.free_symbols, key=str), start=1):
-        if s.is_integer or s.is_zero:
-            return False
-        value = 0.5 + (k * _GOLDEN) % 1  # generic, and of the sign the assumptions allow
-        values[s] = -value if s.is_nonpositive else value
-    probe = float_value(expr, values)
-    if probe is None:
-        return False
-    if abs(probe[0]) > 1e-9 * probe[1]:
-        return True
-    # rounding may hide the value (large nested expressions): once more with 60 digits
-    probe = float_value(expr, values, digits=60)
-    return probe is not None and abs(probe[0]) > 1e-45 * probe[1]
+    """Whether ``expr`` is identically zero (:func:`lagrangian.identity.is_zero`: robust to round-off)."""
+    return is_zero(expr)
 
 
 @dataclass

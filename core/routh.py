@@ -54,8 +54,9 @@ import sympy as sp
 
 from .component import t
 from .derived import DerivedModel
-from .equations import Equations, _is_zero
+from .equations import Equations
 from .errors import ReductionError, UnknownNameError
+from .identity import depends_on, equal, is_zero
 from .model import Model
 from .simulation import Result
 
@@ -90,10 +91,7 @@ class Ignorability:
 
 def _depends(eq: Equations, expr: sp.Expr, symbol: sp.Symbol) -> bool:
     """Whether ``expr`` really depends on ``symbol`` (a derivative that is not identically zero)."""
-    expr = sp.sympify(expr)
-    if symbol not in expr.free_symbols:
-        return False
-    return not _is_zero(eq._derivation.calc.diff(expr, symbol))
+    return depends_on(expr, symbol, diff=eq._derivation.calc.diff)
 
 
 def _components(model: Model, part: str, symbol: sp.Symbol) -> list[str]:
@@ -153,7 +151,7 @@ def ignorability(model: Model) -> dict[str, Ignorability]:
             verdict(f"dissipation acts on it (the Rayleigh function D depends on it, from "
                     f"{_named(_components(model, 'D', vi) or _components(model, 'D', qi))}): its momentum decays")
             continue
-        acting = [c for c, share in eq.load_shares if not _is_zero(share[i])]
+        acting = [c for c, share in eq.load_shares if not is_zero(share[i])]
         if acting:
             verdict(f"a generalized force acts on it (from {_named(acting)}): its momentum changes")
             continue
@@ -278,10 +276,10 @@ class ReducedModel(DerivedModel):
         p = [_drop(eq.p[i], qI) for i in I]
         MII = sp.Matrix([[_drop(eq.M[i, j], qI) for j in I] for i in I])
         rest = [e.xreplace(dict.fromkeys(vI, sp.Integer(0))) for e in p]
-        affine = all(_is_zero(sp.expand(p[a] - rest[a] - sum(MII[a, b] * vI[b] for b in range(len(I)))))
-                     for a in range(len(I)))
+        # p = rest + M·v̇ term by term (never their difference: SymPy would merge round-off into a "term")
+        affine = all(equal(p[a], rest[a] + sum(MII[a, b] * vI[b] for b in range(len(I)))) for a in range(len(I)))
         det = _tidy(MII.det(method="berkowitz"))
-        if _is_zero(det) or not affine:
+        if is_zero(det) or not affine:
             null = MII.nullspace()
             combo = ""
             if null:
@@ -309,7 +307,7 @@ class ReducedModel(DerivedModel):
         scaled = Lr.xreplace({s: lam * s for s in vK})
         parts = [scaled.xreplace({lam: 0}), sp.diff(scaled, lam).xreplace({lam: 0}),
                  sp.diff(scaled, lam, 2).xreplace({lam: 0}) / 2]
-        quadratic = _is_zero(sp.expand(Lr - parts[0] - parts[1] - parts[2]))
+        quadratic = equal(Lr, parts[0] + parts[1] + parts[2])
         R = _terms(R)
         if quadratic:
             T, G, V = _terms(parts[2]), _terms(parts[1]), _terms(-parts[0])
@@ -829,8 +827,10 @@ class SteadyMotion:
         n = len(pert.names)
         A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -np.linalg.solve(M, Cm)]])
         lam = np.linalg.eigvals(A)
-        scale = max(1.0, float(np.max(np.abs(lam))))
-        tol = 1e-9 * scale
+        # Tolerances relative to the spectrum (1/s) and to the curvature (energy/coordinate²) separately: a
+        # zero eigenvalue of a double root (a Jordan block) comes out of eigvals only to about √ε of the scale.
+        scale = float(np.max(np.abs(lam))) if lam.size else 0.0
+        tol = 1e-7 * scale
         curvature = None
         if self.model._r_parts["quadratic"]:
             eq = self.model.reconstructing(False).eq
@@ -841,26 +841,35 @@ class SteadyMotion:
                 curvature = np.linalg.eigvalsh(np.array(H.evalf(), dtype=float))
             except TypeError:
                 curvature = None
+        minimum = curvature is not None and bool(np.all(curvature > 1e-9 * float(np.max(np.abs(curvature)))))
         freqs = np.sort(np.abs(lam.imag[lam.imag > tol]))
-        if np.any(lam.real > tol):
+        gyroscopic = not is_zero(self.model._r_parts["G"])
+        if scale > 0.0 and np.any(lam.real > tol):
             verdict, reason = "unstable", f"an eigenvalue with positive real part ({_fmt(lam[np.argmax(lam.real)])})"
-        elif np.any(np.abs(lam) <= tol):
+        elif scale == 0.0 or np.any(np.abs(lam) <= tol):
             verdict, reason = "marginal", ("a zero eigenvalue: the linearization cannot decide (a bifurcation point of "
-                                           "the steady motions); the nonlinear terms do")
+                                           "the steady motions, or a neutral direction); the nonlinear terms do")
         elif np.all(lam.real < -tol):
             verdict, reason = "asymptotically stable", "every eigenvalue has a negative real part"
-        elif curvature is not None and np.all(curvature > tol) and not np.any(lam.real > tol):
+        elif minimum:
             verdict = "stable"
             reason = ("every mode oscillates and the effective potential has a strict minimum (curvature "
                       f"{', '.join(f'{c:.6g}' for c in curvature)}): the energy integral bounds the motion")
-        else:
+        elif curvature is None:
+            verdict = "marginal"
+            reason = ("the linearized motion oscillates without growth, but the reduced Lagrangian is not quadratic in "
+                      "the velocities, so no effective potential bounds the motion: linear analysis is inconclusive")
+        elif gyroscopic:
             verdict = "marginal"
             reason = ("the linearized motion oscillates without growth, but the effective potential is not a minimum "
-                      "(gyroscopic stabilization): linear analysis is inconclusive for the full motion")
-        if curvature is not None and verdict in ("stable", "unstable") and self.model.eq.D == 0:
-            agrees = bool(np.all(curvature > tol)) == (verdict == "stable")
-            if not agrees and verdict == "unstable":
-                reason += "; the effective potential has a minimum there, yet a mode grows (non-conservative forces)"
+                      f"(curvature {', '.join(f'{c:.6g}' for c in curvature)}; gyroscopic stabilization): linear "
+                      "analysis is inconclusive for the full motion")
+        else:
+            verdict = "marginal"
+            reason = ("the linearized motion oscillates without growth, but the effective potential is not a strict "
+                      f"minimum (curvature {', '.join(f'{c:.6g}' for c in curvature)}): linear analysis is inconclusive")
+        if curvature is not None and verdict == "unstable" and minimum and is_zero(self.model.eq.D):
+            reason += "; the effective potential has a minimum there, yet a mode grows (non-conservative forces)"
         return Stability(verdict, lam, freqs, curvature, reason)
 
 
@@ -934,18 +943,16 @@ def jacobi_integral(model: Model) -> JacobiIntegral:
     h = sp.Add(*[vi * pi for vi, pi in zip(eq.sym.v, eq.p)]) - eq.L
     h = _tidy(sp.expand(h), 2000)
     E = eq.T + eq.V
-    diff = _tidy(sp.expand(h - E), 2000)
-    if _is_zero(diff):
-        diff = sp.Integer(0)
+    diff = sp.Integer(0) if equal(h, E) else _tidy(sp.expand(h - E), 2000)
     reasons = []
     if _depends(eq, eq.L, t):
         moving = [name for name, c in model.assembly.contributions.items()
                   if any(_depends(eq, eq.symbolic(sp.sympify(getattr(c, part))), t) for part in ("T", "V", "G"))]
         reasons.append(f"L depends explicitly on time (through {_named(moving)})")
-    if not _is_zero(eq.D):
+    if not is_zero(eq.D):
         reasons.append(f"energy dissipates (D from {_named([n for n, c in model.assembly.contributions.items() if sp.sympify(c.D) != 0])})")
-    if any(not _is_zero(e) for e in eq.Q):
-        forced = [c for c, share in eq.load_shares if any(not _is_zero(e) for e in share)]
+    if any(not is_zero(e) for e in eq.Q):
+        forced = [c for c, share in eq.load_shares if any(not is_zero(e) for e in share)]
         reasons.append(f"generalized forces act (from {_named(forced)})")
     if any(_depends(eq, c, t) for c in eq.constraints):
         reasons.append("a loop constraint moves with time")

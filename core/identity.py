@@ -1,0 +1,376 @@
+"""Structural decisions about expressions: identically zero, equal, dependent on a symbol.
+
+Whether a term vanishes identically, whether ``L`` depends explicitly on
+time, whether momenta are linear in the velocities: these decide the
+structure of a model (its first-order coordinates, its ignorable
+coordinates, whether ``h`` is conserved, whether an effective potential
+exists).  They are never decided by ``== 0`` on an expression with
+floating-point numbers in it: ``0.3·0.7² − 0.147`` is a round-off residual,
+not a term.  The rules here:
+
+1. A structural zero (SymPy's own canonical form) is zero.  Nothing is
+   expanded: expansion can blow up, and it merges terms whose
+   floating-point coefficients differ by round-off into one tiny term that
+   no longer shows its scale.
+2. Otherwise the expression is evaluated at random points (several; every
+   free symbol drawn log-uniformly over two decades, with the sign its
+   assumptions allow, or set to its value where ``values`` gives one), in
+   high precision (mpmath, 50 digits), along with its *magnitude*: the same
+   evaluation with every addend's absolute value.  It is identically zero
+   when the value is negligible against the magnitude at every point:
+   below ``1e-11`` of it when floating-point numbers take part (their
+   representation error is about ``1e-16``, amplified by the arithmetic
+   that produced the expression), below ``1e-35`` when it is exact.
+3. A point where the expression is not finite or not real (a singular set,
+   the square root of a negative number off the physical domain) is
+   replaced by another; when no point can be evaluated, SymPy's
+   simplification decides, under a budget of operations.
+
+A nonzero polynomial or elementary function vanishes on a set of measure
+zero, so random points find it nonzero (Schwartz–Zippel); the points are
+drawn from a fixed seed, so verdicts are reproducible.  The tolerance means
+two terms that differ by less than ``1e-11`` of their size count as equal:
+parameters spanning more than eleven decades *within one term* are beyond
+it.
+
+>>> import sympy as sp
+>>> x, v = sp.symbols("x v", real=True)
+>>> p, Mv = 0.3 * 0.7**2 * sp.sin(x)**2 * v, 0.147 * sp.sin(x)**2 * v
+>>> p - Mv                                     # SymPy merges them: the scale is gone
+-2.77555756156289e-17*v*sin(x)**2
+>>> equal(p, Mv)
+True
+>>> is_zero(sp.sin(x)**2 + sp.cos(x)**2 - 1)
+True
+>>> equal(sp.sin(2 * x), 2 * sp.sin(x) * sp.cos(x)), equal(sp.sin(x), x)
+(True, False)
+>>> depends_on(sp.sin(x)**2 + sp.cos(x)**2 + v, x)
+False
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import mpmath
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+__all__ = ["is_zero", "equal", "depends_on", "negligible", "FLOAT_TOLERANCE", "EXACT_TOLERANCE"]
+
+#: Relative size below which a value counts as zero when floating-point numbers take part.
+FLOAT_TOLERANCE = 1e-11
+#: The same for exact expressions (integers, rationals, symbols), evaluated with 50 digits.
+EXACT_TOLERANCE = 1e-35
+_DIGITS = 50
+_POINTS = 3
+_TRIES = 12
+_SEED = 20261124
+_FAST_TOLERANCE = 1e-6  # a float evaluation this far from zero proves "not zero" at once
+
+
+class _Inadmissible(Exception):
+    """The expression has no finite real value at this point."""
+
+
+class _FloatContext:
+    """The slice of mpmath's context interface the evaluator uses, in double precision."""
+
+    mpf = float
+    fsum = staticmethod(math.fsum)
+    isfinite = staticmethod(math.isfinite)
+    atan2 = staticmethod(math.atan2)
+
+    def __getattr__(self, name):
+        return getattr(math, name)
+
+
+_FLOAT = _FloatContext()
+
+
+class _Evaluator:
+    """Evaluate an expression and its magnitude (addends taken by absolute value) at one point."""
+
+    def __init__(self, ctx, point: Mapping[Any, Any]):
+        self.ctx = ctx
+        self.point = point
+        self.memo: dict = {}
+
+    def __call__(self, e) -> tuple[Any, Any]:
+        out = self.memo.get(e)
+        if out is None:
+            out = self._eval(e)
+            self.memo[e] = out
+        return out
+
+    def _float(self, number):
+        """A SymPy Float in this context's precision (its exact binary value in mpmath)."""
+        return float(number) if self.ctx is _FLOAT else self.ctx.mpf(number._mpf_)
+
+    def _eval(self, e):
+        ctx = self.ctx
+        if e in self.point:
+            x = self.point[e]
+            return x, abs(x)
+        if e.is_Rational:
+            x = ctx.mpf(e.p) / e.q
+            return x, abs(x)
+        if e.is_Float:
+            x = self._float(e)
+            return x, abs(x)
+        if e.is_NumberSymbol or e.is_number:
+            x = e.evalf(_DIGITS + 5)
+            if not x.is_real or not x.is_finite:
+                raise _Inadmissible
+            x = self._float(x)
+            return x, abs(x)
+        if e.is_Add:
+            parts = [self(a) for a in e.args]
+            return ctx.fsum(p[0] for p in parts), ctx.fsum(p[1] for p in parts)
+        if e.is_Mul:
+            x = m = ctx.mpf(1)
+            for a in e.args:
+                xa, ma = self(a)
+                x *= xa
+                m *= ma
+            return x, m
+        if e.is_Pow:
+            (xb, mb), (xe, _) = self(e.base), self(e.exp)
+            if xb == 0 and xe < 0:
+                raise _Inadmissible
+            if xb < 0 and not e.exp.is_integer:
+                raise _Inadmissible
+            x = xb**xe
+            if xb == 0:
+                return x, mb**xe
+            # an exponent multiplies the base's relative rounding error (mb / |xb|) by |exponent|
+            return x, abs(x) * (1 + abs(xe) * mb / abs(xb))
+        if isinstance(e, sp.Function) or isinstance(e, (sp.Abs, sp.sign)):
+            return self._function(e)
+        raise _Inadmissible
+
+    def _function(self, e):
+        ctx = self.ctx
+        args = [self(a) for a in e.args]
+        name = _MP_NAMES.get(type(e))
+        if name is not None and len(args) == 1:
+            xa, ma = args[0]
+            fn = getattr(ctx, name)
+            try:
+                x = fn(xa)
+            except (ValueError, ZeroDivisionError, OverflowError):
+                raise _Inadmissible from None
+            if isinstance(x, (complex, mpmath.mpc)):
+                raise _Inadmissible
+            slope = _SLOPES[name](x, xa)
+            return x, abs(x) + slope * ma
+        if isinstance(e, sp.Abs):
+            return abs(args[0][0]), args[0][1]
+        if isinstance(e, sp.sign):
+            xa, ma = args[0]
+            one = ctx.mpf(1)
+            return (one if xa > 0 else -one if xa < 0 else 0 * one), one
+        if isinstance(e, sp.atan2):
+            (y, my), (x, mx) = args
+            val = ctx.atan2(y, x)
+            return val, abs(val) + my + mx
+        # anything else: SymPy evaluates it at the point, its magnitude taken as its size plus its arguments'
+        subs = [sp.Float(a[0], _DIGITS) for a in args]
+        value = e.func(*subs).evalf(_DIGITS)
+        if not value.is_number or not value.is_real or not value.is_finite:
+            raise _Inadmissible
+        x = self._float(value)
+        return x, abs(x) + sum(a[1] for a in args)
+
+
+_MP_NAMES = {
+    sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.exp: "exp", sp.log: "log",
+    sp.asin: "asin", sp.acos: "acos", sp.atan: "atan",
+    sp.sinh: "sinh", sp.cosh: "cosh", sp.tanh: "tanh",
+}
+_SLOPES: dict[str, Callable] = {  # |f'| at the point, to carry the argument's rounding through
+    "sin": lambda x, a: 1, "cos": lambda x, a: 1, "tan": lambda x, a: 1 + x * x,
+    "exp": lambda x, a: abs(x), "log": lambda x, a: 1 / abs(a) if a else 0,
+    "asin": lambda x, a: 1 / math.sqrt(max(1e-300, 1 - float(a) ** 2)),
+    "acos": lambda x, a: 1 / math.sqrt(max(1e-300, 1 - float(a) ** 2)),
+    "atan": lambda x, a: 1, "sinh": lambda x, a: abs(x) + 1, "cosh": lambda x, a: abs(x) + 1,
+    "tanh": lambda x, a: 1,
+}
+
+
+def _has_float(expr, values: Mapping) -> bool:
+    return bool(expr.atoms(sp.Float)) or any(isinstance(v, float) or getattr(v, "is_Float", False) for v in values.values())
+
+
+def _opaque(expr) -> list:
+    """Sub-expressions treated as independent unknowns: free symbols, applied undefined functions, derivatives."""
+    return sorted(set(expr.free_symbols) | expr.atoms(AppliedUndef, sp.Derivative), key=sp.default_sort_key)
+
+
+def _draw(rng: random.Random, s) -> float:
+    """A generic value for ``s``, of the sign its assumptions allow."""
+    if getattr(s, "is_integer", None):
+        value = float(rng.randint(2, 9))
+    else:
+        value = 10 ** rng.uniform(-1, 1) * (1 + 1e-3 * rng.random())
+    if getattr(s, "is_nonpositive", None):
+        return -value
+    if getattr(s, "is_nonnegative", None) or getattr(s, "is_positive", None):
+        return value
+    return value if rng.random() < 0.5 else -value
+
+
+def _points(expr, values: Mapping, seed: int):
+    rng = random.Random(seed)
+    unknowns = [s for s in _opaque(expr) if s not in values]
+    while True:
+        yield {**values, **{s: _draw(rng, s) for s in unknowns}}
+
+
+def negligible(value, magnitude, floating: bool) -> bool:
+    """Whether ``value`` is zero relative to ``magnitude`` (the size of the terms it came from)."""
+    tol = FLOAT_TOLERANCE if floating else EXACT_TOLERANCE
+    return abs(value) <= tol * abs(magnitude)
+
+
+def is_zero(expr, values: Mapping[Any, Any] | None = None, *, points: int = _POINTS) -> bool:
+    """Whether ``expr`` is identically zero (for every value of its free symbols, except those in ``values``).
+
+    ``values`` fixes some symbols (parameters with values); the others are
+    drawn at random.  See the module's docstring for the rules.
+
+    >>> import sympy as sp
+    >>> x = sp.Symbol("x", real=True)
+    >>> is_zero(sp.cos(x)**2 - (1 + sp.cos(2 * x)) / 2), is_zero(x - sp.sin(x))
+    (True, False)
+    >>> k = sp.Symbol("k", positive=True)
+    >>> is_zero((k - 2) * x, {k: 2}), is_zero((k - 2) * x)
+    (True, False)
+    """
+    expr = sp.sympify(expr)
+    values = {k: sp.sympify(v) for k, v in (values or {}).items()}
+    if isinstance(expr, sp.MatrixBase):
+        return all(is_zero(e, values, points=points) for e in expr)
+    if expr == 0:
+        return True
+    if expr.is_number and not expr.free_symbols:
+        value = expr.evalf(_DIGITS)
+        if value.is_real and value.is_finite:
+            return bool(value == 0)
+        return False
+    return _zero_at_points(expr, values, points)
+
+
+def _zero_at_points(expr, values: Mapping, points: int) -> bool:
+    floating = _has_float(expr, values)
+    gen = _points(expr, values, _SEED)
+    # fast path: one float evaluation far from zero proves it is not identically zero
+    for _ in range(_TRIES):
+        point = next(gen)
+        try:
+            x, m = _Evaluator(_FLOAT, {k: float(v) for k, v in point.items()})(expr)
+        except (_Inadmissible, TypeError, ValueError, OverflowError, ZeroDivisionError):
+            continue
+        if math.isfinite(x) and math.isfinite(m) and abs(x) > _FAST_TOLERANCE * m:
+            return False
+        break
+    ctx = mpmath.MPContext()
+    ctx.dps = _DIGITS
+    tested = 0
+    for _ in range(_TRIES + points):
+        point = next(gen)
+        try:
+            x, m = _Evaluator(ctx, {k: _mp(ctx, v) for k, v in point.items()})(expr)
+        except (_Inadmissible, TypeError, ValueError, OverflowError, ZeroDivisionError):
+            continue
+        if not (ctx.isfinite(x) and ctx.isfinite(m)):
+            continue
+        if not negligible(x, m, floating):
+            return False
+        tested += 1
+        if tested >= points:
+            return True
+    return _symbolic_zero(expr)
+
+
+def _mp(ctx, v):
+    if isinstance(v, float):
+        return ctx.mpf(v)
+    v = sp.sympify(v)
+    if v.is_Rational:
+        return ctx.mpf(v.p) / v.q
+    if v.is_Float:
+        return ctx.mpf(v._mpf_)
+    value = v.evalf(_DIGITS + 5)
+    if not value.is_real:
+        raise _Inadmissible
+    return ctx.mpf(value._mpf_)
+
+
+def _symbolic_zero(expr, limit: int = 400) -> bool:
+    """Last resort where no point evaluates: SymPy's simplification, for expressions small enough."""
+    if sp.count_ops(expr) > limit:
+        return False
+    try:
+        return sp.simplify(expr) == 0
+    except Exception:  # pragma: no cover - SymPy corner cases
+        return False
+
+
+def equal(a, b, values: Mapping[Any, Any] | None = None, *, points: int = _POINTS) -> bool:
+    """Whether ``a`` and ``b`` are identically equal, compared term by term at random points.
+
+    ``a`` and ``b`` are evaluated separately and compared against the sum of
+    both magnitudes, so a round-off difference between floating-point
+    coefficients is never mistaken for a term (SymPy would merge
+    ``0.147·x − 0.14699999999999999·x`` into ``2.8e-17·x`` and lose its scale).
+
+    >>> import sympy as sp
+    >>> x = sp.Symbol("x", real=True)
+    >>> equal(0.3 * 0.49 * sp.sin(x), 0.147 * sp.sin(x)), equal(0.3 * sp.sin(x), 0.30001 * sp.sin(x))
+    (True, False)
+    """
+    a, b = sp.sympify(a), sp.sympify(b)
+    if isinstance(a, sp.MatrixBase) or isinstance(b, sp.MatrixBase):
+        a, b = sp.Matrix(a), sp.Matrix(b)
+        return a.shape == b.shape and all(equal(x, y, values, points=points) for x, y in zip(a, b))
+    if a == b:
+        return True
+    pair = sp.Tuple(a, b)
+    values = {k: sp.sympify(v) for k, v in (values or {}).items()}
+    # the difference, kept unevaluated so its addends are a's and b's own
+    diff = sp.Add(a, sp.Mul(-1, b, evaluate=False), evaluate=False)
+    if not pair.free_symbols and not pair.atoms(AppliedUndef):
+        try:
+            x, m = _Evaluator(_context(), {})(diff)
+        except _Inadmissible:
+            return False
+        return negligible(x, m, _has_float(pair, values))
+    return _zero_at_points(diff, values, points)
+
+
+def _context():
+    ctx = mpmath.MPContext()
+    ctx.dps = _DIGITS
+    return ctx
+
+
+def depends_on(expr, symbol, values: Mapping[Any, Any] | None = None, *, diff: Callable | None = None) -> bool:
+    """Whether ``expr`` really depends on ``symbol``: its derivative is not identically zero.
+
+    ``diff(expr, symbol)`` differentiates (SymPy's by default; a memoized
+    one from :class:`lagrangian.derive.Calculus` for large expressions).
+
+    >>> import sympy as sp
+    >>> t, w = sp.symbols("t omega", real=True)
+    >>> depends_on(0.3 * sp.sin(w * t)**2 + 0.3 * sp.cos(w * t)**2, t), depends_on(sp.sin(w * t), t)
+    (False, True)
+    """
+    expr = sp.sympify(expr)
+    if symbol not in expr.free_symbols:
+        return False
+    derivative = (diff or sp.diff)(expr, symbol)
+    return not is_zero(derivative, values)

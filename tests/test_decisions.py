@@ -1,0 +1,219 @@
+"""Structural decisions on ordinary inputs: the same verdict whether parameters are numbers or symbols.
+
+Expected values come from closed forms (the spherical pendulum's and the
+heavy symmetric top's effective potentials, the frequency of small
+oscillations about a steady precession), from a simulation (the Jacobi
+integral stays constant), or from the same model built with symbols.
+Parameters are drawn log-uniformly over decades, as users type them.
+"""
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import lagrangian as lg
+from lagrangian import routh
+from lagrangian.identity import depends_on, equal, is_zero
+
+
+def decades(lo, hi):
+    """Floats drawn log-uniformly between lo and hi, rounded to 3 significant digits as users type them."""
+    return st.floats(math.log10(lo), math.log10(hi)).map(lambda e: float(f"{10 ** e:.3g}"))
+
+
+x, y, v = sp.symbols("x y v", real=True)
+
+
+# -- the identity tests themselves ------------------------------------------------------------------
+
+
+@settings(max_examples=60)
+@given(a=decades(1e-4, 1e4), b=decades(1e-4, 1e4), c=decades(1e-3, 1e3))
+def test_round_off_between_float_coefficients_is_not_a_term(a, b, c):
+    # p and M·v built along two paths: equal as real numbers, not always as floats
+    p = (a * b) * c * sp.sin(x) ** 2 * v
+    Mv = a * (b * c) * sp.sin(x) ** 2 * v
+    assert equal(p, Mv)
+    assert not equal(p, Mv * (1 + 1e-6))
+
+
+@settings(max_examples=40)
+@given(a=decades(1e-4, 1e4), w=decades(1e-2, 1e2))
+def test_trigonometric_identities_with_float_amplitudes(a, w):
+    t = lg.t
+    assert is_zero(a * sp.sin(w * t) ** 2 + a * sp.cos(w * t) ** 2 - a)
+    assert not depends_on(a * sp.sin(w * t) ** 2 + a * sp.cos(w * t) ** 2 + x, t)
+    assert depends_on(a * sp.sin(w * t) ** 2 + x, t)
+    assert not is_zero(a * sp.sin(w * t) - a * w * t)
+
+
+@settings(max_examples=40)
+@given(k=decades(1e-9, 1e9))
+def test_tiny_and_huge_parameters_are_not_mistaken_for_zero(k):
+    # capacitances of picofarads and stiffnesses of meganewtons per metre are ordinary values
+    assert not is_zero(k * x * v)
+    assert not is_zero(k * sp.sin(x) - k * x)
+
+
+def test_values_fix_symbols_others_are_generic():
+    k = sp.Symbol("k", positive=True)
+    assert is_zero((k - 0.3) * x, {k: 0.3})
+    assert not is_zero((k - 0.3) * x)
+    assert not is_zero((k - 0.3) * x, {k: 0.31})
+
+
+def test_expressions_off_their_real_domain_are_decided_where_they_are_real():
+    assert is_zero(sp.sqrt(x - 5) ** 2 - (x - 5))
+    assert not is_zero(sp.sqrt(x - 5) - 1)
+
+
+# -- the spherical pendulum and the heavy top with ordinary values ----------------------------------
+
+
+def spherical(m, length, g):
+    model = lg.Model("spherical pendulum", dim=3)
+    model.add("link", "yoke", "yoke")
+    model.add("revolute", "turn", ("ground", "yoke"), axis=(0, 0, 1))
+    model.add("link", "arm", "arm", points={"bob": (0, 0, -length)})
+    model.add("revolute", "tilt", ("yoke", "arm"), axis=(1, 0, 0))
+    model.add("mass", "bob", "arm.bob", m=m)
+    model.add("gravity", "g", g=g)
+    return model
+
+
+def heavy_top(m, l, I1, I3, g):
+    model = lg.Model("heavy symmetric top", dim=3)
+    model.add("link", "a", "a")
+    model.add("link", "b", "b")
+    model.add("body", "top", "top", m=m, inertia=(I1, I1, I3), com=(0, 0, l))
+    model.add("revolute", "precession", ("ground", "a"), axis=(0, 0, 1))
+    model.add("revolute", "nutation", ("a", "b"), axis=(1, 0, 0))
+    model.add("revolute", "spin", ("b", "top"), axis=(0, 0, 1))
+    model.add("gravity", "g", g=g)
+    return model
+
+
+def effective_potential_at(red, theta, C, values=None):
+    """V_eff of a reduced model at a coordinate value, numerically."""
+    eq = red.reconstructing(False).eq
+    at = {eq.sym.q[0]: theta} | {red.momenta[n]: c for n, c in C.items()} | dict(values or {})
+    return float(eq.V.xreplace(at))
+
+
+def test_readme_spherical_pendulum_reduces_with_ordinary_values():
+    m, length, g = 0.3, 0.7, 9.81
+    red = routh.reduce(spherical(m, length, g))
+    for theta in (0.3, 1.1, 2.5):
+        for C in (0.0, 0.21, 1.7):
+            expected = C**2 / (2 * m * length**2 * math.sin(theta) ** 2) - m * g * length * math.cos(theta)
+            assert effective_potential_at(red, theta, {"theta_turn": C}) == pytest.approx(expected, rel=1e-12)
+
+
+@settings(max_examples=8)
+@given(m=decades(1e-2, 1e2), length=decades(1e-2, 1e2), g=decades(0.1, 100), theta0=st.floats(0.15, 1.4))
+def test_spherical_pendulum_steady_precession_over_decades(m, length, g, theta0):
+    """Steady precession at θ₀: Ω² = g/(l cos θ₀); small oscillations ω² = (g/l)(3 cos θ₀ + sec θ₀): stable."""
+    red = routh.reduce(spherical(m, length, g))
+    Omega = math.sqrt(g / (length * math.cos(theta0)))
+    C = m * length**2 * math.sin(theta0) ** 2 * Omega
+    motions = red.steady_motions(momenta={"theta_turn": C}, search={"theta_tilt": (0.01, 3.13)})
+    found = [s for s in motions if abs(float(s.coordinates["theta_tilt"]) - theta0) < 1e-6]
+    assert len(found) == 1
+    stability = found[0].stability()
+    assert stability.verdict == "stable"
+    expected = math.sqrt(g / length * (3 * math.cos(theta0) + 1 / math.cos(theta0)))
+    assert stability.frequencies[0] == pytest.approx(expected, rel=1e-7)
+
+
+def test_heavy_symmetric_top_reduces_with_ordinary_values():
+    """Two ignorable angles; V_eff = (C_φ − C_ψ cos θ)²/(2 A sin²θ) + C_ψ²/(2 I₃) + m g l cos θ, A = I₁ + m l²."""
+    m, l, I1, I3, g = 0.3, 0.4, 0.3, 0.5, 9.81
+    red = routh.reduce(heavy_top(m, l, I1, I3, g))
+    assert sorted(red.ignored) == ["theta_precession", "theta_spin"]
+    A = I1 + m * l**2
+    for theta in (0.4, 1.3, 2.2):
+        for Cphi, Cpsi in ((0.7, 2.9), (-0.2, 0.05), (0.0, 0.0)):
+            expected = (Cphi - Cpsi * math.cos(theta)) ** 2 / (2 * A * math.sin(theta) ** 2) \
+                + Cpsi**2 / (2 * I3) + m * g * l * math.cos(theta)
+            got = effective_potential_at(red, theta, {"theta_precession": Cphi, "theta_spin": Cpsi})
+            assert got == pytest.approx(expected, rel=1e-11)
+
+
+def test_heavy_top_numbers_and_symbols_give_one_verdict():
+    values = {"m": 0.3, "l": 0.4, "I1": 0.3, "I3": 0.5, "g": 9.81}
+    symbols = {k: sp.Symbol(k, positive=True) for k in values}
+    momenta = {"theta_precession": 1.3, "theta_spin": 2.9}
+    search = {"theta_nutation": (0.05, 3.1)}
+    verdicts = []
+    for model, params in ((heavy_top(**values), None), (heavy_top(**symbols), values)):
+        red = routh.reduce(model)
+        assert red.effective_potential is not None
+        motions = red.steady_motions(params=params, momenta=momenta, search=search)
+        verdicts.append([(float(s.coordinates["theta_nutation"]), s.stability()) for s in motions])
+    (numeric, symbolic) = verdicts
+    assert len(numeric) == len(symbolic) >= 1
+    for (a, sa), (b, sb) in zip(numeric, symbolic):
+        assert a == pytest.approx(b, rel=1e-10)
+        assert sa.verdict == sb.verdict
+        np.testing.assert_allclose(sa.curvature, sb.curvature, rtol=1e-10)
+        np.testing.assert_allclose(np.sort_complex(sa.eigenvalues), np.sort_complex(sb.eigenvalues), rtol=1e-8, atol=1e-10)
+
+
+@settings(max_examples=6)
+@given(m=decades(1e-2, 1e2), R=decades(1e-2, 1e1))
+def test_verdict_does_not_flip_with_m_r_squared(m, R):
+    """A bead on a hoop turning freely about its vertical diameter (the hoop's inertia J): steady motion at
+    the bottom is stable or unstable by the sign of g/R − Ω², never 'marginal' for want of an effective
+    potential (there is no gyroscopic term)."""
+    g, J = 9.81, 0.05
+    model = lg.Model("bead on a free hoop", dim=3)
+    model.add("body", "hoop", "hoop", m=0.1, inertia=(J, J, J))
+    model.add("revolute", "spin", ("ground", "hoop"), axis=(0, 0, 1))
+    model.add("link", "arm", "arm", points={"bead": (0, 0, -R)})
+    model.add("revolute", "slide", ("hoop", "arm"), axis=(1, 0, 0))
+    model.add("mass", "bead", "arm.bead", m=m)
+    model.add("gravity", "g", g=g)
+    red = routh.reduce(model)
+    assert red.effective_potential is not None
+    assert is_zero(red._r_parts["G"])
+    for Omega in (0.5 * math.sqrt(g / R), 2.0 * math.sqrt(g / R)):
+        C = J * Omega  # the bead at the bottom adds no inertia about the axis
+        bottom = [s for s in red.steady_motions(momenta={"theta_spin": C}, search={"theta_slide": (-0.5, 0.5)})
+                  if abs(float(s.coordinates["theta_slide"])) < 1e-9]
+        assert len(bottom) == 1
+        verdict = bottom[0].stability().verdict
+        assert verdict == ("stable" if Omega**2 < g / R else "unstable")
+
+
+# -- the Jacobi integral of a rheonomic model whose time dependence cancels -------------------------
+
+
+def test_jacobi_integral_conserved_when_time_dependence_cancels():
+    w, A, k = 1.7, 0.05, 3.0
+    model = lg.Model("mass between two supports turning on a circle", dim=2)
+    model.add("mass", "m", "p", m=0.3)
+    c = sp.Matrix([A * sp.cos(w * lg.t), A * sp.sin(w * lg.t)])
+    model.add("prescribed_motion", "s1", "s1", position=c)
+    model.add("prescribed_motion", "s2", "s2", position=-c)
+    model.add("spring", "k1", ("s1", "p"), k=k)
+    model.add("spring", "k2", ("s2", "p"), k=k * 1.0000000000000002)  # the same stiffness, typed another way
+    h = routh.jacobi_integral(model)
+    assert h.conserved, h.reasons
+    res = model.simulate(10, initial={"x_p": 0.1, "y_p": -0.02}, velocity={"x_p": 0.0, "y_p": 0.3},
+                         rtol=1e-12, atol=1e-14)
+    values = h.values(res)
+    assert np.ptp(values) / abs(values[0]) < 1e-9
+
+
+def test_jacobi_integral_of_a_truly_rheonomic_model_is_not_conserved():
+    model = lg.Model("mass on a support turning on a circle", dim=2)
+    model.add("mass", "m", "p", m=0.3)
+    model.add("prescribed_motion", "s", "s", position=sp.Matrix([0.05 * sp.cos(1.7 * lg.t), 0.05 * sp.sin(1.7 * lg.t)]))
+    model.add("spring", "k", ("s", "p"), k=3.0)
+    h = routh.jacobi_integral(model)
+    assert not h.conserved
+    assert "time" in " ".join(h.reasons)
