@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from .budget import DEFAULT_SECONDS, BudgetExceeded, within
 from .component import t
 from .derived import DerivedModel
 from .equations import Equations
@@ -528,7 +529,8 @@ class ReducedModel(DerivedModel):
 
     def steady_motions(self, solve_for: Sequence[str] | None = None, *, params: Mapping[str, float] | None = None,
                        momenta: Mapping[str, float] | None = None,
-                       search: Mapping[str, tuple[float, float]] | None = None) -> list["SteadyMotion"]:
+                       search: Mapping[str, tuple[float, float]] | None = None,
+                       budget: float | None = DEFAULT_SECONDS) -> list["SteadyMotion"]:
         """Every steady motion (all branches): the remaining coordinates constant, the ignorable ones uniform.
 
         Symbolically, ``solve_for`` names the unknowns — remaining
@@ -539,6 +541,10 @@ class ReducedModel(DerivedModel):
         solve: all roots of the conditions in ``search`` ranges (default
         ``(−π, π)`` for joint angles), by bracketing in one coordinate and
         by Newton from a grid of starts in several.
+
+        The symbolic solve runs under a budget of ``budget`` seconds (``None``:
+        none); past it a :class:`~lagrangian.ReductionError` says what to
+        give instead (numeric values, a search range, fewer unknowns).
         """
         eq = self.reconstructing(False).eq
         names = eq.names
@@ -561,7 +567,19 @@ class ReducedModel(DerivedModel):
         numeric = solve_for is None and not free
         unfolded = [e.replace(sp.Abs, lambda x: x).replace(sp.sign, lambda x: sp.Integer(1)) for e in exprs]
         rational = all(e.is_rational_function(*unknowns) for e in unfolded)
-        branches = _solve(exprs, unknowns) if rational or not numeric else None
+        branches = None
+        if rational or not numeric:
+            try:
+                branches = within(_solve, exprs, unknowns, seconds=budget)
+            except BudgetExceeded:
+                if not numeric:
+                    raise ReductionError(
+                        f"SymPy did not solve the steady-motion conditions of {self.name!r} for "
+                        f"{', '.join(unknowns_names)} within the budget of {budget:g} s: give numeric params= and "
+                        f"momenta= so the coordinates are found numerically (in search= ranges), solve for fewer "
+                        f"unknowns, or raise budget=."
+                    ) from None
+                # every value is known: the coordinates are found numerically instead
         if branches is None:
             if not numeric:
                 raise ReductionError(

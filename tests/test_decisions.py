@@ -217,3 +217,12 @@ def test_jacobi_integral_of_a_truly_rheonomic_model_is_not_conserved():
     h = routh.jacobi_integral(model)
     assert not h.conserved
     assert "time" in " ".join(h.reasons)
+
+
+# -- symbolic work under a budget -------------------------------------------------------------------
+
+
+def test_symbolic_steady_motion_solve_stops_at_its_budget_with_advice():
+    red = routh.reduce(heavy_top(0.3, 0.4, 0.3, 0.5, 9.81))
+    with pytest.raises(lg.ReductionError, match=r"budget of 1 s: give numeric params= and momenta="):
+        red.steady_motions(solve_for=["theta_nutation"], budget=1)

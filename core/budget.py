@@ -1,0 +1,85 @@
+"""Symbolic work under a time budget: a solve that can blow up fails with advice instead of hanging.
+
+SymPy's ``solve``, ``simplify`` and friends have no way to stop part way.
+:func:`within` runs such a call in a forked child process and waits at most
+``seconds``; past that the child is killed and :class:`BudgetExceeded` is
+raised, which callers turn into an error saying what to give instead
+(numeric values, a search interval).  The result comes back by pickling,
+which SymPy expressions support.  Where ``fork`` is not available (Windows)
+the call runs in this process without a budget.
+
+>>> within(sum, [1, 2, 3], seconds=10)
+6
+>>> import time
+>>> within(time.sleep, 5, seconds=0.2)
+Traceback (most recent call last):
+...
+lagrangian.budget.BudgetExceeded: the call did not finish within its budget of 0.2 s
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import pickle
+import time
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["within", "BudgetExceeded", "DEFAULT_SECONDS"]
+
+#: The default budget of a symbolic solve, in seconds of wall time.
+DEFAULT_SECONDS = 20.0
+
+
+class BudgetExceeded(Exception):
+    """A bounded call did not finish within its budget (internal: callers raise their own error with advice)."""
+
+    def __init__(self, seconds: float):
+        super().__init__(f"the call did not finish within its budget of {seconds:g} s")
+        self.seconds = seconds
+
+
+def _child(conn, fn, args, kwargs) -> None:  # pragma: no cover - runs in the forked child
+    try:
+        payload = ("ok", fn(*args, **kwargs))
+    except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
+        payload = ("error", exc)
+    try:
+        data = pickle.dumps(payload)
+    except Exception as exc:  # noqa: BLE001
+        data = pickle.dumps(("error", RuntimeError(f"the result could not be sent back: {exc}")))
+    conn.send_bytes(data)
+    conn.close()
+    os._exit(0)
+
+
+def within(fn: Callable[..., Any], *args: Any, seconds: float = DEFAULT_SECONDS, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)``, or :class:`BudgetExceeded` after ``seconds`` of wall time.
+
+    Exceptions raised by ``fn`` are raised here.  ``seconds=None`` (or
+    ``inf``) runs the call directly, without a budget.
+    """
+    if seconds is None or seconds == float("inf") or "fork" not in multiprocessing.get_all_start_methods():
+        return fn(*args, **kwargs)
+    ctx = multiprocessing.get_context("fork")
+    receive, send = ctx.Pipe(duplex=False)
+    process = ctx.Process(target=_child, args=(send, fn, args, kwargs), daemon=True)
+    process.start()
+    send.close()
+    deadline = time.monotonic() + float(seconds)
+    try:
+        if not receive.poll(max(0.0, deadline - time.monotonic())):
+            raise BudgetExceeded(float(seconds))
+        try:
+            status, value = pickle.loads(receive.recv_bytes())
+        except EOFError:  # the child died without an answer (out of memory, a signal)
+            raise RuntimeError(f"the bounded call ended without a result (exit code {process.exitcode})") from None
+    finally:
+        if process.is_alive():
+            process.kill()
+        process.join()
+        receive.close()
+    if status == "error":
+        raise value
+    return value
