@@ -181,6 +181,14 @@ class Equations:
         n = len(self.names)
         M, f, calc = self.M, self.f, self._derivation.calc
         zero_rows = [i for i in range(n) if all(_is_zero(M[i, j]) for j in [i, *range(n)])]
+        # A coordinate without inertia of its own whose motion a loop constraint fixes (a massless slider
+        # closed by a loop) stays second-order: its acceleration follows from the constraint rows, and the
+        # solve is regular when M is positive definite on the motions the constraints allow.
+        self.held = []
+        if zero_rows and len(self.constraints):
+            Jq = self.constraints.jacobian(self.sym.q)
+            self.held = [i for i in zero_rows if any(not _is_zero(Jq[k, i]) for k in range(Jq.rows))]
+            zero_rows = [i for i in zero_rows if i not in self.held]
         self.inertial = [i for i in range(n) if i not in zero_rows]
         self.first_order = zero_rows
         if not zero_rows and not len(self.constraints):
