@@ -65,6 +65,7 @@ from sympy.core.relational import Relational
 
 from .component import t
 from .errors import IntegrationError, ModelError, SingularMassMatrixError
+from .identity import depends_on, is_zero
 from .simulation import Result, initial_state
 
 __all__ = ["StateSpace", "state_space", "simulate_exact"]
@@ -247,7 +248,7 @@ def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
     for r, i in enumerate(first):
         F[i] = AJ[nI + r]
         G[i] = Ainv[nI + r]
-    active = [i for i in range(n) if s[i] != 0]
+    active = [i for i in range(n) if not is_zero(s[i])]
     return StateSpace(
         F=F,
         G=G[:, active],
@@ -261,13 +262,9 @@ def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
 
 
 def _dependence(expr: sp.Expr, symbols: set) -> set:
-    """The symbols of ``symbols`` that ``expr`` really depends on (after expansion, and simplification when small)."""
-    found = expr.free_symbols & symbols
-    if found:
-        found = sp.expand(expr).free_symbols & symbols
-    if found and sp.count_ops(expr) < 200:
-        found = sp.simplify(expr).free_symbols & symbols
-    return found
+    """The symbols of ``symbols`` that ``expr`` really depends on (a derivative not identically zero, decided by
+    :func:`lagrangian.identity.depends_on`: round-off between coefficients is not a dependence)."""
+    return {s for s in expr.free_symbols & symbols if depends_on(expr, s)}
 
 
 def _state_list(symbols: set, eq) -> str:
