@@ -939,6 +939,20 @@ class JacobiIntegral:
         return float(np.max(np.abs(h - h[0]))) / scale
 
 
+def _without_residues(expr: sp.Expr, reference: sp.Expr) -> sp.Expr:
+    """``expr`` without the terms that are round-off residues (dropping them keeps it equal to ``reference``)."""
+    terms = list(sp.Add.make_args(expr))
+    if len(terms) > 50:
+        return expr
+    for term in sorted(terms, key=lambda e: min((abs(float(f)) for f in e.atoms(sp.Float)), default=math.inf)):
+        if not term.atoms(sp.Float):
+            break
+        rest = [e for e in terms if e is not term]
+        if equal(sp.Add(*rest), reference):
+            terms = rest
+    return sp.Add(*terms)
+
+
 def jacobi_integral(model: Model) -> JacobiIntegral:
     """The Jacobi integral ``h = Σ q̇ ∂L/∂q̇ − L`` of ``model`` and whether it is conserved.
 
@@ -959,9 +973,12 @@ def jacobi_integral(model: Model) -> JacobiIntegral:
     """
     eq = model.eq
     h = sp.Add(*[vi * pi for vi, pi in zip(eq.sym.v, eq.p)]) - eq.L
-    h = _tidy(sp.expand(h), 2000)
     E = eq.T + eq.V
-    diff = sp.Integer(0) if equal(h, E) else _tidy(sp.expand(h - E), 2000)
+    h = _tidy(sp.expand(h), 2000)
+    if equal(h, E):
+        h, diff = _without_residues(h, E), sp.Integer(0)
+    else:
+        diff = _tidy(sp.expand(h - E), 2000)
     reasons = []
     if _depends(eq, eq.L, t):
         moving = [name for name, c in model.assembly.contributions.items()

@@ -226,3 +226,9 @@ def test_symbolic_steady_motion_solve_stops_at_its_budget_with_advice():
     red = routh.reduce(heavy_top(0.3, 0.4, 0.3, 0.5, 9.81))
     with pytest.raises(lg.ReductionError, match=r"budget of 1 s: give numeric params= and momenta="):
         red.steady_motions(solve_for=["theta_nutation"], budget=1)
+
+
+def test_jacobi_integral_of_the_spherical_pendulum_is_its_energy_without_round_off_residues():
+    h = routh.jacobi_integral(spherical(0.3, 0.7, 9.81))
+    assert h.conserved and h.energy_conserved
+    assert min(abs(float(f)) for f in h.expr.atoms(sp.Float)) > 1e-6  # no 1e-17 "terms" left in the display
