@@ -27,32 +27,50 @@ __all__ = ["Assembly", "assemble"]
 
 @dataclass
 class Assembly:
-    """The coordinates of a model and the energy terms of its components (SymPy, functions of ``t``)."""
+    """The coordinates of a model and the energy terms of its components (SymPy, functions of ``t``).
+
+    ``generic`` holds the contributions with every parameter given as a
+    number still a symbol (the equations are derived from them), ``values``
+    those symbols' values, and ``contributions`` the contributions with the
+    values in (what the components add, as users gave them).
+    """
 
     coordinates: list[Coordinate]
     views: dict[str, DomainView]
     contributions: dict[str, Contribution]
     signals: dict[sp.Function, Any] = field(default_factory=dict)
+    generic: dict[str, Contribution] = field(default_factory=dict)
+    values: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
+
+    def energy(self, part: str, generic: bool = False) -> sp.Expr:
+        """The sum of every component's ``part`` (``"T"``, ``"V"``, ``"D"`` or ``"G"``)."""
+        source = self.generic if generic else self.contributions
+        return sp.Add(*(sp.sympify(getattr(c, part)) for c in source.values()))
+
+    def load_list(self, generic: bool = False) -> list[tuple[str, Load]]:
+        """``(component, load)`` pairs."""
+        source = self.generic if generic else self.contributions
+        return [(name, load) for name, c in source.items() for load in c.loads]
 
     @property
     def T(self) -> sp.Expr:
-        return sp.Add(*(sp.sympify(c.T) for c in self.contributions.values()))
+        return self.energy("T")
 
     @property
     def V(self) -> sp.Expr:
-        return sp.Add(*(sp.sympify(c.V) for c in self.contributions.values()))
+        return self.energy("V")
 
     @property
     def D(self) -> sp.Expr:
-        return sp.Add(*(sp.sympify(c.D) for c in self.contributions.values()))
+        return self.energy("D")
 
     @property
     def G(self) -> sp.Expr:
-        return sp.Add(*(sp.sympify(c.G) for c in self.contributions.values()))
+        return self.energy("G")
 
     @property
     def loads(self) -> list[tuple[str, Load]]:
-        return [(name, load) for name, c in self.contributions.items() for load in c.loads]
+        return self.load_list()
 
 
 def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, Any]) -> Assembly:
@@ -87,11 +105,14 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     signals: dict[sp.Function, Any] = {}
     for comp in components:
         signals.update(comp.signals())
-    contributions = {}
+    contributions, generic, values = {}, {}, {}
+    symbolic = [comp.symbolic_view() for comp in components]
     for comp in components:
-        ctx = Context(views[comp.domain], views, dict(options), components)
+        values.update(comp.values)
+    for comp, view in zip(components, symbolic):
+        ctx = Context(views[comp.domain], views, dict(options), symbolic, values=values)
         try:
-            contribution = comp.contribute(ctx)
+            contribution = view.contribute(ctx)
         except LagrangianError:
             raise
         except Exception as exc:
@@ -99,8 +120,21 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
                 f"{comp.kind} {comp.name!r} failed to contribute its energy: {exc.__class__.__name__}: {exc}"
             ) from exc
         _check_contribution(comp, contribution, allowed | set(signals))
-        contributions[comp.name] = contribution
-    return Assembly(coordinates, views, contributions, signals)
+        generic[comp.name] = contribution
+        contributions[comp.name] = _with_values(contribution, values)
+    return Assembly(coordinates, views, contributions, signals, generic, values)
+
+
+def _with_values(c: Contribution, values: Mapping) -> Contribution:
+    """``c`` with its parameter symbols replaced by their values."""
+    if not values:
+        return c
+
+    def put(expr):
+        return sp.sympify(expr).xreplace(values) if isinstance(expr, (sp.Basic, sp.MatrixBase)) else expr
+
+    return Contribution(put(c.T), put(c.V), put(c.D), put(c.G),
+                        [Load(put(load.force), put(load.velocity)) for load in c.loads])
 
 
 def _check_contribution(comp: Component, c: Any, allowed: set) -> None:

@@ -59,6 +59,14 @@ class Parameter:
     component, kept as a string), ``"flag"`` (True or False), ``"mapping"``
     (names to vectors) or ``"tensor"`` (a scalar, a vector or a matrix).
 
+    ``symbolic``: a number given for a scalar or signal parameter is a
+    *value of a symbol*: the derivation sees a symbol (exact arithmetic,
+    the same structure as a model built with SymPy symbols, and faster than
+    arithmetic on floats) and the value is substituted once the equations
+    are derived (:meth:`Component.symbolic_view`).  ``symbolic=False`` keeps
+    the number itself, for a value that decides the form of the energy
+    (an exponent; a rest length whose zero removes a square root).
+
     >>> Parameter("stiffness", unit="N/m").coerce(4, "k1", "k")
     4
     >>> Parameter("mass").coerce(-1, "m1", "m")
@@ -72,6 +80,7 @@ class Parameter:
     check: str = "positive"
     shape: str = "scalar"
     unit: str = ""
+    symbolic: bool = True
 
     @property
     def required(self) -> bool:
@@ -170,6 +179,21 @@ def check_value(expr: Any, check: str, component: str, name: str) -> None:
     }[check]()
     if verdict is False:
         raise ParameterError(component, name, f"{rule}, but {expr} is declared otherwise.")
+
+
+#: Assumptions of the symbol standing for a number, from the parameter's check.
+_ASSUMPTIONS = {
+    "fraction": {"positive": True},
+    "positive": {"positive": True},
+    "nonnegative": {"nonnegative": True},
+    "nonzero": {"nonzero": True, "real": True},
+    "real": {"real": True},
+}
+
+
+def _plain_number(value: Any) -> bool:
+    """A finite real number (a SymPy Number), as opposed to an expression, a matrix or a callable."""
+    return isinstance(value, sp.Number) and value.is_finite is not False
 
 
 class _CallableSignal:
@@ -297,6 +321,34 @@ class Component:
             else:
                 values[pname] = spec.coerce(spec.default, name, pname) if spec.default is not None else None
         self.params = values
+        self.values: dict[sp.Symbol, sp.Expr] = {}  # symbol → value, for parameters given as numbers
+        self._symbols: dict[str, sp.Symbol] = {}
+        for pname, spec in self.parameters.items():
+            value = values.get(pname)
+            if pname in params and spec.symbolic and spec.shape in ("scalar", "signal") and _plain_number(value):
+                symbol = sp.Dummy(f"{pname}_{name}", **_ASSUMPTIONS[spec.check])
+                self._symbols[pname] = symbol
+                self.values[symbol] = value
+
+    def symbolic_view(self) -> "Component":
+        """This component with every parameter given as a number replaced by a symbol standing for it.
+
+        The assembly derives the model's equations from the view's
+        contributions and substitutes :attr:`values` afterwards, so a model
+        built with numbers and its twin built with symbols share their
+        derivation.  A component without such parameters is its own view.
+
+        >>> import lagrangian as lg
+        >>> spring = lg.Model().add("spring", "k1", ("ground", "p"), k=0.3)
+        >>> spring.k, spring.symbolic_view().k, list(spring.values.values())
+        (0.300000000000000, _k_k1, [0.300000000000000])
+        """
+        if not self._symbols:
+            return self
+        view = object.__new__(type(self))
+        view.__dict__.update(self.__dict__)
+        view.params = {**self.params, **self._symbols}
+        return view
 
     def __getattr__(self, item: str) -> Any:
         params = self.__dict__.get("params")

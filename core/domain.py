@@ -108,6 +108,13 @@ class Context:
     ``view`` is the view of the component's own domain, ``views`` those of
     every domain in the model (for components that couple domains),
     ``options`` the model's options and ``components`` all components.
+
+    Parameters given as numbers are symbols here (each component is its
+    :meth:`~lagrangian.Component.symbolic_view`, and so is every entry of
+    ``components``); ``values`` maps those symbols to their numbers, for a
+    component that must decide something by value while it contributes
+    (whether a coupling makes an inductance matrix singular):
+    ``expr.xreplace(ctx.values)``.
     """
 
     view: DomainView
@@ -115,3 +122,4 @@ class Context:
     options: Mapping[str, Any]
     components: Sequence[Component]
     t: sp.Symbol = t
+    values: Mapping[sp.Symbol, Any] = field(default_factory=dict)

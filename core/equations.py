@@ -68,14 +68,16 @@ class Equations:
         self._setup(assembly.coordinates)
         q, v = self.sym.q, self.sym.v
         n = len(q)
-        T = self.symbolic(assembly.T)
-        V = self.symbolic(assembly.V)
-        D = self.symbolic(assembly.D)
-        G = self.symbolic(assembly.G)
+        # derived from the generic contributions (parameters given as numbers still symbols), values put in after
+        values = assembly.values
+        T = self.symbolic(assembly.energy("T", generic=True))
+        V = self.symbolic(assembly.energy("V", generic=True))
+        D = self.symbolic(assembly.energy("D", generic=True))
+        G = self.symbolic(assembly.energy("G", generic=True))
         calc = Derivation(q, v, t).calc
         Q = [sp.Integer(0)] * n
         self.load_shares: list[tuple[str, list[sp.Expr]]] = []  # (component, its share of Q)
-        for name, load in assembly.loads:
+        for name, load in assembly.load_list(generic=True):
             force = sp.Matrix([load.force]) if not isinstance(load.force, sp.MatrixBase) else load.force
             vel = sp.Matrix([load.velocity]) if not isinstance(load.velocity, sp.MatrixBase) else load.velocity
             if force.shape != vel.shape:
@@ -89,10 +91,10 @@ class Equations:
                 if terms:
                     share[i] = sp.Add(*terms)
                     Q[i] += share[i]
-            self.load_shares.append((name, share))
+            self.load_shares.append((name, [e.xreplace(values) for e in share] if values else share))
         constraints = [self.symbolic(c) for view in assembly.views.values() for c in view.constraints]
         rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.views.values()), default=10.0)
-        self._derive(T, V, G, D, Q, constraints, rate)
+        self._derive(T, V, G, D, Q, constraints, rate, values=values)
 
     @classmethod
     def from_energies(cls, coordinates, T, V, G, D, Q, constraints=(), constraint_rate: float = 10.0,
@@ -132,19 +134,25 @@ class Equations:
         self._symbolic = Rewriter(self._to_sym, self._no_acceleration)
         self._display = Rewriter(self._from_sym)
 
-    def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None) -> None:
+    def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None, values=None) -> None:
         q, v = self.sym.q, self.sym.v
-        self.T, self.V, self.D, self.G = T, V, D, G
-        self.L = self.T - self.V + self.G
         self._derivation = derivation = Derivation(q, v, t)
-        self.Q = sp.Matrix(Q)
-        M, f = derivation.equations(self.T, self.V, self.G, self.D, Q)
-        self.M = sp.Matrix(M)
-        self.f = sp.Matrix(f)
+        M, f = derivation.equations(T, V, G, D, Q)
+        # The derivation ran on symbols (exact, and faster than on floats); the values given as numbers go in now.
+        self._values = values = dict(values or {})
+
+        def put(e):
+            return e.xreplace(values) if values else e
+
+        self.T, self.V, self.D, self.G = put(T), put(V), put(D), put(G)
+        self.L = self.T - self.V + self.G
+        self.Q = put(sp.Matrix(Q))
+        self.M = put(sp.Matrix(M))
+        self.f = put(sp.Matrix(f))
         for i, g in (quadratures or {}).items():  # q̇_i = g: a first-order row with unit rate
             self.M[i, :] = sp.zeros(1, len(q))
             self.f[i] = g - v[i]
-        self.constraints = sp.Matrix(constraints)
+        self.constraints = put(sp.Matrix(constraints))
         self.constraint_rate = constraint_rate
         self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(len(self.constraints))]
         self._split()
@@ -154,6 +162,8 @@ class Equations:
         """Generalized momenta ``∂L/∂q̇`` (built on first use)."""
         if getattr(self, "_p", None) is None:
             self._p = sp.Matrix(self._derivation.momenta())
+            if self._values:
+                self._p = self._p.xreplace(self._values)
         return self._p
 
     def _no_acceleration(self, node) -> None:

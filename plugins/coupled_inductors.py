@@ -118,14 +118,15 @@ class Coupling(Component):
     def contribute(self, ctx: Context) -> Contribution:
         group, couplings = _group(self, ctx)
         inductance = _inductance_matrix(group, couplings, ctx)
-        _check_physical(self, group, couplings, inductance)
+        valued = inductance.xreplace(ctx.values)  # decisions by value: singular (k = 1), indefinite
+        _check_physical(self, group, couplings, valued)
         if ctx.view.formulation == "charge":
             a, b = self.inductors(ctx)
             T = self.mutual(ctx) * ctx.view.current(a) * ctx.view.current(b)
-            if _singular(inductance):
+            if _singular(valued):
                 _check_charge_inertia(self, ctx, T)
             return Contribution(T=T)
-        if _singular(inductance):
+        if _singular(valued):
             raise ModelError(
                 f"coupling {self.name!r}: {_cause(self, couplings)} the inductance matrix of "
                 f"{', '.join(c.name for c in group)} singular, so the flux formulation (which needs its inverse) cannot "
@@ -214,7 +215,7 @@ def _inductance_matrix(group: list[Component], couplings: list[Coupling], ctx: C
 def _cause(coupling: Coupling, couplings: list[Coupling]) -> str:
     """What makes a group's inductance matrix singular, in words."""
     if len(couplings) == 1:
-        k = coupling.k
+        k = sp.sympify(coupling.k).xreplace(coupling.values)  # as given: a number, or the user's symbol
         return f"k = {float(k):g} (perfect coupling) makes" if k.is_number else f"k = {k} makes"
     return f"the couplings {', '.join(c.name for c in couplings)} together make"
 
@@ -260,11 +261,11 @@ def _check_charge_inertia(coupling: Coupling, ctx: Context, own_T: sp.Expr) -> N
             total += comp.mutual(ctx) * ctx.view.current(comp.inductors(ctx)[0]) * ctx.view.current(comp.inductors(ctx)[1])
             continue
         try:
-            other = comp.contribute(Context(ctx.views[comp.domain], ctx.views, ctx.options, ctx.components))
+            other = comp.contribute(Context(ctx.views[comp.domain], ctx.views, ctx.options, ctx.components, values=ctx.values))
         except Exception:  # noqa: BLE001 - the assembly reports that component's own error
             return
         total += sp.sympify(other.T)
-    T = sp.sympify(total).xreplace(velocities)
+    T = sp.sympify(total).xreplace(velocities).xreplace(ctx.values)
     v = list(velocities.values())
     H = _numeric(sp.hessian(T, v).xreplace({c.function: 0 for c in coordinates}).subs(t, 0))
     if H is None:

@@ -167,7 +167,8 @@ class Spring(Component):
     domain = "mechanical"
     parameters = {
         "k": Parameter("stiffness", unit="N/m"),
-        "rest_length": Parameter("rest length", default=0, check="nonnegative", unit="m"),
+        # its zero removes the square root of the spring's length: it decides the form, so it stays a number
+        "rest_length": Parameter("rest length", default=0, check="nonnegative", unit="m", symbolic=False),
     }
 
     def extension(self, ctx) -> sp.Expr:
@@ -291,7 +292,7 @@ class CentralForce(Component):
     domain = "mechanical"
     parameters = {
         "k": Parameter("strength: the force is k / rⁿ towards the other node", check="nonzero", unit="N m^n"),
-        "n": Parameter("exponent of the distance in the force law", default=2, check="real"),
+        "n": Parameter("exponent of the distance in the force law", default=2, check="real", symbolic=False),
     }
 
     def contribute(self, ctx) -> Contribution:

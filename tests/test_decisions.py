@@ -232,3 +232,43 @@ def test_jacobi_integral_of_the_spherical_pendulum_is_its_energy_without_round_o
     h = routh.jacobi_integral(spherical(0.3, 0.7, 9.81))
     assert h.conserved and h.energy_conserved
     assert min(abs(float(f)) for f in h.expr.atoms(sp.Float)) > 1e-6  # no 1e-17 "terms" left in the display
+
+
+# -- numbers are values of symbols ------------------------------------------------------------------
+
+
+def oscillator_chain(m1, m2, k1, k2, c, F):
+    model = lg.Model("two masses")
+    model.add("mass", "m1", "a", m=m1)
+    model.add("mass", "m2", "b", m=m2)
+    model.add("spring", "k1", ("ground", "a"), k=k1)
+    model.add("spring", "k2", ("a", "b"), k=k2)
+    model.add("damper", "c", ("a", "b"), c=c)
+    model.add("force", "F", "b", F=F)
+    return model
+
+
+@settings(max_examples=15)
+@given(m1=decades(1e-3, 1e2), m2=decades(1e-3, 1e2), k1=decades(1e-1, 1e6), k2=decades(1e-1, 1e6),
+       c=decades(1e-4, 1e2), F=decades(1e-3, 1e3))
+def test_numbers_and_symbols_give_the_same_equations(m1, m2, k1, k2, c, F):
+    given_ = {"m1": m1, "m2": m2, "k1": k1, "k2": k2, "c": c, "F": F}
+    symbols = {k: sp.Symbol(k, positive=True) for k in given_}
+    numeric = oscillator_chain(**given_)
+    twin = oscillator_chain(**symbols)
+    values = {symbols[k]: v for k, v in given_.items()}
+    assert numeric.coordinate_names == twin.coordinate_names
+    assert numeric.first_order == twin.first_order
+    assert equal(numeric.eq.M, twin.eq.M.xreplace(values))
+    assert equal(numeric.eq.f, twin.eq.f.xreplace(values))
+    assert routh.jacobi_integral(numeric).conserved == routh.jacobi_integral(twin).conserved is False
+
+
+def test_the_derivation_sees_symbols_and_the_equations_the_values():
+    model = oscillator_chain(0.3, 7e-3, 40.0, 2.2e3, 0.05, 1.5)
+    generic = model.assembly.energy("T", generic=True) + model.assembly.energy("V", generic=True)
+    assert not generic.atoms(sp.Float)  # 0.3 kg, 7e-3 kg, ... are symbols while the equations are derived
+    assert model.parameters == []  # ... and values once they are: nothing is left to give
+    assert model.eq.M[0, 0] == sp.Float(0.3) and model.eq.M[1, 1] == sp.Float(7e-3)
+    spring = model.component("k1")
+    assert spring.k == sp.Float(40.0) and spring.symbolic_view().k in spring.values
