@@ -189,17 +189,24 @@ def _compiler_identity(path: str) -> str:
 
 def _arrays(numeric) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
     """The entries of ``A`` and ``b``, and ``T, V, D, L`` and the momenta ``p = ∂L/∂q̇`` (for the Jacobi integral
-    ``h = p·q̇ − L``), with the parameter values substituted."""
-    eq = numeric.eq
-    a_entries, b_entries = numeric._flat_exprs[0], numeric._flat_exprs[1]
-    subs = {s: sp.Float(v) for s, v in numeric.values.items()}
-    energies = [e.xreplace(subs) for e in (eq.T, eq.V, eq.D, eq.L, *eq.p)]
-    return a_entries, b_entries, energies
+    ``h = p·q̇ − L``), generic: every parameter with a value (given as a number or by ``params=``) a symbol."""
+    return _arrays_of(numeric.eq)
+
+
+def _arrays_of(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
+    g = eq.generic()
+    energies = [g["T"], g["V"], g["D"], g["L"], *g["p"]]
+    return list(g["A"]), list(g["b"]), energies
 
 
 def programs(numeric) -> tuple[Program, Program]:
-    """The two tapes (:mod:`lagrangian.tape`) of ``numeric``, recorded once and kept on it: ``A`` and ``b`` from
-    ``(t, q, q̇_inertial)``, and ``T, V, D, L, p`` from ``(t, q, q̇)``.
+    """The two tapes (:mod:`lagrangian.tape`) of ``numeric``: ``A`` and ``b`` from ``(t, q, q̇_inertial)``, and
+    ``T, V, D, L, p`` from ``(t, q, q̇)``, with ``numeric``'s parameter values in their constant registers.
+
+    The tapes are recorded once per model (kept on its equations), with the
+    parameters as registers whose values are put in for each set of values
+    (:meth:`lagrangian.tape.Program.with_values`): new values record
+    nothing again, and the tape interpreter runs them at once.
 
     Raises an internal error (turned into a note by :func:`compile_model`)
     when the model cannot be compiled: time signals given as Python
@@ -208,8 +215,20 @@ def programs(numeric) -> tuple[Program, Program]:
     found = getattr(numeric, "_tapes", None)
     if found is not None:
         return found
-    eq = numeric.eq
-    a_entries, b_entries, energies = _arrays(numeric)
+    generic = _generic_programs(numeric.eq, tuple(sorted(numeric.values, key=sp.default_sort_key)))
+    try:
+        numeric._tapes = tuple(p.with_values(numeric.values) for p in generic)
+    except TapeError as exc:  # pragma: no cover - every parameter has a value by Model._values
+        raise _Unavailable(str(exc)) from None
+    return numeric._tapes
+
+
+def _generic_programs(eq, parameters: tuple) -> tuple[Program, Program]:
+    """The tapes of ``eq`` with ``parameters`` as run-time constants, recorded once per set of parameter symbols."""
+    cache = eq.__dict__.setdefault("_generic_tapes", {})
+    if parameters in cache:
+        return cache[parameters]
+    a_entries, b_entries, energies = _arrays_of(eq)
     callables = sorted({f.func.__name__ for e in [*a_entries, *b_entries, *energies] for f in sp.sympify(e).atoms(AppliedUndef)})
     if callables or any(sp.sympify(e).has(sp.Derivative) for e in [*a_entries, *b_entries]):
         raise _Unavailable(
@@ -218,12 +237,12 @@ def programs(numeric) -> tuple[Program, Program]:
         )
     q, v = list(eq.sym.q), list(eq.sym.v)
     try:
-        matrix = record([*a_entries, *b_entries], [time_symbol, *q, *(v[i] for i in eq.inertial)])
-        energy = record(energies, [time_symbol, *q, *v])
+        matrix = record([*a_entries, *b_entries], [time_symbol, *q, *(v[i] for i in eq.inertial)], parameters)
+        energy = record(energies, [time_symbol, *q, *v], parameters)
     except TapeError as exc:
         raise _Unavailable(str(exc)) from None
-    numeric._tapes = (matrix, energy)
-    return numeric._tapes
+    cache[parameters] = (matrix, energy)
+    return cache[parameters]
 
 
 def generate_source(numeric) -> str:

@@ -144,18 +144,41 @@ class Equations:
         def put(e):
             return e.xreplace(values) if values else e
 
+        M, f = sp.Matrix(M), sp.Matrix(f)
+        for i, g in (quadratures or {}).items():  # q̇_i = g: a first-order row with unit rate
+            M[i, :] = sp.zeros(1, len(q))
+            f[i] = g - v[i]
+        # generic: the parameters given as numbers still symbols (compiled code takes their values at run time)
+        self._generic = {"M": M, "f": f, "constraints": sp.Matrix(constraints)}
         self.T, self.V, self.D, self.G = put(T), put(V), put(D), put(G)
+        self._generic_energies = (T, V, D, T - V + G)
         self.L = self.T - self.V + self.G
         self.Q = put(sp.Matrix(Q))
-        self.M = put(sp.Matrix(M))
-        self.f = put(sp.Matrix(f))
-        for i, g in (quadratures or {}).items():  # q̇_i = g: a first-order row with unit rate
-            self.M[i, :] = sp.zeros(1, len(q))
-            self.f[i] = g - v[i]
-        self.constraints = put(sp.Matrix(constraints))
+        self.M = put(M)
+        self.f = put(f)
+        self.constraints = put(self._generic["constraints"])
         self.constraint_rate = constraint_rate
         self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(len(self.constraints))]
         self._split()
+
+    @property
+    def values(self) -> dict:
+        """The values of the parameters given as numbers, by the symbol that stands for each in the derivation."""
+        return dict(self._values)
+
+    def generic(self) -> dict:
+        """The solve ``A u = b`` and the energies before the values given as numbers are put in (built on first use):
+        ``{"A", "b", "T", "V", "D", "L", "p"}``, in the same plain symbols and with the same split as :attr:`A` and
+        :attr:`b` — what compiled code records once, taking the values at run time."""
+        g = self._generic
+        if "A" not in g:
+            if not self._values:
+                g.update(A=self.A, b=self.b, T=self.T, V=self.V, D=self.D, L=self.L, p=self.p)
+            else:
+                g["A"], g["b"] = self._system(g["M"], g["f"], g["constraints"])
+                g["T"], g["V"], g["D"], g["L"] = self._generic_energies
+                g["p"] = sp.Matrix(self._derivation.momenta())
+        return g
 
     @property
     def p(self) -> sp.Matrix:
@@ -189,7 +212,7 @@ class Equations:
         """``A u = b`` with ``u = (q̈_inertial, q̇_first_order, λ)``, built block by block: the rows of the
         coordinates are ``Σ_j M_ij q̈_j − f_i − Σ_k λ_k ∂Φ_k/∂q_i = 0``, linear in ``u``."""
         n = len(self.names)
-        M, f, calc = self.M, self.f, self._derivation.calc
+        M, f = self.M, self.f
         zero_rows = [i for i in range(n) if all(_is_zero(M[i, j]) for j in [i, *range(n)])]
         # A coordinate without inertia of its own whose motion a loop constraint fixes (a massless slider
         # closed by a loop) stays second-order: its acceleration follows from the constraint rows, and the
@@ -201,45 +224,49 @@ class Equations:
             zero_rows = [i for i in zero_rows if i not in self.held]
         self.inertial = [i for i in range(n) if i not in zero_rows]
         self.first_order = zero_rows
-        if not zero_rows and not len(self.constraints):
-            self.A = M.copy()
-            self.b = f.copy()
-            return
+        self.A, self.b = self._system(M, f, self.constraints, check=True)
+
+    def _system(self, M, f, constraints, check: bool = False) -> tuple[sp.Matrix, sp.Matrix]:
+        """``A`` and ``b`` from ``M``, ``f`` and the constraints, with the split already made; ``check``: refuse what
+        cannot be solved (decided on the equations with the values in)."""
+        n = len(self.names)
+        calc = self._derivation.calc
+        if not self.first_order and not len(constraints):
+            return M.copy(), f.copy()
         vF = [self.sym.v[i] for i in self.first_order]
         rates = [[-calc.diff(f[r], s) for s in vF] for r in range(n)]
-        nonlinear = sorted({s.name[2:] for row in rates for e in row for s in calc.deps(e) if s in vF})
-        if nonlinear:
-            raise ModelError(
-                f"the equations are nonlinear in the velocity of first-order coordinate(s) {', '.join(nonlinear)}; "
-                f"give those coordinates inertia (a mass, an inductor, a capacitor)."
-            )
-        for col, i in enumerate(self.first_order):
-            if all(_is_zero(rates[r][col]) for r in range(n)):
+        if check:
+            nonlinear = sorted({s.name[2:] for row in rates for e in row for s in calc.deps(e) if s in vF})
+            if nonlinear:
                 raise ModelError(
-                    f"coordinate {self.names[i]!r} has neither inertia nor dissipation, so nothing determines its motion "
-                    f"(a node with only springs, or a loop with only capacitors and sources). Add a mass or damper "
-                    f"(an inductor or resistor), or remove the node."
+                    f"the equations are nonlinear in the velocity of first-order coordinate(s) {', '.join(nonlinear)}; "
+                    f"give those coordinates inertia (a mass, an inductor, a capacitor)."
                 )
+            for col, i in enumerate(self.first_order):
+                if all(_is_zero(rates[r][col]) for r in range(n)):
+                    raise ModelError(
+                        f"coordinate {self.names[i]!r} has neither inertia nor dissipation, so nothing determines its "
+                        f"motion (a node with only springs, or a loop with only capacitors and sources). Add a mass or "
+                        f"damper (an inductor or resistor), or remove the node."
+                    )
         at_rest = {s: sp.Integer(0) for s in vF}
         rows = [[M[r, j] for j in self.inertial] + rates[r] for r in range(n)]
         b = [f[r].xreplace(at_rest) for r in range(n)]
-        if len(self.constraints):
-            Jq, crow, cb = self._constrained()
+        if len(constraints):
+            Jq, crow, cb = self._constrained(constraints, check)
             for r in range(n):
                 rows[r] += [-Jq[k, r] for k in range(Jq.rows)]
             for k in range(Jq.rows):
                 rows.append([Jq[k, j] for j in self.inertial] + [sp.Integer(0)] * (len(vF) + Jq.rows))
                 b.append(cb[k])
-        self.A = sp.Matrix(rows)
-        self.b = sp.Matrix(b)
+        return sp.Matrix(rows), sp.Matrix(b)
 
-    def _constrained(self):
+    def _constrained(self, Phi, check: bool = False):
         """Jacobian ``Φ_q`` and the right-hand sides of the stabilized constraint rows ``Φ̈ + 2ωΦ̇ + ω²Φ = 0``
         (Baumgarte): ``Φ_q q̈ = −(Φ̇_q q̇ + Φ̇_t + 2ωΦ̇ + ω²Φ)``."""
         q, v = self.sym.q, self.sym.v
-        Phi = self.constraints
         Jq = Phi.jacobian(q)
-        involved = [self.names[i] for i in self.first_order if any(not _is_zero(Jq[k, i]) for k in range(Jq.rows))]
+        involved = [self.names[i] for i in self.first_order if check and any(not _is_zero(Jq[k, i]) for k in range(Jq.rows))]
         if involved:
             raise ModelError(
                 f"coordinates {', '.join(involved)} have no inertia but take part in a loop-closure constraint: give them mass."

@@ -158,7 +158,7 @@ def state_space(model, params: Mapping[str, float] | None = None) -> StateSpace:
     >>> ss.states, ss.first_order, ss.F, ss.g.T     # R q' + q/C = E:  q' = -q + 1/2
     (['q_R1'], ['q_R1'], array([[-1.]]), Matrix([[0.5]]))
     """
-    values = model._values(params or {})
+    values = model._values(params or {}, overrides=True)
     key = ("state_space", tuple(sorted((s.name, v) for s, v in values.items())))
     return model._get(key, lambda: _build(model, values))
 
@@ -166,8 +166,9 @@ def state_space(model, params: Mapping[str, float] | None = None) -> StateSpace:
 def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
     eq = model.eq
     subs = {s: sp.Float(v) for s, v in values.items()}
-    A = eq.A.xreplace(subs)
-    b = eq.b.xreplace(subs)
+    generic = eq.generic()  # the values given as numbers come from ``values`` too (they may be given anew)
+    A = generic["A"].xreplace(subs)
+    b = generic["b"].xreplace(subs)
     names = eq.names
     n, inertial, first = len(names), list(eq.inertial), list(eq.first_order)
     nI = len(inertial)

@@ -238,26 +238,56 @@ class Model:
         return "\n".join(out)
 
     # -- simulation ------------------------------------------------------------
-    def _values(self, params: Mapping[str, float]) -> dict[sp.Symbol, float]:
+    @property
+    def parameter_values(self) -> dict[str, float]:
+        """The parameters given as numbers, by the name that gives them another value in ``params=``
+        (``<parameter>_<component>``): ``simulate(..., params={"k_k1": 5.0})`` runs the model with that value
+        without deriving anything again (compiled code takes parameter values at run time).
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("oscillator")
+        >>> _ = m.add("mass", "m1", "p", m=0.3)
+        >>> _ = m.add("spring", "k1", ("ground", "p"), k=40)
+        >>> m.parameter_values
+        {'m_m1': 0.3, 'k_k1': 40.0}
+        """
+        return {s.name: float(v) for s, v in self.eq.values.items()}
+
+    def _values(self, params: Mapping[str, float], *, overrides: bool = False) -> dict[sp.Symbol, float]:
+        """Every parameter's value: those given as numbers, and ``params`` by name for the symbolic ones.
+        ``overrides``: whether ``params`` may give another value to a parameter given as a number (the paths that
+        evaluate the generic equations: simulation, exact solution); elsewhere that is refused, never ignored."""
         needed: dict[str, list[sp.Symbol]] = {}
         for s in self.parameters:  # symbols of one name but different assumptions share the value
             needed.setdefault(s.name, []).append(s)
-        unknown = [k for k in params if k not in needed]
+        valued: dict[str, list[sp.Symbol]] = {}
+        for s in self.eq.values:  # parameters given as numbers: another value may be given by name
+            valued.setdefault(s.name, []).append(s)
+        unknown = [k for k in params if k not in needed and k not in valued]
         if unknown:
-            raise UnknownNameError("parameter", unknown[0], needed)
+            raise UnknownNameError("parameter", unknown[0], {**needed, **valued})
+        fixed = [k for k in params if k in valued and k not in needed]
+        if fixed and not overrides:
+            k = fixed[0]
+            raise ModelError(
+                f"parameter {k!r} of model {self.name!r} was given as a number ({float(self.eq.values[valued[k][0]]):g}) "
+                f"and this analysis uses that value: to vary it here, build the model with a symbol for it "
+                f"(sympy.Symbol) and give its value in params=; simulate(params={{{k!r}: ...}}) does take another value."
+            )
         missing = [k for k in needed if k not in params]
         if missing:
             raise ModelError(
                 f"model {self.name!r} has symbolic parameters without values: {', '.join(missing)}. "
                 f"Pass them, e.g. simulate(..., params={{{', '.join(f'{k!r}: ...' for k in missing)}}})."
             )
-        values = {}
-        for k, symbols in needed.items():
+        values = {s: float(v) for s, v in self.eq.values.items()}
+        for k in params:
             try:
                 value = float(params[k])
             except (TypeError, ValueError):
                 raise ModelError(f"parameter {k!r} must be a number, got {params[k]!r}.") from None
-            values.update(dict.fromkeys(symbols, value))
+            values.update(dict.fromkeys(needed.get(k, []) + valued.get(k, []), value))
+        self._check_overrides({s: values[s] for k in params for s in valued.get(k, [])})
         subs = {s: sp.Float(v) for s, v in values.items()}
         for comp in self._graph.components.values():
             for pname, spec in comp.parameters.items():
@@ -266,9 +296,18 @@ class Model:
                     check_value(value.xreplace(subs), spec.check, comp.name, pname)
         return values
 
+    def _check_overrides(self, given: Mapping[sp.Symbol, float]) -> None:
+        """Another value for a parameter given as a number obeys that parameter's rule (positive, ...)."""
+        if not given:
+            return
+        for comp in self._graph.components.values():
+            for pname, symbol in getattr(comp, "_symbols", {}).items():
+                if symbol in given:
+                    check_value(sp.Float(given[symbol]), comp.parameters[pname].check, comp.name, pname)
+
     def numeric(self, params: Mapping[str, float] | None = None) -> NumericModel:
         """The model's numeric functions for the given parameter values (cached)."""
-        values = self._values(params or {})
+        values = self._values(params or {}, overrides=True)
         key = tuple(sorted((s.name, v) for s, v in values.items()))
         if key not in self._numeric:
             self._numeric[key] = NumericModel(self.eq, values, self.assembly.signals)
@@ -298,7 +337,9 @@ class Model:
         ``initial`` and ``velocity`` give coordinates and velocities by name;
         any not given start at zero and are listed in ``Result.defaulted``
         (with an :class:`InitialConditionWarning`).  ``params`` gives values
-        to symbolic parameters by name.  Output is on ``points`` evenly spaced
+        to symbolic parameters by name, and other values to parameters given
+        as numbers (by the names of :attr:`parameter_values`), with nothing
+        derived or recorded again.  Output is on ``points`` evenly spaced
         times, or on ``t_eval``.  ``progress=True`` reports progress on
         standard error every 5 % of the time span; a callable
         ``progress(t, t_end)`` is called instead.

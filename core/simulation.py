@@ -41,9 +41,10 @@ class NumericModel:
     def __init__(self, eq: Equations, values: Mapping[sp.Symbol, float], signals: Mapping[Any, Any]):
         self.eq = eq
         subs = {s: sp.Float(v) for s, v in values.items()}
-        A = eq.A.xreplace(subs)
-        b = eq.b.xreplace(subs)
-        energies = [eq.T.xreplace(subs), eq.V.xreplace(subs), eq.D.xreplace(subs)]
+        generic = eq.generic()  # values given as numbers are symbols there: every value comes from ``values``
+        A = generic["A"].xreplace(subs)
+        b = generic["b"].xreplace(subs)
+        energies = [generic["T"].xreplace(subs), generic["V"].xreplace(subs), generic["D"].xreplace(subs)]
         q, v = eq.sym.q, eq.sym.v
         self.vI = [v[i] for i in eq.inertial]
         leftover = (A.free_symbols | b.free_symbols) - set(q) - set(self.vI) - {t}

@@ -42,8 +42,8 @@ out[1] = w5;
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Sequence
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -119,6 +119,25 @@ class Program:
     constants: np.ndarray
     code: np.ndarray
     outputs: np.ndarray
+    #: parameters recorded as constants whose values come later: symbol → index into ``constants``
+    parameters: dict = field(default_factory=dict)
+
+    def with_values(self, values: Mapping) -> "Program":
+        """The same program with its parameters' values (symbol → number) in their constant registers: no
+        recording again, so a parameter's value is a run-time input.
+
+        >>> k, x = sp.symbols("k x")
+        >>> prog = record([k * sp.sin(x)], [x], parameters=[k])
+        >>> prog.with_values({k: 2.0}).evaluate([0.5]), prog.with_values({k: 3.0}).evaluate([0.5])
+        ([0.958851077208406], [1.438276615812609])
+        """
+        missing = [str(s) for s in self.parameters if s not in values]
+        if missing:
+            raise TapeError(f"no value for the parameter(s) {', '.join(missing)}")
+        constants = self.constants.copy()
+        for symbol, index in self.parameters.items():
+            constants[index] = float(values[symbol])
+        return Program(self.n_inputs, constants, self.code, self.outputs, dict(self.parameters))
 
     @property
     def n_registers(self) -> int:
@@ -167,8 +186,9 @@ def _alone(template: str, i: int) -> bool:
 
 
 class _Recorder:
-    def __init__(self, inputs: Sequence[sp.Symbol], opaque: bool = False):
+    def __init__(self, inputs: Sequence[sp.Symbol], opaque: bool = False, parameters: Sequence[sp.Symbol] = ()):
         self.opaque = opaque  # unknown symbols and functions become leaves (size(): counting, not running)
+        self.parameters = frozenset(parameters)  # symbols held in constant registers, their values given later
         self.n_inputs = len(inputs)
         self.memo: dict = {s: k for k, s in enumerate(inputs)}
         if len(self.memo) != len(inputs):
@@ -214,6 +234,8 @@ class _Recorder:
             return self.const(float(e))
         if self.opaque and (e.is_Symbol or isinstance(e, (AppliedUndef, sp.Derivative))):
             return self.constants.setdefault(("leaf", e), -1 - len(self.constants))  # a leaf of its own, no instruction
+        if e.is_Symbol and e in self.parameters:
+            return self.constants.setdefault(("param", e), -1 - len(self.constants))
         if e.is_Symbol:
             raise TapeError(f"the symbol {e} has no value (not an input, not a parameter with a value)")
         if e.is_Add:
@@ -345,8 +367,9 @@ class _Recorder:
         return out
 
     def program(self, outputs: list[int]) -> Program:
-        constants = np.array([math.nan if v == "nan" else v for v in sorted(self.constants, key=lambda v: -self.constants[v])],
-                             dtype=float)
+        keys = sorted(self.constants, key=lambda v: -self.constants[v])
+        constants = np.array([math.nan if isinstance(v, (str, tuple)) else v for v in keys], dtype=float)
+        parameters = {key[1]: k for k, key in enumerate(keys) if isinstance(key, tuple) and key[0] == "param"}
         n_in, n_const = self.n_inputs, len(constants)
 
         def place(reg):
@@ -360,7 +383,8 @@ class _Recorder:
             for k, (name, (arity, _)) in enumerate(OPS.items()):
                 rows = code[:, 0] == k
                 code[rows, 2 + arity:] = 0
-        return Program(n_in, constants, code.astype(np.int32), np.array([place(r) for r in outputs], dtype=np.int32))
+        return Program(n_in, constants, code.astype(np.int32), np.array([place(r) for r in outputs], dtype=np.int32),
+                       parameters)
 
 
 def size(exprs: Sequence) -> int:
@@ -381,13 +405,16 @@ def size(exprs: Sequence) -> int:
     return len(rec.code)
 
 
-def record(exprs: Sequence, inputs: Sequence[sp.Symbol]) -> Program:
+def record(exprs: Sequence, inputs: Sequence[sp.Symbol], parameters: Sequence[sp.Symbol] = ()) -> Program:
     """The :class:`Program` computing ``exprs`` from ``inputs`` (symbols), subexpressions computed once.
 
-    Raises :class:`TapeError` for an expression the tape cannot hold (an
-    unknown function, a symbol that is not an input, a non-finite constant).
+    ``parameters`` are symbols held in constant registers whose values are
+    given later (:meth:`Program.with_values`): the program is recorded once
+    for every set of values.  Raises :class:`TapeError` for an expression the
+    tape cannot hold (an unknown function, a symbol that is neither an input
+    nor a parameter, a non-finite constant).
     """
-    rec = _Recorder(list(inputs))
+    rec = _Recorder(list(inputs), parameters=parameters)
     try:
         outputs = [rec.reg(sp.sympify(e)) for e in exprs]
     except RecursionError:

@@ -501,7 +501,7 @@ CASES = [
     ("symbols-without-values", symbolic_parameters_without_values, lg.ModelError,
      [r"model 'needs-values'", r"symbolic parameters without values: k, m", r"params=\{'k': \.\.\., 'm': \.\.\.\}"]),
     ("unknown-parameter-at-simulate", unknown_parameter_at_simulate, lg.UnknownNameError,
-     [r"unknown parameter 'mas'", r"Did you mean 'mass'\?", r"Known: mass"]),
+     [r"unknown parameter 'mas'", r"Did you mean 'mass'\?", r"Known: k_k1, mass\."]),
     ("unknown-node", unknown_node, lg.UnknownNodeError,
      [r"unknown node 'pp'", r"Did you mean 'p'\?", r"Nodes of this model: ground, p"]),
     ("unknown-node-far", unknown_node_far, lg.UnknownNodeError,
