@@ -137,7 +137,8 @@ class Program:
         constants = self.constants.copy()
         for symbol, index in self.parameters.items():
             constants[index] = float(values[symbol])
-        return Program(self.n_inputs, constants, self.code, self.outputs, dict(self.parameters))
+        return _fold(Program(self.n_inputs, constants, self.code, self.outputs, dict(self.parameters)))
+
 
     @property
     def n_registers(self) -> int:
@@ -178,6 +179,44 @@ class Program:
             lines.append(f"{indent}const double {names[dst]} = {text};")
         lines += [f"{indent}{target} = {names[k]};" for target, k in zip(targets, self.outputs.tolist())]
         return lines
+
+
+def _fold(program: Program) -> Program:
+    """``program`` with every instruction whose operands are all constants computed once, here, and held as a
+    constant: what depends on the parameters alone costs nothing per evaluation (as when the values were in the
+    expressions).  The same operations as the C code (IEEE arithmetic, the C library's functions), so the
+    results are the same to the last bit."""
+    n_in, n_c = program.n_inputs, len(program.constants)
+    value: dict[int, float] = {n_in + k: float(c) for k, c in enumerate(program.constants)}
+    names = list(OPS)
+    static, moving = [], []
+    for row in program.code.tolist():
+        op, dst, x, y, z = row
+        arity = OPS[names[op]][0]
+        operands = (x, y, z)[:arity]
+        if all(r in value for r in operands):
+            try:
+                result = _PY[names[op]](*(value[r] for r in operands), *([0.0] * (3 - arity)))
+            except (ValueError, ZeroDivisionError):
+                result = math.nan
+            except OverflowError:
+                result = math.inf
+            value[dst] = result if isinstance(result, float) else math.nan
+            static.append(dst)
+        else:
+            moving.append(row)
+    if not static:
+        return program
+    n_c2 = n_c + len(static)
+    where = {r: r for r in range(n_in)}
+    where.update({n_in + k: n_in + k for k in range(n_c)})
+    where.update({dst: n_in + n_c + j for j, dst in enumerate(static)})
+    where.update({row[1]: n_in + n_c2 + i for i, row in enumerate(moving)})
+    code = np.array([[op, where[dst], where[x], where[y], where[z]] for op, dst, x, y, z in moving],
+                    dtype=np.int32).reshape(-1, 5)
+    constants = np.concatenate([program.constants, np.array([value[d] for d in static], dtype=float)])
+    outputs = np.array([where[r] for r in program.outputs.tolist()], dtype=np.int32)
+    return Program(n_in, constants, code, outputs, dict(program.parameters))
 
 
 def _alone(template: str, i: int) -> bool:

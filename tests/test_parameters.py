@@ -65,3 +65,18 @@ def test_analyses_that_use_the_built_value_refuse_another_rather_than_ignore_it(
 
     with pytest.raises(lg.ModelError, match=r"'k_k1' .* was given as a number \(40\)"):
         netlist(oscillator(), params={"k_k1": 3.0}, t_end=1)
+
+
+@settings(max_examples=30)
+@given(k=decades(1e-4, 1e4), m=decades(1e-4, 1e4), x=st.floats(-3, 3), y=st.floats(-3, 3))
+def test_what_depends_on_parameters_alone_is_computed_once_per_set_of_values(k, m, x, y):
+    import sympy as sp
+    from lagrangian.tape import record
+
+    K, Mm, X, Y = sp.symbols("K M X Y", real=True)
+    exprs = [K * Mm * sp.sin(X) + sp.sqrt(K / Mm) * Y, (K + Mm) ** 2 * X, K * Mm]
+    program = record(exprs, [X, Y], parameters=[K, Mm])
+    folded = program.with_values({K: k, Mm: m})
+    assert len(folded.code) < len(program.code)
+    expected = [float(e.evalf(30, subs={K: k, Mm: m, X: x, Y: y})) for e in exprs]
+    np.testing.assert_allclose(folded.evaluate([x, y]), expected, rtol=1e-13, atol=1e-300)
