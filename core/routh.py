@@ -279,6 +279,9 @@ class ReducedModel(DerivedModel):
         rest = [e.xreplace(dict.fromkeys(vI, sp.Integer(0))) for e in p]
         # p = rest + M·v̇ term by term (never their difference: SymPy would merge round-off into a "term")
         affine = all(equal(p[a], rest[a] + sum(MII[a, b] * vI[b] for b in range(len(I)))) for a in range(len(I)))
+        # each entry tidied on its own (small, cheap): sin² + cos² gone before the solve spreads it everywhere
+        MII = MII.applyfunc(_tidy)
+        rest = [_tidy(e) for e in rest]
         det = _tidy(MII.det(method="berkowitz"))
         if is_zero(det) or not affine:
             null = MII.nullspace()
