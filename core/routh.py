@@ -300,11 +300,14 @@ class ReducedModel(DerivedModel):
                 f"every coordinate of model {full.name!r} is ignorable ({', '.join(self.ignored)}): the motion is "
                 f"uniform and nothing is left to reduce to; simulate the full model (or keep one coordinate)."
             )
-        solved = MII.LUsolve(sp.Matrix([c - r for c, r in zip(C, rest)]))
-        rates = [_tidy(e) for e in solved]
+        # p_I = rest + M_II v_I (checked above) makes L = L|v_I=0 + restᵀ v_I + ½ v_Iᵀ M_II v_I exactly, so with
+        # w = C − rest:  v_I = M_II⁻¹ w  and  R = C·v_I − L = ½ wᵀ M_II⁻¹ w − L|v_I=0  (no substitution into L)
+        w = sp.Matrix([c - r for c, r in zip(C, rest)])
+        adjugate = MII.adjugate().applyfunc(_tidy)
+        rates = [_tidy(e / det) for e in adjugate * w]
         at = dict(zip(vI, rates))
         L = _drop(eq.L, qI)
-        R = _tidy(sum(c * r for c, r in zip(C, rates)) - L.xreplace(at))
+        R = _tidy((w.T * adjugate * w)[0, 0] / (2 * det) - L.xreplace(dict.fromkeys(vI, sp.Integer(0))))
         vK = [v[k] for k in K]
         lam = sp.Dummy("lambda")
         Lr = -R
