@@ -30,14 +30,24 @@ refusals as ``rk4`` and ``verlet``).
 
 >>> import lagrangian as lg
 >>> m = lg.Model("osc")
->>> _ = m.add("mass", "m", "p", m=1)
->>> _ = m.add("spring", "k", ("ground", "p"), k=1)
->>> _ = m.add("damper", "c", ("ground", "p"), c=0.1)
->>> m.simulate(1, initial={"x_p": 1}, velocity={"x_p": 0}, method="verlet", step=0.01)
+>>> _ = m.add("mass", "m", "p", m=0.3)
+>>> _ = m.add("spring", "k", ("ground", "p"), k=0.7)
+>>> _ = m.add("damper", "c", ("ground", "p"), c=0.05)
+>>> res = m.simulate(1, initial={"x_p": 1}, velocity={"x_p": 0}, method="verlet", step=0.01, points=3)
+>>> res.method, res.step                 # the damped form: (M + h/2 C) v' = M v½ + h/2 f₀
+('verlet', 0.01)
+>>> p = lg.Model("double pendulum", dim=2)
+>>> for i in (1, 2):
+...     _ = p.add("link", f"l{i}", f"l{i}", points={"end": (0.7, 0)})
+...     _ = p.add("mass", f"m{i}", f"l{i}.end", m=0.3)
+>>> _ = p.add("revolute", "j1", ("ground", "l1"), absolute=True)
+>>> _ = p.add("revolute", "j2", ("l1", "l2"), parent_point=(0.7, 0), absolute=True)
+>>> _ = p.add("gravity", "g")
+>>> p.simulate(1, initial={"theta_j1": -1.0}, method="verlet", step=0.01)
 Traceback (most recent call last):
 ...
-lagrangian.errors.ModelError: verlet (Störmer–Verlet) needs a separable Lagrangian ... its forces depend on the velocities of x_p through dissipation (dampers, resistors). ...
->>> res = m.simulate(1, initial={"x_p": 1}, velocity={"x_p": 0}, method="variational", step=0.01)
+lagrangian.errors.ModelError: verlet (Störmer–Verlet) needs a constant mass matrix ... its mass matrix depends on theta_j1, theta_j2. Use 'variational' with rule='trapezoidal' ...
+>>> res = p.simulate(1, initial={"theta_j1": -1.0}, method="variational", rule="trapezoidal", step=0.01)
 >>> res.method, res.step
 ('variational', 0.01)
 """
@@ -146,32 +156,77 @@ RK4 = ExplicitRungeKutta(
 
 
 class StormerVerlet(FixedStepIntegrator):
-    """Störmer–Verlet (velocity form of leapfrog): symplectic, explicit, order 2.
+    """Störmer–Verlet (velocity form of leapfrog): explicit, order 2, symplectic on conservative models.
 
-    ``v½ = v + h/2 a(q, t)``, ``q' = q + h v½``, ``v' = v½ + h/2 a(q', t + h)``
-    with ``a = M⁻¹ f(q, t)``: one evaluation per step.  Only for separable
-    Lagrangians ``½ q̇ᵀ M q̇ − V(q, t)`` with constant ``M`` and forces
-    independent of velocities; linearly stable for ``h·ω_max < 2``.
+    For ``M q̈ = f(q, q̇, t)`` with a constant mass matrix ``M``:
+
+        v½ = v + h/2 a,   q' = q + h v½,   v' = v½ + h/2 M⁻¹ f(q', v', t + h),   a' = M⁻¹ f(q', v', t + h)
+
+    When the forces do not depend on the velocities (a separable Lagrangian
+    ``½ q̇ᵀ M q̇ − V(q, t)``, with loads ``Q(q, t)``) the last kick is
+    explicit: one evaluation per step, the classical method, symplectic.
+    When they are affine in the velocities, ``f = f₀(q, t) − C(q, t) q̇``
+    (dampers, resistors, gyroscopic couplings), the last kick is one linear
+    solve, ``(M + h/2 C) v' = M v½ + h/2 f₀``: the damped Störmer–Verlet
+    scheme (Newmark's explicit central-difference method, β = 0, γ = ½),
+    still order 2 and explicit in the positions, which reduces to the
+    classical method when ``C = 0``.  Linearly stable for ``h·ω_max < 2``.
+    A configuration-dependent mass matrix, forces not affine in the
+    velocities and loop constraints are refused, saying what to use.
+
+    ``strict=True`` accepts separable models only (the loop compiled in C,
+    ``verlet_c``, runs the classical method).
     """
 
     name = "verlet"
     order = 2
     symplectic = True
     implicit = stiff = first_order = False
-    description = "Störmer–Verlet (leapfrog), explicit, symplectic, order 2; separable Lagrangians only"
+    description = ("Störmer–Verlet (leapfrog), explicit, order 2; symplectic without dissipation; constant mass "
+                   "matrix, forces affine in the velocities (damped and forced)")
     options = {}
 
+    def __init__(self, *, strict: bool = False):
+        self.strict = strict
+        if strict:
+            self.description = "Störmer–Verlet (leapfrog), explicit, symplectic, order 2; separable Lagrangians only"
+
     def check(self, problem):
-        """Refuse a model that is not separable, saying why."""
-        if not problem.structure.separable:
+        """Refuse a model whose mass matrix is not constant or whose forces are not affine in the velocities, saying why."""
+        structure = problem.structure
+        if structure.separable:
+            return
+        if self.strict:
             raise ModelError(
                 f"verlet (Störmer–Verlet) needs a separable Lagrangian L = ½ q̇ᵀMq̇ − V(q, t) with a constant mass "
                 f"matrix and forces that do not depend on velocities, but model {problem.name!r} is not separable: "
-                f"{problem.structure.why_not_separable()}. Use {_GENERAL}."
+                f"{structure.why_not_separable()}. Use {_GENERAL}"
+                + (", or 'verlet' (its damped form takes forces linear in the velocities)."
+                   if not problem.constrained and structure.constant_mass and problem.velocity_affine else ".")
             )
+        reasons = [structure.why[k] for k in ("constrained", "constant_mass") if k in structure.why]
+        if not reasons and not problem.velocity_affine:
+            reasons.append(f"its forces are not affine in the velocities ({structure.why['velocity_free']})")
+        if not reasons:
+            return
+        use = ("'variational' with rule='trapezoidal' (Störmer–Verlet generalized to any Lagrangian: implicit, "
+               "symplectic, order 2), 'gauss_legendre' (symplectic, order 4), or an adaptive method (DOP853, Radau)")
+        if problem.constrained:
+            use = "'gauss_legendre' (symplectic, handles loop constraints) or an adaptive method (DOP853, Radau)"
+        raise ModelError(
+            f"verlet (Störmer–Verlet) needs a constant mass matrix and forces affine in the velocities "
+            f"(M q̈ = f₀(q, t) − C(q, t) q̇), but model {problem.name!r} does not have them: {'; '.join(reasons)}. "
+            f"Use {use}."
+        )
 
     def stepper(self, problem, h):
         """Kick–drift–kick on ``(q, q̇, q̈)``; the acceleration is carried over to the next step."""
+        if problem.structure.separable:
+            return self._classical(problem, h)
+        return self._damped(problem, h)
+
+    @staticmethod
+    def _classical(problem, h):
         n, acc, half = problem.n, problem.acceleration, 0.5 * h
 
         def to_internal(t, y):
@@ -186,6 +241,33 @@ class StormerVerlet(FixedStepIntegrator):
             q += h * v
             a[:] = acc(t + h, q)
             v += half * a
+            return z
+
+        return Stepper(step, to_internal, to_state)
+
+    @staticmethod
+    def _damped(problem, h):
+        n, half, affine = problem.n, 0.5 * h, problem.affine_forces
+        M = problem.mass(0.0, np.zeros(n))
+
+        def to_internal(t, y):
+            f0, C = affine(t, y[:n])
+            return np.concatenate([y, np.linalg.solve(M, f0 - C @ y[n:])])
+
+        def to_state(t, z):
+            return z[: 2 * n]
+
+        def step(t, z):  # in place: z = (q, v, a)
+            q, v, a = z[:n], z[n : 2 * n], z[2 * n :]
+            v += half * a
+            q += h * v
+            f0, C = affine(t + h, q)
+            try:
+                v1 = np.linalg.solve(M + half * C, M @ v + half * f0)
+            except np.linalg.LinAlgError:
+                raise IntegrationError(f"verlet: M + h/2·C is singular at t={t + h:g} (step {h:g}); reduce step=.") from None
+            a[:] = (v1 - v) / half
+            v[:] = v1
             return z
 
         return Stepper(step, to_internal, to_state)
@@ -323,7 +405,7 @@ class GaussLegendre(FixedStepIntegrator):
             return np.eye(s * dim) - np.kron(hA, J)
 
         newton = _Newton(self.name, h, newton_tol, newton_maxiter, matrix)
-        Z0 = np.zeros(s * dim)
+        last = {"Z": np.zeros(s * dim)}  # the previous step's stages start the iteration (they change by O(h) a step)
 
         def step(t, z):
             times = t + c * h
@@ -333,8 +415,9 @@ class GaussLegendre(FixedStepIntegrator):
                 FZ = np.array([F(times[i], z + Z[i]) for i in range(s)])
                 return (Z - hA @ FZ).ravel()
 
-            Z = newton.solve(G, Z0, t, z).reshape(s, dim)
-            return z + d_coef @ Z
+            Zflat = newton.solve(G, last["Z"], t, z)
+            last["Z"] = Zflat
+            return z + d_coef @ Zflat.reshape(s, dim)
 
         return Stepper(step, to_internal, to_state)
 
@@ -423,6 +506,7 @@ class Variational(FixedStepIntegrator):
 
 _RK45 = ScipyMethod("RK45", 5, "scipy: explicit Runge–Kutta 5(4) (Dormand–Prince)")
 _VERLET = StormerVerlet()
+_VERLET_SEPARABLE = StormerVerlet(strict=True)  # what the loop in C runs
 
 INTEGRATORS: tuple[Integrator, ...] = (
     ScipyMethod("RK23", 3, "scipy: explicit Runge–Kutta 3(2) (Bogacki–Shampine)"),
@@ -439,7 +523,7 @@ INTEGRATORS: tuple[Integrator, ...] = (
     # the stepping loop in C (lagrangian.codegen); the Python sibling runs when there is no C compiler
     CompiledDormandPrince(_RK45),
     CompiledFixedStep("rk4", RK4),
-    CompiledFixedStep("verlet", _VERLET),
+    CompiledFixedStep("verlet", _VERLET_SEPARABLE),
 )
 
 

@@ -11,11 +11,16 @@ laws.  Nothing expected is taken from the code under test.
 from __future__ import annotations
 
 import math
+import re
 import types
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 import lagrangian as lg
@@ -25,6 +30,11 @@ from lagrangian.integrate import EnergyDriftWarning, FixedStepIntegrator, Integr
 FIXED = ["rk4", "verlet", "implicit_midpoint", "gauss_legendre", "variational"]
 ADAPTIVE = ["RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
 COMPILED = ["dopri5_c", "rk4_c", "verlet_c"]  # stepping loops in C (see tests/test_codegen.py)
+
+
+def decades(lo, hi):
+    """Values drawn log-uniformly from ``lo`` to ``hi``, rounded to three digits (ordinary decimals)."""
+    return st.floats(math.log10(lo), math.log10(hi)).map(lambda e: float(f"{10 ** e:.3g}"))
 
 
 @pytest.fixture(autouse=True)
@@ -335,11 +345,53 @@ def test_first_order_coordinates_with_fixed_step_methods():
         assert "gauss_legendre" in str(info.value) and "Radau" in str(info.value)
 
 
-def test_verlet_refuses_what_is_not_separable_and_says_what_to_use():
-    with pytest.raises(lg.ModelError, match=r"verlet .* separable.*dissipation.*Use 'variational' or 'gauss_legendre'"):
-        oscillator(c=0.1).simulate(1.0, method="verlet", step=0.01)
-    with pytest.raises(lg.ModelError, match=r"mass matrix depends on x_p"):
+def test_verlet_refuses_a_configuration_dependent_mass_matrix_and_says_what_to_use():
+    with pytest.raises(lg.ModelError, match=r"verlet .*constant mass matrix.*mass matrix depends on x_p\..*"
+                                            r"'variational' with rule='trapezoidal'"):
         solenoid().simulate(1.0, method="verlet", step=0.01, **SOLENOID_START)
+    # the loop in C runs the classical method only: dissipation is refused there, naming the Python verlet
+    with pytest.raises(lg.ModelError, match=r"verlet_c \(Störmer–Verlet\) needs a separable.*dissipation.*"
+                                            r"Use 'variational' or 'gauss_legendre'.*or 'verlet'"):
+        oscillator(c=0.1).simulate(1.0, method="verlet_c", step=0.01)
+    # what verlet names instead runs, and keeps the energy of this conservative model
+    res = solenoid().simulate(20.0, method="variational", rule="trapezoidal", step=0.01, points=201, **SOLENOID_START)
+    assert np.max(np.abs(res.E - res.E[0])) < 1e-3 * abs(res.E[0])
+
+
+def forced_damped_exact(m, k, c, F0, w, x0, v0):
+    """x(t) of m x'' + c x' + k x = F0 sin(w t) (underdamped), written out: the steady sine plus the free decay."""
+    det = (k - m * w**2) ** 2 + (c * w) ** 2
+    A, B = F0 * (k - m * w**2) / det, -F0 * c * w / det  # x_p = A sin wt + B cos wt
+    g, wd = c / (2 * m), math.sqrt(k / m - (c / (2 * m)) ** 2)
+    a = x0 - B  # free part e^{−gt}(a cos wd t + b sin wd t), from x(0) and x'(0)
+    b = (v0 - A * w + g * a) / wd
+    return lambda t: A * np.sin(w * t) + B * np.cos(w * t) + np.exp(-g * t) * (a * np.cos(wd * t) + b * np.sin(wd * t))
+
+
+def test_verlet_damped_and_forced_is_second_order_against_the_closed_form():
+    # 0.3 kg, 0.7 N/m, 0.05 N s/m, 0.2 sin(1.3 t) N: the kick with the damping is a linear solve (M + h/2 C)
+    m, k, c, F0, w = 0.3, 0.7, 0.05, 0.2, 1.3
+    exact = forced_damped_exact(m, k, c, F0, w, 0.1, -0.4)
+    model = oscillator(m=m, k=k, c=c, F=F0 * sp.sin(w * lg.t))
+    errors = []
+    for h in (0.02, 0.01):
+        res = model.simulate(10.0, initial={"x_p": 0.1}, velocity={"x_p": -0.4}, method="verlet", step=h, points=101)
+        errors.append(np.max(np.abs(res["x_p"] - exact(res.t))))
+    assert errors[1] < 2e-4
+    assert math.log2(errors[0] / errors[1]) == pytest.approx(2.0, abs=0.15)
+
+
+@given(m=decades(1e-2, 1e2), k=decades(1e-2, 1e2), zeta=decades(1e-3, 0.5))
+@settings(max_examples=8)
+def test_verlet_damped_oscillator_follows_the_closed_form_over_decades(m, k, zeta):
+    # unforced, damping ratio ζ; h·ω = 0.02: Störmer–Verlet's phase error is about (hω)²/24 per radian
+    w0 = math.sqrt(k / m)
+    c = 2 * zeta * math.sqrt(k * m)
+    exact = forced_damped_exact(m, k, c, 0.0, 1.0, 0.3, 0.0)
+    model = oscillator(m=m, k=k, c=c)
+    res = model.simulate(20 / w0, initial={"x_p": 0.3}, velocity={"x_p": 0.0}, method="verlet", step=0.02 / w0,
+                         points=41)
+    assert np.max(np.abs(res["x_p"] - exact(res.t))) < 0.3 * 1e-3
 
 
 def test_structure_preserving_methods_with_a_configuration_dependent_mass_matrix():
@@ -472,6 +524,127 @@ def test_auto_on_non_stiff_models():
     assert choice.method == "gauss_legendre" and choice.options["step"] > 0 and not choice.stiff
     # ... and never for a damped one
     assert oscillator(c=0.1).simulate(1.0, method="auto", rtol=1e-4, initial={"x_p": 1}).method == "exact"
+
+
+def spherical_pendulum(m=0.3, length=0.7, g=9.81) -> lg.Model:
+    """The README's spherical pendulum: φ = theta_turn about the vertical (ignorable), θ = theta_tilt from below."""
+    model = lg.Model("spherical pendulum", dim=3)
+    model.add("link", "yoke", "yoke")
+    model.add("revolute", "turn", ("ground", "yoke"), axis=(0, 0, 1))
+    model.add("link", "arm", "arm", points={"bob": (0, 0, -length)})
+    model.add("revolute", "tilt", ("yoke", "arm"), axis=(1, 0, 0))
+    model.add("mass", "bob", "arm.bob", m=m)
+    model.add("gravity", "g", g=g)
+    return model
+
+
+@given(m=decades(1e-2, 1e2), length=decades(1e-2, 1e2), g=decades(0.1, 100), theta=st.floats(0.2, 1.4),
+       rate=decades(0.1, 10), span=decades(10, 1e5))
+@settings(max_examples=6)
+def test_auto_measures_stiffness_on_the_non_zero_spectrum(m, length, g, theta, rate, span):
+    # Spherical pendulum at θ, θ' = 0, φ' = Ω.  From θ'' = sin θ cos θ φ'² − (g/l) sin θ and φ'' = −2 cot θ θ' φ',
+    # the linearization in (φ, θ, φ', θ') has the characteristic polynomial λ² (λ² + ω²) with
+    # ω² = (1 + 2 cos² θ) Ω² + (g/l) cos θ: a zero pair (φ is ignorable) and ±iω.  Not stiff, whatever the span.
+    model = spherical_pendulum(m, length, g)
+    problem = Problem(model.numeric(), model.name)
+    y0 = np.array([0.0, theta, rate, 0.0])  # (theta_turn, theta_tilt, their rates)
+    spectrum = problem.spectrum(0.0, y0)
+    omega = math.sqrt((1 + 2 * math.cos(theta) ** 2) * rate**2 + g / length * math.cos(theta))
+    assert int(spectrum.zero.sum()) == 2
+    assert np.sort(np.abs(spectrum.nonzero)) == pytest.approx([omega, omega], rel=1e-6)
+    choice = choose(problem, (0.0, span), y0, rtol=1e-9, integrators=lg.default_registry().integrators)
+    assert not choice.stiff and choice.method == "DOP853", choice.notes
+    assert "2 zero" in choice.notes[0]
+
+
+def test_auto_on_the_readme_spherical_pendulum_over_a_long_run_is_not_stiff_but_symplectic():
+    # 0.3 kg at 0.7 m, 1000 s at rtol 1e-4: ω ≈ 3.72 rad/s, ≈ 590 periods — a long conservative run, so a
+    # symplectic method (the mass matrix depends on θ: Gauss–Legendre), not LSODA
+    model = spherical_pendulum()
+    problem = Problem(model.numeric(), model.name)
+    reg = lg.default_registry()
+    choice = choose(problem, (0.0, 1000.0), np.array([0.0, 0.9, 1.7, 0.0]), rtol=1e-4, integrators=reg.integrators)
+    assert not choice.stiff and reg.integrators[choice.method].symplectic, choice.notes
+
+
+def double_pendulum(m=0.3, length=0.7) -> lg.Model:
+    """The README's double pendulum (absolute angles from +x, gravity along −y) with ordinary values."""
+    model = lg.Model("double pendulum", dim=2)
+    for i in (1, 2):
+        model.add("link", f"l{i}", f"l{i}", points={"end": (length, 0)})
+        model.add("mass", f"m{i}", f"l{i}.end", m=m)
+    model.add("revolute", "j1", ("ground", "l1"), absolute=True)
+    model.add("revolute", "j2", ("l1", "l2"), parent_point=(length, 0), absolute=True)
+    model.add("gravity", "g")
+    return model
+
+
+def test_auto_keeps_the_energy_of_a_long_conservative_run_started_at_rest_away_from_equilibrium():
+    # Let go from the horizontal, the double pendulum's linearization at the start has no frequency in it
+    # (∂(torque)/∂θ ∝ sin θ = 0 there, and the velocities are zero).  auto must still see a long conservative run
+    # (its probe run finds the rates of the motion) and keep the energy T + V bounded: the Jacobi integral
+    # of a conservative system is constant, so its spread is the integration error.
+    model = double_pendulum()
+    res = model.simulate(120.0, method="auto", rtol=1e-3, initial={"theta_j1": 0.0, "theta_j2": 0.0}, points=2001)
+    assert lg.default_registry().integrators[res.method].symplectic, res.notes
+    scale = np.max(np.abs(res.V)) + np.max(np.abs(res.T))
+    assert np.max(np.abs(res.E - res.E[0])) / scale < 1e-2
+    # a pendulum of 0.3 kg on 0.7 m, let go from the horizontal over 300 s (≈ 1400 periods of its fastest
+    # linearized rate along the swing): separable (M = m l²), so Störmer–Verlet, bounded energy
+    pendulum = lg.Model("pendulum", dim=2)
+    pendulum.add("link", "arm", "arm", points={"bob": (0.7, 0)})
+    pendulum.add("revolute", "pin", ("ground", "arm"))
+    pendulum.add("mass", "bob", "arm.bob", m=0.3)
+    pendulum.add("gravity", "g")
+    res = pendulum.simulate(300.0, method="auto", rtol=1e-4, initial={"theta_pin": 0.0}, points=3001)
+    assert res.method == "verlet", res.notes
+    assert np.max(np.abs(res.E - res.E[0])) / (0.3 * 9.81 * 0.7) < 1e-3
+
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def readme_models() -> dict[str, lg.Model]:
+    """Every model the README's Python blocks build: each block's leading imports, ``lg.Model(...)`` and ``.add`` lines."""
+    keep = re.compile(r"^(import |from |\w+ = lg\.Model\(|\w+\.add\(|for |\s+\S|\s*$)")
+    models = {}
+    for block in re.findall(r"```python\n(.*?)```", README.read_text(), re.S):
+        if "lg.Model(" not in block:
+            continue
+        lines = []
+        for line in block.splitlines():
+            if not keep.match(line):
+                break
+            lines.append(line)
+        namespace = {"lg": lg, "sp": sp}
+        exec("\n".join(lines), namespace)
+        models.update({v.name: v for v in namespace.values() if isinstance(v, lg.Model)})
+    return models
+
+
+def test_readme_integrator_examples_run_as_written():
+    block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if 'method="verlet"' in b)
+    statements = [line for line in block.splitlines() if line.strip()]
+    assert [s.split("method=")[1][:8] for s in statements] == ['"verlet"', '"auto", ']
+    models = readme_models()
+    assert set(models) >= {"mass-spring-damper", "series-RLC", "double pendulum", "spherical pendulum"}
+    # the quickstart's m ẍ + c ẋ + k x = sin 1.5t (1 kg, 4 N/m, 0.4 N s/m) and its analogue, L q̈ + R q̇ + q/C = sin 1.5t
+    # (1 H, 0.4 Ω, 0.25 F), both from rest: the closed form of the forced damped oscillator
+    exact = forced_damped_exact(1.0, 4.0, 0.4, 1.0, 1.5, 0.0, 0.0)
+    for name, coordinate in (("mass-spring-damper", "x_cart"), ("series-RLC", "q_L")):
+        namespace = {"m": models[name]}
+        for statement, tol in zip(statements, (1e-4, 1e-9)):  # verlet: O((hω)²) with hω = 0.02; auto: exact
+            exec(statement, namespace)
+            res = namespace["res"]
+            assert np.max(np.abs(res[coordinate] - exact(res.t))) < tol * 0.6, (name, statement)  # amplitude ≈ 0.6
+    # the pendulums: a configuration-dependent mass matrix, refused with what to use instead ...
+    for name, start in (("double pendulum", {"theta_j1": -1.0, "theta_j2": -0.5}),
+                        ("spherical pendulum", {"theta_tilt": 0.9, "theta_turn": 0.0})):
+        with pytest.raises(lg.ModelError, match=r"mass matrix depends on theta.*'variational' with rule='trapezoidal'"):
+            exec(statements[0], {"m": models[name]})
+        # ... and what it names runs, keeping the energy of these conservative models
+        res = models[name].simulate(10, method="variational", rule="trapezoidal", step=0.01, initial=start, points=101)
+        assert np.max(np.abs(res.E - res.E[0])) < 1e-3 * (np.max(np.abs(res.T)) + np.max(np.abs(res.V)))
 
 
 # ---------------------------------------------------------------------------
