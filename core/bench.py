@@ -121,7 +121,7 @@ class WorkPrecision:
         for r in self.rows:
             err = f"{r.error:10.2e}" if math.isfinite(r.error) else f"{'-':>10}"
             wall = f"{r.wall:10.4f}" if math.isfinite(r.wall) else f"{'-':>10}"
-            status = r.status if r.status == "ok" else f"{r.status}: {r.message[:90]}"
+            status = (f"ok ({r.message})" if r.message else "ok") if r.status == "ok" else f"{r.status}: {r.message[:90]}"
             lines.append(f"{r.method:18} {r.setting:16} {r.nfev:9d} {wall} {err}  {status}")
         return "\n".join(lines)
 
@@ -203,6 +203,15 @@ class ProgressBar:
         self._show(f"[{'#' * self.width}] {self.total}/{self.total} done", "\n")
 
 
+class _Auto:
+    """``method="auto"`` in a work–precision run: given tolerances like an adaptive method."""
+
+    kind = "adaptive"
+
+
+_AUTO = _Auto()
+
+
 def _quiet(fn, *args, **kwargs):
     from .integrate import EnergyDriftWarning
     from .simulation import InitialConditionWarning
@@ -239,6 +248,8 @@ def work_precision(
     ``repeat`` runs of ``Model.simulate``, after an untimed short run that
     builds the model's numeric code.  Fixed-step methods step one by one
     (``fast_linear=False``) unless the benchmark's options say otherwise.
+    ``"auto"`` runs at each tolerance like an adaptive method; its row's
+    message says what it picked (and the step, for a fixed-step pick).
     A method that refuses the model, or fails, gives a row with status
     ``"refused"`` or ``"failed"`` and its message; the others go on.
     ``progress=True`` shows a progress bar on standard error.
@@ -255,7 +266,7 @@ def work_precision(
     if why:
         raise ModelError(f"benchmark {benchmark.name!r} cannot run: it {why}.")
     methods = list(methods or benchmark.methods or registry.integrators)
-    integrators = {m: registry.integrator(m) for m in methods}
+    integrators = {m: _AUTO if m == "auto" else registry.integrator(m) for m in methods}
     tolerances = list(benchmark.tolerances if tolerances is None else tolerances)
     steps = list(benchmark.steps if steps is None else steps)
     model = benchmark.build()
@@ -296,8 +307,11 @@ def work_precision(
                 res = _quiet(model.simulate, benchmark.t_end, **kwargs)
                 best = min(best, time.perf_counter() - start)
             used = float(value) if adaptive or res.step is None else float(res.step)
+            picked = ""
+            if method == "auto":
+                picked = f"picked {res.method}" + (f", step {res.step:.3g}" if res.step is not None else "")
             rows.append(Row(benchmark.name, method, integrator.kind, setting, used, res.nfev, best,
-                            _error(benchmark, res, truth), "ok"))
+                            _error(benchmark, res, truth), "ok", picked))
         except LagrangianError as exc:
             status = "refused" if isinstance(exc, ModelError) else "failed"
             rows.append(Row(benchmark.name, method, integrator.kind, setting, float(value), 0, math.nan, math.nan, status,

@@ -180,3 +180,27 @@ def test_benchmark_registration_errors_and_unavailable_benchmarks():
     assert "no_such_joint" in needs.unavailable(reg)
     with pytest.raises(lg.ModelError, match="benchmark 'pendulum' cannot run: it needs component kind"):
         work_precision("pendulum", registry=reg)
+
+
+def _pendulum():
+    m = lg.Model("pendulum", dim=2)
+    m.add("link", "arm", "arm", points={"bob": (0.7, 0)})
+    m.add("revolute", "pin", ("ground", "arm"))
+    m.add("mass", "bob", "arm.bob", m=0.3)
+    m.add("gravity", "g")
+    return m
+
+
+def test_auto_in_a_work_precision_run_keeps_the_energy_of_a_long_conservative_run():
+    # a 0.3 kg bob on 0.7 m let go 0.35 rad below the horizontal (θ = 0 is +x, gravity along −y), 250 s: about 130
+    # periods of its swing.  Its energy is conserved (no dissipation, no forces, L independent of t), so the
+    # largest relative departure of T + V is the integration error; a long run at rtol 1e-4 must keep it near
+    # rtol, where RK45's drift grows with every period.
+    bench = Benchmark("long_pendulum", "pendulum over 250 s", _pendulum, t_end=250.0, initial={"theta_pin": -0.35},
+                      points=501, measure="energy", tolerances=(1e-4,))
+    wp = work_precision(bench, ["auto", "RK45"])
+    rows = {r.method: r for r in wp.rows}
+    assert rows["auto"].status == "ok" and rows["auto"].message.startswith("picked ")
+    assert rows["auto"].error < 1e-3
+    assert rows["auto"].error < rows["RK45"].error
+    assert "ok (picked" in wp.table()
