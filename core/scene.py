@@ -41,6 +41,8 @@ cut — it is *offered* in the report with its estimated effect, never applied.
 [['x_p1']]
 >>> scene.plan.dropped["m2"]
 'acts only on x_p2, which the outputs do not depend on'
+>>> scene.plan.unused  # the full state was given: what the minimal model did not need
+{'x_p2': 'coordinates the outputs do not depend on', "x_p2'": 'coordinates the outputs do not depend on'}
 >>> res = scene.run()
 >>> abs(float(res["x_p1"][-1]) - float(m.simulate(2, rtol=1e-12, atol=1e-14, **start)["x_p1"][-1])) < 1e-10
 True
@@ -113,6 +115,7 @@ class ScenePlan:
     before: dict[str, int]
     after: dict[str, int]
     offers: list[Offer] = field(default_factory=list)
+    unused: dict[str, str] = field(default_factory=dict)  # given initial values (``x``), velocities (``x'``), params: why not needed
 
     def report(self) -> str:
         """The plan as text: kept, dropped and why, eliminated coordinates, solver paths, sizes."""
@@ -131,6 +134,11 @@ class ScenePlan:
             lines.append(f"  dropped {name!r}: {why}")
         for name, why in self.held.items():
             lines.append(f"  held {name!r}: {why}")
+        reasons: dict[str, list[str]] = {}
+        for name, why in self.unused.items():
+            reasons.setdefault(why, []).append(name)
+        for why, given in reasons.items():
+            lines.append(f"  given, not needed: {', '.join(given)} ({why})")
         for offer in self.offers:
             lines.append(f"  offered, not applied: drop {offer.component!r} (would remove {', '.join(offer.would_drop)}): "
                          f"{offer.note}; estimated change of the outputs {offer.estimated_error:.2e}")
@@ -178,8 +186,19 @@ class Scene:
     charge/current, displacement/velocity, flux/voltage as the domain
     defines them); or SymPy expressions of the coordinates ``q(t)``, their
     derivatives and ``t`` (labelled by their text).  ``initial``,
-    ``velocity`` and ``params`` are as for :meth:`lagrangian.Model.simulate`
-    (the full model's state); ``tol`` is the relative tolerance asked
+    ``velocity`` and ``params`` are named as for
+    :meth:`lagrangian.Model.simulate` and may give the whole model's state
+    and parameters: each part takes what it needs (an eliminated
+    coordinate's momentum from its velocity and the rest of its part's
+    state), and ``plan.unused`` and the report list what was given but not
+    needed (coordinates the outputs do not depend on, eliminated ones whose
+    values are not asked for, parameters only of dropped components).  A
+    name the model does not have is an :class:`~lagrangian.UnknownNameError`.
+    Another value for a parameter given as a number (a name of
+    :attr:`~lagrangian.Model.parameter_values`) is refused where the
+    minimal model keeps its component, as the parts are built with the
+    model's value (give that parameter as a symbol to vary it), and listed
+    as not needed elsewhere.  ``tol`` is the relative tolerance asked
     (``atol = tol·1e-3``); ``method`` the integrator for nonlinear parts;
     ``offer=False`` skips estimating approximate simplifications;
     ``progress`` reports each part's progress as ``Model.simulate`` does;
@@ -220,6 +239,14 @@ class Scene:
             for name in given:
                 if name not in eq.names:
                     raise UnknownNameError("coordinate", name, eq.names)
+        for name in self.velocity:
+            if eq.names.index(name) in eq.first_order:
+                raise ModelError(f"coordinate {name!r} is first-order (it has no inertia): its velocity follows from "
+                                 f"the equations and cannot be given as an initial condition.")
+        known = {s.name for s in model.parameters} | set(model.parameter_values)
+        for name in self.params:
+            if name not in known:
+                raise UnknownNameError("parameter", name, known)
         self._outputs = [self._parse(o) for o in self.requested]
         self._plan: ScenePlan | None = None
 
@@ -331,6 +358,7 @@ class Scene:
                 dropped[f"event {contact.name}"] = "acts only on coordinates the outputs do not depend on"
         self._events = {c: touched for c, touched in events.items() if touched & needed}
         self.plan_dropped = dropped
+        self._check_overrides(kept, dropped, held)
         parts = [self._part(sorted(g)) for g in groups]
         before = {"coordinates": n, "equations": eq.A.shape[0], "operations": _ops(eq)}
         after = {
@@ -338,7 +366,8 @@ class Scene:
             "equations": sum(p.model.eq.A.shape[0] if p.integrated else 0 for p in parts),
             "operations": sum(p.operations for p in parts),
         }
-        plan = ScenePlan(model.name, [o.label for o in self._outputs], parts, kept, dropped, held, before, after)
+        plan = ScenePlan(model.name, [o.label for o in self._outputs], parts, kept, dropped, held, before, after,
+                         unused=self._unused(parts))
         if self.offer:
             plan.offers = self._offers(needed, deps)
         return plan
@@ -375,6 +404,73 @@ class Scene:
                                  f"which the outputs do not depend on")
         return kept, dropped, held
 
+    def _check_overrides(self, kept: list[str], dropped: Mapping[str, str], held: Mapping[str, str]) -> None:
+        """Refuse another value for a parameter given as a number when a component the minimal model keeps has it:
+        the parts are built (pruned, reduced) with the value the model was built with.  Values for parameters of
+        dropped components are not needed and only reported."""
+        model = self.model
+        symbolic = {s.name for s in model.parameters}
+        for name, value in self.params.items():
+            if name in symbolic:
+                continue
+            owners = [c.name for c in model.components.values() if name in {s.name for s in getattr(c, "values", {})}]
+            live = [o for o in owners if o not in dropped or dropped[o].startswith("contributes nothing")]
+            if live:
+                raise ModelError(
+                    f"parameter {name!r} of model {model.name!r} was given as a number "
+                    f"({model.parameter_values[name]:g}), and the scene builds its minimal model (pruned, reduced) "
+                    f"with that value ({', '.join(repr(o) for o in live)} {'is' if len(live) == 1 else 'are'} part of "
+                    f"it): to vary it in a scene, build the model with a symbol for it (sympy.Symbol) and give its "
+                    f"value in params=; Model.simulate(params={{{name!r}: ...}}) runs the full model with another value."
+                )
+
+    def _needs(self, part: Part) -> tuple[list[str], list[str]]:
+        """The initial values and the velocities (by coordinate name) the part starts from."""
+        inertial = self._inertial()
+        skip = [] if part.method in ("uniform", "hybrid") else [n for n in part.eliminated if n not in part.reconstructed]
+        values = [n for n in part.coordinates if n not in skip]
+        rates = [n for n in part.coordinates if n in inertial]  # an eliminated coordinate's velocity gives its momentum
+        return values, rates
+
+    def _start(self, part: Part) -> tuple[dict[str, float], dict[str, float]]:
+        """The given initial values and velocities of the part's coordinates (the rest of the state is not its)."""
+        mine = set(part.coordinates)
+        return ({k: v for k, v in self.initial.items() if k in mine}, {k: v for k, v in self.velocity.items() if k in mine})
+
+    def _params_for(self, model: Model) -> dict[str, float]:
+        """The given parameter values a part's model takes (a reduced model: those of the part it reduces, too)."""
+        names = {s.name for s in model.parameters}
+        full = getattr(model, "full", None)
+        if full is not None:
+            names |= {s.name for s in full.parameters}
+        return {k: v for k, v in self.params.items() if k in names}
+
+    def _unused(self, parts: list[Part]) -> dict[str, str]:
+        """What of the given state and parameters no part needs, and why."""
+        values, rates, owned = set(), set(), set()
+        for part in parts:
+            v, r = self._needs(part)
+            values |= set(v)
+            rates |= set(r)
+            owned |= set(part.coordinates)
+        out = {}
+        for name in self.initial:
+            if name not in values:
+                out[name] = ("eliminated through the Routhian, values not asked for" if name in owned
+                             else "coordinates the outputs do not depend on")
+        for name in self.velocity:
+            if name not in rates:
+                out[f"{name}'"] = "coordinates the outputs do not depend on"
+        used = set()
+        for part in parts:
+            used |= set(self._params_for(part.model))
+        for o in self._outputs:
+            used |= {s.name for s in o.expr.free_symbols}
+        for name in self.params:
+            if name not in used:
+                out[name] = "parameters only of dropped components"
+        return out
+
     def _part(self, idx: list[int]) -> Part:
         full, eq = self.model, self.model.eq
         names = [eq.names[i] for i in idx]
@@ -403,7 +499,7 @@ class Scene:
             except ReductionError:
                 part_model, eliminated = sub, []
         integrated = [nm for nm in part_model.coordinate_names if nm not in reconstructed]
-        values = self._part_params(part_model, eliminated)
+        values = self._part_params(part_model, eliminated, names)
         exact = False
         if _maybe_linear(part_model.eq):  # a cheap screen first: the full check differentiates every entry
             try:
@@ -437,14 +533,16 @@ class Scene:
         label = ", ".join(eq.names[i] for i in rows)
         return DerivedModel(full, f"{full.name} [{label}]", build)
 
-    def _part_params(self, model: Model, eliminated: list[str]) -> dict[str, float]:
+    def _part_params(self, model: Model, eliminated: list[str], coordinates: Sequence[str]) -> dict[str, float]:
+        """The part's parameter values, with the eliminated coordinates' momenta ``C_<name>`` from its own state."""
         names = {s.name for s in model.parameters}
         out = {k: v for k, v in self.params.items() if k in names}
-        if eliminated:
-            red = model if hasattr(model, "momenta_from") else None
-            if red is not None:
-                for n, value in red.momenta_from(self.initial, self.velocity, self.params).items():
-                    out[f"C_{n}"] = value
+        if eliminated and hasattr(model, "momenta_from"):
+            mine = set(coordinates)
+            initial = {k: v for k, v in self.initial.items() if k in mine}
+            velocity = {k: v for k, v in self.velocity.items() if k in mine}
+            for n, value in model.momenta_from(initial, velocity, self._params_for(model)).items():
+                out[f"C_{n}"] = value
         return out
 
     def _offers(self, needed: set[int], deps: list[set[int]]) -> list[Offer]:
@@ -516,10 +614,9 @@ class Scene:
         return SceneResult(self, self.grid, results)
 
     def _solve(self, part: Part) -> Result:
-        initial = {k: v for k, v in self.initial.items() if k in part.coordinates}
-        velocity = {k: v for k, v in self.velocity.items() if k in part.coordinates}
-        missing = [n for n in part.coordinates if n not in self.initial] + \
-                  [f"{n}'" for n in part.coordinates if n not in self.velocity and n in self._inertial()]
+        initial, velocity = self._start(part)
+        values, rates = self._needs(part)
+        missing = [n for n in values if n not in initial] + [f"{n}'" for n in rates if n not in velocity]
         if missing:
             import warnings
 
@@ -533,7 +630,7 @@ class Scene:
 
             idx = {self.model.eq.names.index(n) for n in part.coordinates}
             contacts = [c for c, touched in self._events.items() if touched & idx]
-            params = {k: v for k, v in self.params.items() if k in {s.name for s in part.model.parameters}}
+            params = self._params_for(part.model)
             res = simulate_with_impacts(part.model, self.span, contacts, initial=initial, velocity=velocity, params=params,
                                         points=len(self.grid), method=self.method, rtol=self.tol, atol=self.tol * 1e-3,
                                         event_tol=self.tol * 1e-3)
@@ -553,7 +650,7 @@ class Scene:
             zero = np.zeros_like(tt)
             return Result(tt, q, v, zero, zero, zero, model=part.model.name, method="uniform")
         model = part.model
-        params = {k: v for k, v in self.params.items() if k in {s.name for s in model.parameters}}
+        params = self._params_for(model)
         common = dict(t_eval=self.grid, params=params, progress=self.progress)
         if hasattr(model, "momenta_from"):  # a reduced model: momenta from the full state
             return model.simulate(self.span, initial=initial, velocity=velocity,
@@ -563,6 +660,17 @@ class Scene:
             return model.simulate(self.span, initial=initial, velocity=velocity, method="exact", **common)
         return model.simulate(self.span, initial=initial, velocity=velocity, method=self.method,
                               rtol=self.tol, atol=self.tol * 1e-3, **common)
+
+    def _with_values(self, expr: sp.Expr) -> sp.Expr:
+        """``expr`` with the values of its symbolic parameters from ``params`` (those of other parts not needed)."""
+        eq = self.model.eq
+        inner = set(eq.sym.q) | set(eq.sym.v) | {t}
+        free = sorted(expr.free_symbols - inner, key=str)
+        missing = sorted({s.name for s in free if s.name not in self.params})
+        if missing:
+            raise ModelError(f"the outputs need values of the symbolic parameters {', '.join(missing)}: pass them, "
+                             f"e.g. Scene(..., params={{{', '.join(f'{k!r}: ...' for k in missing)}}}).")
+        return expr.xreplace({s: sp.Float(float(self.params[s.name])) for s in free})
 
     def _inertial(self) -> set[str]:
         eq = self.model.eq
@@ -584,8 +692,7 @@ class Scene:
                     columns[v[i]] = result.v[n] if n in result.v else None
                 if n in rates:
                     columns[v[i]] = ("rate", rates[n], part, result)
-        values = self.model._values(self.params)
-        expr = expr.xreplace({s: sp.Float(x) for s, x in values.items()})
+        expr = self._with_values(expr)
         args, data = [], []
         for s in sorted(expr.free_symbols - {t}, key=str):
             col = columns.get(s)
@@ -593,7 +700,8 @@ class Scene:
                 raise ModelError(f"output needs {s}, which the scene did not compute (ask for it explicitly).")
             if isinstance(col, tuple):
                 _, rate, part, result = col
-                col = part.model.numeric(self._part_params(part.model, part.eliminated)).evaluate(eq.display(rate), result)
+                col = part.model.numeric(self._part_params(part.model, part.eliminated, part.coordinates)).evaluate(
+                    eq.display(rate), result)
             args.append(s)
             data.append(col)
         fn = _lambdify([t, args], expr, self.model.assembly.signals)

@@ -285,3 +285,96 @@ def test_events_make_their_part_hybrid_and_are_dropped_where_they_cannot_matter(
     assert "event ground(ball)" in other.plan.dropped and other.plan.parts[0].method == "exact"
     with pytest.raises(lg.ModelError, match="points="):
         Scene(m, ["x_ball"], 1.5, events=[bounce], t_eval=[0, 1], **start)
+
+
+# -- the whole model's state and parameters given to a scene -------------------------------------------------
+
+
+def pendulums_and_circuit(m1=0.3, l1=0.7, m2=1.2, l2=0.25, L=7e-3, C=0.1, R=0.5):
+    """Two spherical pendulums (each with an ignorable azimuth) and an RLC circuit, in one model."""
+    model = lg.Model("two pendulums and a circuit", dim=3)
+    for i, (m, l) in enumerate(((m1, l1), (m2, l2)), 1):
+        model.add("link", f"yoke{i}", f"yoke{i}")
+        model.add("revolute", f"turn{i}", ("ground", f"yoke{i}"), axis=(0, 0, 1))
+        model.add("link", f"arm{i}", f"arm{i}", points={"bob": (0, 0, -l)})
+        model.add("revolute", f"tilt{i}", (f"yoke{i}", f"arm{i}"), axis=(1, 0, 0))
+        model.add("mass", f"bob{i}", f"arm{i}.bob", m=m)
+    model.add("gravity", "g", g=9.81)
+    model.add("inductor", "L1", ("n1", "n2"), L=L)
+    model.add("capacitor", "C1", ("n2", "0"), C=C)
+    model.add("resistor", "R1", ("n1", "0"), R=R)
+    return model
+
+
+FULL = {"initial": {"theta_turn1": 0.4, "theta_tilt1": 0.9, "theta_turn2": -1.1, "theta_tilt2": 2.0, "q_L1": 3e-3},
+        "velocity": {"theta_turn1": 1.7, "theta_tilt1": -0.3, "theta_turn2": 0.6, "theta_tilt2": 0.5, "q_L1": 0.02}}
+
+
+def test_the_whole_state_given_to_a_scene_that_eliminates_and_prunes():
+    """Every coordinate's value and velocity given; each pendulum's azimuth eliminated (its momentum from its
+    velocity in the given state), the circuit pruned.  Scene at rtol 1e-12 against the full model at 1e-13 over
+    about two swings: 1e-10 on the angles, 1e-10 relative on the azimuth rate (evaluated from ∂R/∂C)."""
+    model = pendulums_and_circuit()
+    scene = Scene(model, ["theta_tilt1", "theta_tilt2", "theta_turn2'"], 3, tol=1e-12, **FULL)
+    plan = scene.plan
+    assert sorted(p.coordinates for p in plan.parts) == [["theta_turn1", "theta_tilt1"], ["theta_turn2", "theta_tilt2"]]
+    assert [p.eliminated for p in plan.parts] == [["theta_turn1"], ["theta_turn2"]]
+    assert plan.unused == {"theta_turn1": "eliminated through the Routhian, values not asked for",
+                           "theta_turn2": "eliminated through the Routhian, values not asked for",
+                           "q_L1": "coordinates the outputs do not depend on",
+                           "q_L1'": "coordinates the outputs do not depend on"}
+    assert "given, not needed: q_L1, q_L1' (coordinates the outputs do not depend on)" in scene.report()
+    res = scene.run()
+    ref = full_run(model, 3, FULL)
+    for name in ("theta_tilt1", "theta_tilt2"):
+        assert np.max(np.abs(res[name] - ref[name])) < 1e-10, name
+    rate = ref.v["theta_turn2"]
+    assert np.max(np.abs(res["theta_turn2'"] - rate)) < 1e-10 * np.max(np.abs(rate))
+
+
+def test_the_whole_state_given_when_the_eliminated_part_is_pruned():
+    """The circuit asked for, both pendulums (and their ignorable azimuths) pruned: their state is not needed."""
+    model = pendulums_and_circuit()
+    scene = Scene(model, ["q_L1", "[L1]'"], 0.5, **FULL)
+    (part,) = scene.plan.parts
+    assert part.coordinates == ["q_L1"] and part.method == "exact"
+    assert set(scene.plan.unused) == {n for n in FULL["initial"] if n != "q_L1"} | {
+        f"{n}'" for n in FULL["velocity"] if n != "q_L1"}
+    res = scene.run()
+    ref = full_run(model, 0.5, FULL)
+    assert np.max(np.abs(res["q_L1"] - ref["q_L1"])) < 1e-10 * np.max(np.abs(ref["q_L1"]))
+    assert np.max(np.abs(res["[L1]'"] - ref.v["q_L1"])) < 1e-10 * np.max(np.abs(ref.v["q_L1"]))
+
+
+def test_symbolic_parameters_of_pruned_parts_may_be_given_or_left_out():
+    m, l, L, C = sp.symbols("m l L C", positive=True)
+    model = pendulums_and_circuit(m1=m, l1=l, L=L, C=C)
+    values = {"m": 0.3, "l": 0.7, "L": 7e-3, "C": 0.1}
+    ref = full_run(model, 3, FULL, params=values)
+    by_hand = 0.5 * 0.3 * 0.7**2 * (ref.v["theta_tilt1"] ** 2 + np.sin(ref["theta_tilt1"]) ** 2 * ref.v["theta_turn1"] ** 2)
+    for params in (values, {"m": 0.3, "l": 0.7}):  # L and C belong to the pruned circuit only
+        scene = Scene(model, ["theta_tilt1", "T[bob1]"], 3, tol=1e-12, params=params, **FULL)
+        assert {k for k, why in scene.plan.unused.items() if why == "parameters only of dropped components"} == set(params) - {"m", "l"}
+        res = scene.run()
+        assert np.max(np.abs(res["theta_tilt1"] - ref["theta_tilt1"])) < 1e-10
+        assert np.max(np.abs(res["T[bob1]"] - by_hand)) < 1e-10 * np.max(by_hand)
+
+
+def test_another_value_for_a_numeric_parameter_is_refused_where_kept_and_unused_where_pruned():
+    model = pendulums_and_circuit()
+    with pytest.raises(lg.ModelError, match="'m_bob1' .* given as a number .*sympy.Symbol"):
+        Scene(model, ["theta_tilt1"], 1, params={"m_bob1": 0.5}, **FULL).plan
+    scene = Scene(model, ["theta_tilt1"], 3, tol=1e-12, params={"L_L1": 2e-3}, **FULL)
+    assert scene.plan.unused["L_L1"] == "parameters only of dropped components"
+    ref = full_run(model, 3, FULL, params={"L_L1": 2e-3})
+    assert np.max(np.abs(scene.run()["theta_tilt1"] - ref["theta_tilt1"])) < 1e-10
+
+
+def test_names_the_model_does_not_have_are_refused_by_name():
+    model = pendulums_and_circuit()
+    with pytest.raises(lg.UnknownNameError, match=r"unknown coordinate 'theta_tilt3'.*theta_tilt1"):
+        Scene(model, ["theta_tilt1"], 1, initial={**FULL["initial"], "theta_tilt3": 0.1})
+    with pytest.raises(lg.UnknownNameError, match=r"unknown coordinate 'theta_trun1'.*theta_turn1"):
+        Scene(model, ["theta_tilt1"], 1, velocity={**FULL["velocity"], "theta_trun1": 0.1})
+    with pytest.raises(lg.UnknownNameError, match=r"unknown parameter 'm_bob3'.*m_bob1"):
+        Scene(model, ["theta_tilt1"], 1, params={"m_bob3": 0.3}, **FULL)
