@@ -59,6 +59,8 @@ import mpmath
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from .budget import BudgetExceeded, interruptible
+
 __all__ = ["is_zero", "equal", "depends_on", "negligible", "FLOAT_TOLERANCE", "EXACT_TOLERANCE"]
 
 #: Relative size below which a value counts as zero when floating-point numbers take part.
@@ -108,6 +110,11 @@ class _Evaluator:
 
     def _float(self, number):
         """A SymPy Float in this context's precision (its exact binary value in mpmath)."""
+        if not number.is_Float:
+            try:
+                number = sp.Float(number, _DIGITS + 5)
+            except (TypeError, ValueError):  # an unevaluated function of a number (DiracDelta(0)): no value
+                raise _Inadmissible from None
         return float(number) if self.ctx is _FLOAT else self.ctx.mpf(number._mpf_)
 
     def _eval(self, e):
@@ -148,8 +155,35 @@ class _Evaluator:
                 return x, mb**xe
             # an exponent multiplies the base's relative rounding error (mb / |xb|) by |exponent|
             return x, abs(x) * (1 + abs(xe) * mb / abs(xb))
+        if isinstance(e, sp.Piecewise):
+            for expr, cond in e.args:
+                if self._truth(cond):
+                    return self(expr)
+            raise _Inadmissible  # no branch holds here
+        if isinstance(e, (sp.Min, sp.Max)):
+            parts = [self(a) for a in e.args]
+            pick = min if isinstance(e, sp.Min) else max
+            return pick(p[0] for p in parts), max(p[1] for p in parts)
         if isinstance(e, sp.Function) or isinstance(e, (sp.Abs, sp.sign)):
             return self._function(e)
+        raise _Inadmissible
+
+    def _truth(self, cond) -> bool:
+        """The truth of a condition at this point (relations, and, or, not)."""
+        if cond is sp.true or cond is True:
+            return True
+        if cond is sp.false or cond is False:
+            return False
+        if isinstance(cond, sp.And):
+            return all(self._truth(c) for c in cond.args)
+        if isinstance(cond, sp.Or):
+            return any(self._truth(c) for c in cond.args)
+        if isinstance(cond, sp.Not):
+            return not self._truth(cond.args[0])
+        if isinstance(cond, sp.core.relational.Relational):
+            left, right = self(cond.lhs)[0], self(cond.rhs)[0]
+            return bool({"<": left < right, "<=": left <= right, ">": left > right, ">=": left >= right,
+                         "==": left == right, "!=": left != right}[cond.rel_op])
         raise _Inadmissible
 
     def _function(self, e):
@@ -177,6 +211,18 @@ class _Evaluator:
             (y, my), (x, mx) = args
             val = ctx.atan2(y, x)
             return val, abs(val) + my + mx
+        if isinstance(e, (sp.floor, sp.ceiling)):
+            val = (ctx.floor if isinstance(e, sp.floor) else ctx.ceil)(args[0][0])
+            return ctx.mpf(val), abs(ctx.mpf(val)) + args[0][1]
+        if isinstance(e, sp.Heaviside):
+            xa = args[0][0]
+            one = ctx.mpf(1)
+            val = one if xa > 0 else 0 * one if xa < 0 else (args[1][0] if len(args) > 1 else one / 2)
+            return val, one
+        if isinstance(e, sp.Mod):
+            (a, ma), (b, mb) = args
+            val = a - b * ctx.floor(a / b)
+            return val, abs(val) + ma + mb
         # anything else: SymPy evaluates it at the point, its magnitude taken as its size plus its arguments'
         subs = [sp.Float(a[0], _DIGITS) for a in args]
         value = e.func(*subs).evalf(_DIGITS)
@@ -264,7 +310,27 @@ def is_zero(expr, values: Mapping[Any, Any] | None = None, *, points: int = _POI
     return _zero_at_points(expr, values, points)
 
 
+_PIECEWISE = (sp.Piecewise, sp.Heaviside, sp.Min, sp.Max)
+
+
+def _zero_by_branches(expr, values: Mapping, points: int) -> bool:
+    """A piecewise expression vanishes on whole intervals, where random points may all fall: it is decided
+    branch by branch (zero when every branch is), never by points alone.  Folding the branches together can
+    multiply them, so it runs under a budget, past which the expression counts as not zero."""
+    try:
+        folded = interruptible(lambda: sp.piecewise_fold(expr.rewrite(sp.Piecewise)), seconds=SYMBOLIC_SECONDS)
+    except BudgetExceeded:
+        return False
+    if isinstance(folded, sp.Piecewise):
+        return all(is_zero(branch, values, points=points) for branch, _ in folded.args)
+    if folded.has(*_PIECEWISE):  # nested where folding could not reach: not decided, so not zero
+        return False
+    return is_zero(folded, values, points=points)
+
+
 def _zero_at_points(expr, values: Mapping, points: int) -> bool:
+    if expr.has(*_PIECEWISE):
+        return _zero_by_branches(expr, values, points)
     floating = _has_float(expr, values)
     gen = _points(expr, values, _SEED)
     # fast path: one float evaluation far from zero proves it is not identically zero
@@ -310,12 +376,19 @@ def _mp(ctx, v):
     return ctx.mpf(value._mpf_)
 
 
-def _symbolic_zero(expr, limit: int = 400) -> bool:
-    """Last resort where no point evaluates: SymPy's simplification, for expressions small enough."""
+#: Seconds the last resort (SymPy's ``simplify``) may take before the expression counts as not zero.
+SYMBOLIC_SECONDS = 2.0
+
+
+def _symbolic_zero(expr, limit: int = 200) -> bool:
+    """Last resort where no point evaluates: SymPy's simplification, for expressions small enough and under
+    a budget (past which the expression is not known to be zero: not zero)."""
     if sp.count_ops(expr) > limit:
         return False
     try:
-        return sp.simplify(expr) == 0
+        return interruptible(lambda: sp.simplify(expr) == 0, seconds=SYMBOLIC_SECONDS)
+    except BudgetExceeded:
+        return False
     except Exception:  # pragma: no cover - SymPy corner cases
         return False
 

@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .budget import DEFAULT_SECONDS, BudgetExceeded, within
+from .budget import DEFAULT_SECONDS, BudgetExceeded, interruptible, within
 from .component import t
 from .derived import DerivedModel
 from .equations import Equations
@@ -175,11 +175,26 @@ def ignorable(model: Model) -> list[str]:
 # -- helpers ----------------------------------------------------------------------------------------
 
 
+#: Seconds one cosmetic simplification may take before the expression is kept as it is.
+TIDY_SECONDS = 2.0
+
+
 def _tidy(expr: sp.Expr, limit: int = 100) -> sp.Expr:
-    """A cheap simplification, skipped for large expressions (floats are kept as they are, not spread)."""
+    """A cheap simplification, skipped for large expressions (floats are kept as they are, not spread).
+
+    Cosmetic: under a budget of :data:`TIDY_SECONDS` (``trigsimp`` can factor
+    for minutes on some coefficients), past which the expression stays as it
+    is — equally exact."""
     expr = sp.sympify(expr)
     if expr.count_ops() > limit:
         return expr
+    try:
+        return interruptible(_simplified, expr, seconds=TIDY_SECONDS)
+    except BudgetExceeded:
+        return expr
+
+
+def _simplified(expr: sp.Expr) -> sp.Expr:
     floats = {f: sp.Dummy() for f in expr.atoms(sp.Float)}
     try:
         out = sp.cancel(sp.together(expr.xreplace(floats)))
@@ -211,7 +226,11 @@ def _drop(expr: sp.Expr, symbols: Sequence[sp.Symbol]) -> sp.Expr:
 def _factors_vanishing(det: sp.Expr) -> list[sp.Expr]:
     """Factors of ``det`` that can vanish (not numbers, not always-positive)."""
     out = []
-    for f in sp.Mul.make_args(sp.factor(det)):
+    try:
+        factored = interruptible(sp.factor, det, seconds=TIDY_SECONDS)
+    except BudgetExceeded:
+        factored = det
+    for f in sp.Mul.make_args(factored):
         base = f.base if isinstance(f, sp.Pow) and f.exp.is_positive else f
         if base.is_number or (isinstance(f, sp.Pow) and f.exp.is_negative):
             continue

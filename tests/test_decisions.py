@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import lagrangian as lg
-from lagrangian import routh
+from lagrangian import models, routh
 from lagrangian.identity import depends_on, equal, is_zero
 
 
@@ -74,27 +74,8 @@ def test_expressions_off_their_real_domain_are_decided_where_they_are_real():
 # -- the spherical pendulum and the heavy top with ordinary values ----------------------------------
 
 
-def spherical(m, length, g):
-    model = lg.Model("spherical pendulum", dim=3)
-    model.add("link", "yoke", "yoke")
-    model.add("revolute", "turn", ("ground", "yoke"), axis=(0, 0, 1))
-    model.add("link", "arm", "arm", points={"bob": (0, 0, -length)})
-    model.add("revolute", "tilt", ("yoke", "arm"), axis=(1, 0, 0))
-    model.add("mass", "bob", "arm.bob", m=m)
-    model.add("gravity", "g", g=g)
-    return model
-
-
-def heavy_top(m, l, I1, I3, g):
-    model = lg.Model("heavy symmetric top", dim=3)
-    model.add("link", "a", "a")
-    model.add("link", "b", "b")
-    model.add("body", "top", "top", m=m, inertia=(I1, I1, I3), com=(0, 0, l))
-    model.add("revolute", "precession", ("ground", "a"), axis=(0, 0, 1))
-    model.add("revolute", "nutation", ("a", "b"), axis=(1, 0, 0))
-    model.add("revolute", "spin", ("b", "top"), axis=(0, 0, 1))
-    model.add("gravity", "g", g=g)
-    return model
+spherical = models.spherical_pendulum
+heavy_top = models.heavy_top
 
 
 def effective_potential_at(red, theta, C, values=None):
@@ -273,3 +254,14 @@ def test_the_derivation_sees_symbols_and_the_equations_the_values():
     assert model.eq.M[0, 0] == sp.Float(0.3) and model.eq.M[1, 1] == sp.Float(7e-3)
     spring = model.component("k1")
     assert spring.k == sp.Float(40.0) and spring.symbolic_view().k in spring.values
+
+
+def test_piecewise_signals_are_decided_branch_by_branch():
+    # a pulse vanishes on whole intervals, where random points could all fall: never decided by points alone
+    t = lg.t
+    pulse = sp.Piecewise((0, t < 0.1), (5 * t, t < 0.2), (1, True))
+    assert depends_on(pulse * x, t)
+    assert not is_zero(pulse)
+    assert is_zero(pulse * x - x * pulse)
+    assert not is_zero(sp.Heaviside(t - 1) * x)
+    assert equal(sp.Piecewise((x, t < 1), (2 * x, True)) * 0.3, sp.Piecewise((0.3 * x, t < 1), (0.6 * x, True)))

@@ -19,7 +19,7 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 import lagrangian as lg
-from lagrangian import routh
+from lagrangian import models, routh
 
 m_, l_, g_, k_, C_ = sp.symbols("m l g k C", positive=True)
 G = 9.81
@@ -27,14 +27,7 @@ G = 9.81
 
 def spherical(m=1.0, l=1.0, g=G) -> lg.Model:
     """φ = theta_turn about the vertical, θ = theta_tilt from the downward vertical."""
-    model = lg.Model("spherical pendulum", dim=3)
-    model.add("link", "yoke", "yoke")
-    model.add("revolute", "turn", ("ground", "yoke"), axis=(0, 0, 1))
-    model.add("link", "arm", "arm", points={"bob": (0, 0, -l)})
-    model.add("revolute", "tilt", ("yoke", "arm"), axis=(1, 0, 0))
-    model.add("mass", "bob", "arm.bob", m=m)
-    model.add("gravity", "g", g=g)
-    return model
+    return models.spherical_pendulum(m, l, g)
 
 
 def central(m=1.0, k=1.0, n=2) -> lg.Model:
