@@ -378,3 +378,50 @@ def test_names_the_model_does_not_have_are_refused_by_name():
         Scene(model, ["theta_tilt1"], 1, velocity={**FULL["velocity"], "theta_trun1": 0.1})
     with pytest.raises(lg.UnknownNameError, match=r"unknown parameter 'm_bob3'.*m_bob1"):
         Scene(model, ["theta_tilt1"], 1, params={"m_bob3": 0.3}, **FULL)
+
+
+def decades(lo, hi):
+    """Floats drawn log-uniformly in [lo, hi] (most not exactly representable decimals)."""
+    from hypothesis import strategies as st
+
+    return st.floats(math.log10(lo), math.log10(hi)).map(lambda e: 10.0**e)
+
+
+def _property_test():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    unit = st.floats(-1.0, 1.0)
+    spin = st.tuples(st.sampled_from((-1.0, 1.0)), st.floats(0.5, 2.0)).map(lambda s: s[0] * s[1])  # |φ̇| ≥ ω/2
+
+    @settings(max_examples=10)
+    @given(m1=decades(1e-2, 1e2), l1=decades(1e-2, 1e2), m2=decades(1e-2, 1e2), l2=decades(1e-2, 1e2),
+           L=decades(1e-4, 1.0), R=decades(1e-2, 1e2), tilt=st.floats(0.3, 2.8), turn=st.floats(-math.pi, math.pi),
+           spins=st.tuples(spin, spin), rates=st.tuples(unit, unit, unit), q=unit)
+    def check(m1, l1, m2, l2, L, R, tilt, turn, spins, rates, q):
+        """Scene at rtol 1e-11 against the full model at 1e-13 over 3/ω₀ (ω₀ = √(g/l₁), under half a swing):
+        1e-8 on the angles, 1e-8 relative on the azimuth rate.  Each pendulum spins (its angular momentum
+        keeps it off the vertical, where the azimuth of these angles is undetermined)."""
+        model = pendulums_and_circuit(m1, l1, m2, l2, L=L, C=0.1, R=R)
+        w0, w2 = math.sqrt(9.81 / l1), math.sqrt(9.81 / l2)
+        full = {"initial": {"theta_turn1": turn, "theta_tilt1": tilt, "theta_turn2": -turn, "theta_tilt2": 3.1 - tilt,
+                            "q_L1": 1e-3 * q},
+                "velocity": {"theta_turn1": w0 * spins[0], "theta_tilt1": w0 * rates[0],
+                             "theta_turn2": w2 * spins[1], "theta_tilt2": w2 * rates[1], "q_L1": 1e-2 * rates[2]}}
+        span = 3 / w0
+        scene = Scene(model, ["theta_tilt1", "theta_turn1", "theta_turn1'"], span, tol=1e-11, points=101, offer=False,
+                      **full)
+        (part,) = scene.plan.parts
+        assert part.eliminated == ["theta_turn1"]
+        assert {"theta_tilt2", "q_L1", "theta_turn2'"} <= set(scene.plan.unused)
+        res = scene.run()
+        ref = model.simulate(span, t_eval=np.linspace(0, span, 101), **TIGHT, **full)
+        assert np.max(np.abs(res["theta_tilt1"] - ref["theta_tilt1"])) < 1e-8
+        assert np.max(np.abs(res["theta_turn1"] - ref["theta_turn1"])) < 1e-8
+        rate = ref.v["theta_turn1"]
+        assert np.max(np.abs(res["theta_turn1'"] - rate)) < 1e-8 * max(np.max(np.abs(rate)), w0)
+
+    return check
+
+
+test_scene_given_the_whole_state_agrees_with_the_full_model_on_random_values = _property_test()
