@@ -201,9 +201,11 @@ class Transient:
         """
         n = int(np.floor((self.stop - self.start) / self.step * (1 + 1e-12)))
         grid = self.start + self.step * np.arange(n + 1)
-        if self.stop - grid[-1] > 1e-9 * self.step:
+        if abs(self.stop - grid[-1]) <= 1e-9 * self.step:
+            grid[-1] = self.stop  # 1e-5 · 3000 is 0.030000000000000002: the last point is the stop, not past it
+        elif self.stop - grid[-1] > 0:
             grid = np.append(grid, self.stop)
-        return grid
+        return np.minimum(grid, self.stop)
 
 
 @dataclass

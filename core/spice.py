@@ -154,6 +154,16 @@ class _SpicePrinter(sp.printing.str.StrPrinter):
             out = f"(({self._print(piece.cond)}) ? ({self._print(piece.expr)}) : ({out}))"
         return out
 
+    def _print_Mod(self, expr):  # a periodic pulse's phase: ngspice has floor, not mod
+        a, b = (self._print(x) for x in expr.args)
+        return f"(({a}) - ({b}) * floor(({a}) / ({b})))"
+
+    def _print_floor(self, expr):
+        return f"floor({self._print(expr.args[0])})"
+
+    def _print_ceiling(self, expr):
+        return f"ceil({self._print(expr.args[0])})"
+
     def _print_Heaviside(self, expr):
         return f"u({self._print(expr.args[0])})"
 
