@@ -142,7 +142,9 @@ def compare_with_ngspice(
     circuit = mapped.model if mapped else model
     if mapped:
         c_initial, c_velocity = mapped.initial(initial, velocity, params)
-        c_params = None
+        # the analogue's elements carry the mechanism's symbols (L = m, C = 1/k, ...): the same values
+        wanted = {s.name for s in circuit.parameters}
+        c_params = {name: value for name, value in (params or {}).items() if name in wanted} or None
     else:
         c_initial, c_velocity, c_params = initial, velocity, params
     net = netlist(circuit, initial=c_initial, velocity=c_velocity, params=c_params, t_end=t_end, step=step, max_step=max_step)
