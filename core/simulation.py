@@ -26,6 +26,12 @@ from .errors import ModelError, SingularMassMatrixError, UnknownNameError
 __all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state"]
 
 
+def _is_angle(coordinate) -> bool:
+    """A coordinate that is an angle (a revolute joint's, a spherical joint's), by its name and description."""
+    text = f"{coordinate.name} {coordinate.description}".lower()
+    return any(w in text for w in ("angle", "revolute", "spherical", "theta", "phi", "psi"))
+
+
 class InitialConditionWarning(UserWarning):
     """Some initial conditions were not given and default to zero."""
 
@@ -122,12 +128,48 @@ class NumericModel:
             raise SingularMassMatrixError(self._singular_message(time, A)) from None
 
     def _singular_message(self, time: float, A: np.ndarray) -> str:
-        names = [self.eq.names[i] for i in self.eq.inertial + self.eq.first_order] + [f"multiplier {k}" for k in range(len(self.eq.multipliers))]
+        """Which of the three cases a singular solve is, and what to do: dependent loop constraints, a coordinate
+        with no inertia at all, or a configuration where the chosen coordinates lose a direction (gimbal lock)."""
+        eq = self.eq
+        A = np.asarray(A, dtype=float)
+        names = [eq.names[i] for i in eq.inertial + eq.first_order] + [f"multiplier {k}" for k in range(len(eq.multipliers))]
         _, s, vt = np.linalg.svd(A)
         null = vt[-1]
-        involved = [n for n, w in zip(names, null) if abs(w) > 1e-8]
-        return (
-            f"the mass matrix is singular at t={time:g} (smallest singular value {s[-1]:.3g}); "
+        involved = [n for n, w in zip(names, null) if abs(w) > 1e-8] or names
+        head = f"the mass matrix is singular at t={time:g} (smallest singular value {s[-1]:.3g}): "
+        m = len(eq.multipliers)
+        if m:
+            rows = A[-m:, : len(eq.inertial)]
+            sv = np.linalg.svd(rows, compute_uv=False)
+            if sv.size and sv[-1] <= 1e-9 * max(float(sv[0]), 1e-300):
+                return head + (
+                    "the loop-closure constraints are dependent here (an over-constrained loop: a redundant joint, "
+                    "or a loop at a singular position). Remove the redundant joint, or start away from that position."
+                )
+        first = [eq.names[i] for i in eq.first_order if eq.names[i] in involved]
+        if first and len(first) == len([n for n in involved if not n.startswith("multiplier")]):
+            return head + (
+                f"the motion of {', '.join(first)} is not determined there: they have no inertia, and their "
+                f"dissipation fixes only part of their rates (a damper alone between massless nodes fixes their "
+                f"relative velocity). Give one of them a mass, or a damper to ground."
+            )
+        # no inertia at all: a row of M identically zero (a coordinate held only by a loop), not just here
+        massless = [eq.names[i] for i in getattr(eq, "held", []) if eq.names[i] in involved]
+        if massless:
+            return head + (
+                f"the motion of {', '.join(massless)} is not determined there: no inertia of its own, and the loop "
+                f"constraints do not fix it (a massless coordinate). Give it a mass, or a damper so that it moves as a "
+                f"first-order coordinate."
+            )
+        angles = [c.name for c in eq.coordinates if c.name in involved and _is_angle(c)]
+        if angles and len(angles) == len([n for n in involved if not n.startswith("multiplier")]):
+            return head + (
+                f"the motion of {', '.join(angles)} is not determined there: the angles lose a direction in this "
+                f"configuration (a gimbal lock of the chosen angles, or a pole, such as a spherical pendulum hanging "
+                f"straight down in azimuth–tilt angles). Start away from it, or describe the rotation with other "
+                f"angles (for a spherical joint, another angle sequence)."
+            )
+        return head + (
             f"the motion of {', '.join(involved)} is not determined there. Check for coordinates without inertia "
             f"coupled only through constraints, or choose another formulation."
         )
