@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.bench import stability_limit
 from lagrangian.integrate import EnergyDriftWarning, FixedStepIntegrator, Integrator, Problem, Solution, Stepper, choose
 
@@ -528,14 +529,7 @@ def test_auto_on_non_stiff_models():
 
 def spherical_pendulum(m=0.3, length=0.7, g=9.81) -> lg.Model:
     """The README's spherical pendulum: φ = theta_turn about the vertical (ignorable), θ = theta_tilt from below."""
-    model = lg.Model("spherical pendulum", dim=3)
-    model.add("link", "yoke", "yoke")
-    model.add("revolute", "turn", ("ground", "yoke"), axis=(0, 0, 1))
-    model.add("link", "arm", "arm", points={"bob": (0, 0, -length)})
-    model.add("revolute", "tilt", ("yoke", "arm"), axis=(1, 0, 0))
-    model.add("mass", "bob", "arm.bob", m=m)
-    model.add("gravity", "g", g=g)
-    return model
+    return models.spherical_pendulum(m, length, g)
 
 
 @given(m=decades(1e-2, 1e2), length=decades(1e-2, 1e2), g=decades(0.1, 100), theta=st.floats(0.2, 1.4),
