@@ -16,8 +16,10 @@ Planar: a revolute joint's angle ``θ`` turns the child by ``θ`` relative to
 the parent (``absolute=True``: ``θ`` is the child's angle to the fixed x
 axis); a prismatic joint slides the child by ``s`` along ``axis`` (parent
 frame).  Spatial: revolute about ``axis`` (parent frame); spherical and free
-joints use body-fixed x-y-z Euler angles ``alpha``, ``beta``, ``gamma`` (singular
-at ``beta = ±π/2``).
+joints use three body-fixed angles in the ``sequence`` given (default ``"xyz"``:
+``alpha``, ``beta``, ``gamma``, singular at ``beta = ±π/2``; a proper Euler
+sequence such as ``"zxz"``: ``phi``, ``theta``, ``psi``, singular at
+``theta = 0`` or ``π``) — see :class:`Spherical`.
 
 >>> import lagrangian as lg, sympy as sp
 >>> m = lg.Model("pendulum", dim=2)
@@ -353,6 +355,10 @@ class _Joint(Component):
             raise lg_param_error(self.name, "coordinates", f"needs {len(default)} comma-separated names, got {given!r}.")
         return names
 
+    def coordinate_descriptions(self, dim: int, names: list[str]) -> list[str] | None:
+        """What each coordinate is (one text per name), or None for the plain "<kind> of <joint>"."""
+        return None
+
     def points(self, dim: int) -> tuple[sp.Matrix, sp.Matrix]:
         return (_vec(self.params.get("parent_point"), dim, self, "parent_point"),
                 _vec(self.params.get("child_point"), dim, self, "child_point"))
@@ -442,25 +448,119 @@ class Prismatic(_Joint):
                                 ("spring", "k", ("ground", "cart.origin"), {"k": 3})], options={"dim": 2})
 
 
-def _euler_xyz(a, b, c):
-    R = _rot3(E3[0], a) * _rot3(E3[1], b) * _rot3(E3[2], c)
-    omega = E3[0] * a.diff(t) + _rot3(E3[0], a) * E3[1] * b.diff(t) + _rot3(E3[0], a) * _rot3(E3[1], b) * E3[2] * c.diff(t)
-    return R, omega
+#: The twelve body-fixed angle sequences: proper Euler (first and last axis the same) and Tait–Bryan (three axes).
+PROPER_EULER = ("zxz", "zyz", "xyx", "xzx", "yxy", "yzy")
+TAIT_BRYAN = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
+SEQUENCES = TAIT_BRYAN + PROPER_EULER
+
+
+def _check_sequence(kind: str, name: str, value) -> str:
+    """The angle sequence of a spherical or free joint, checked against the twelve (never evaluated)."""
+    if isinstance(value, str) and value in SEQUENCES:
+        return value
+    hint = ""
+    if isinstance(value, str) and value.strip().lower() in SEQUENCES:
+        hint = f" Write it in lowercase without spaces: {value.strip().lower()!r} (the rotations are body-fixed)."
+    from lagrangian import ParameterError
+
+    raise ParameterError(
+        name, "sequence",
+        f"{kind} joint {name!r}: {value!r} is not an angle sequence.{hint} Give one of the 12 body-fixed sequences: "
+        f"proper Euler {', '.join(map(repr, PROPER_EULER))} (angles phi, theta, psi) or Tait–Bryan "
+        f"{', '.join(map(repr, TAIT_BRYAN))} (angles alpha, beta, gamma); the default is 'xyz'.",
+    )
+
+
+def _angle_names(sequence: str) -> tuple[str, str, str]:
+    return ("phi", "theta", "psi") if sequence in PROPER_EULER else ("alpha", "beta", "gamma")
+
+
+def _lock(sequence: str) -> str:
+    """Where the middle angle of a sequence puts the first and last rotation axes in line."""
+    return "0 or ±π" if sequence in PROPER_EULER else "±π/2"
+
+
+def _angle_descriptions(kind: str, name: str, sequence: str, names: list[str]) -> list[str]:
+    """Coordinate descriptions of a joint's three angles: which rotation each is, and the sequence's gimbal lock."""
+    lock = (f"sequence {sequence!r} is in gimbal lock where {names[1]} = {_lock(sequence)} ({names[0]} and "
+            f"{names[2]} then turn about one axis): another sequence= moves the lock")
+    order = ("first", "second", "third")
+    return [f"{order[k]} angle (about the body's {sequence[k]} axis) of {kind} joint {name!r}; {lock}" for k in range(3)]
+
+
+def _euler(sequence: str, a, b, c):
+    """Rotation ``R = R_1(a) R_2(b) R_3(c)`` (body-fixed rotations about the axes named by ``sequence``) and the
+    angular velocity in the parent frame, ``e_1 ȧ + R_1 e_2 ḃ + R_1 R_2 e_3 ċ``."""
+    e1, e2, e3 = (E3["xyz".index(axis)] for axis in sequence)
+    R1, R2, R3 = _rot3(e1, a), _rot3(e2, b), _rot3(e3, c)
+    omega = e1 * a.diff(t) + R1 * e2 * b.diff(t) + R1 * R2 * e3 * c.diff(t)
+    return R1 * R2 * R3, omega
+
+
+def _sequence_param():
+    return Parameter("body-fixed angle sequence: 'xyz' (default) or another of the 12 Euler / Tait–Bryan sequences",
+                     default="xyz", shape="name")
 
 
 class Spherical(_Joint):
-    """Spherical (ball) joint, spatial: body-fixed x-y-z Euler angles ``alpha``, ``beta``, ``gamma``."""
+    """Spherical (ball) joint, spatial: three body-fixed angles in the order ``sequence`` (default ``"xyz"``).
+
+    ``sequence`` is one of the twelve body-fixed rotation sequences, read left to right: the child's rotation
+    relative to its parent is ``R = R_1(q1) R_2(q2) R_3(q3)``, a turn about the parent's (= the body's first)
+    axis, then about the once-turned body's second axis, then about the twice-turned body's third axis.
+
+    * Tait–Bryan sequences ``"xyz"`` (the default), ``"xzy"``, ``"yxz"``, ``"yzx"``, ``"zxy"``, ``"zyx"``
+      (three different axes): coordinates ``alpha_<joint>``, ``beta_<joint>``, ``gamma_<joint>`` for the
+      first, second and third angle; gimbal lock where ``beta = ±π/2`` (the first and third axes in line).
+    * Proper Euler sequences ``"zxz"``, ``"zyz"``, ``"xyx"``, ``"xzx"``, ``"yxy"``, ``"yzy"`` (first axis
+      repeated): ``phi_<joint>`` (precession), ``theta_<joint>`` (nutation), ``psi_<joint>`` (spin); gimbal
+      lock where ``theta = 0`` or ``±π``.  With ``"zxz"`` and a vertical z axis, a symmetric top's
+      precession ``phi`` and spin ``psi`` are both ignorable.
+
+    At a gimbal lock the first and third angles turn the body about one axis, the mass matrix is singular
+    there and a simulation stops with a :class:`~lagrangian.SingularMassMatrixError`; pick the sequence
+    whose lock the motion avoids.  Space-fixed (extrinsic) rotations about axes ``a, b, c`` are the
+    body-fixed sequence ``c, b, a`` with the angles in reverse order.
+
+    A heavy symmetric top (mass 0.3 kg, centre of mass 0.4 m up its axis) on a ball joint at the ground:
+
+    >>> import lagrangian as lg
+    >>> from lagrangian import routh
+    >>> top = lg.Model("top", dim=3)
+    >>> _ = top.add("body", "top", "top", m=0.3, inertia=(0.25, 0.25, 0.5), com=(0, 0, 0.4))
+    >>> _ = top.add("spherical", "ball", ("ground", "top"), sequence="zxz")
+    >>> _ = top.add("gravity", "g", g=9.81, direction=(0, 0, -1))
+    >>> top.coordinate_names
+    ['phi_ball', 'theta_ball', 'psi_ball']
+    >>> routh.ignorable(top)
+    ['phi_ball', 'psi_ball']
+    >>> lg.Model("m", dim=3).add("spherical", "j", ("ground", "b"), sequence="zxx")
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.ParameterError: component 'j', parameter 'sequence': spherical joint 'j': 'zxx' is not an angle sequence. Give one of the 12 ...
+    """
 
     kind = "spherical"
-    parameters = _joint_params({})
+    parameters = _joint_params({"sequence": _sequence_param()})
+
+    def __init__(self, name, nodes, params):
+        _check_sequence(self.kind, name, params.get("sequence", "xyz"))
+        super().__init__(name, nodes, params)
+
+    @property
+    def sequence(self) -> str:
+        return self.params["sequence"]
 
     def coordinate_names(self, dim):
-        return [f"alpha_{self.name}", f"beta_{self.name}", f"gamma_{self.name}"]
+        return [f"{a}_{self.name}" for a in _angle_names(self.sequence)]
+
+    def coordinate_descriptions(self, dim, names):
+        return _angle_descriptions(self.kind, self.name, self.sequence, names)
 
     def relative(self, dim, q):
         if dim != 3:
             raise ModelError(f"spherical joint {self.name!r} needs a spatial model (dim=3); in the plane use a revolute joint.")
-        R, omega = _euler_xyz(*q)
+        R, omega = _euler(self.sequence, *q)
         return R, sp.zeros(3, 1), omega
 
     @classmethod
@@ -513,21 +613,36 @@ class Fixed(_Joint):
 
 
 class Free(_Joint):
-    """Free joint: all the child's degrees of freedom (planar: x, y, theta; spatial: x, y, z and Euler angles)."""
+    """Free joint: all the child's degrees of freedom (planar: x, y, theta; spatial: x, y, z in the parent frame
+    and three angles in the body-fixed ``sequence``, named and singular as for :class:`Spherical`)."""
 
     kind = "free"
-    parameters = _joint_params({})
+    parameters = _joint_params({"sequence": _sequence_param()})
+
+    def __init__(self, name, nodes, params):
+        _check_sequence(self.kind, name, params.get("sequence", "xyz"))
+        super().__init__(name, nodes, params)
+
+    @property
+    def sequence(self) -> str:
+        return self.params["sequence"]
 
     def coordinate_names(self, dim):
         if dim == 2:
             return [f"x_{self.name}", f"y_{self.name}", f"theta_{self.name}"]
-        return [f"{a}_{self.name}" for a in ("x", "y", "z", "alpha", "beta", "gamma")]
+        return [f"{a}_{self.name}" for a in ("x", "y", "z", *_angle_names(self.sequence))]
+
+    def coordinate_descriptions(self, dim, names):
+        if dim == 2:
+            return None
+        return [f"{n.split('_')[0]} of {self.kind} joint {self.name!r}" for n in names[:3]] + _angle_descriptions(
+            self.kind, self.name, self.sequence, names[3:])
 
     def relative(self, dim, q):
         if dim == 2:
             x, y, theta = q
             return theta, sp.Matrix([x, y]), None
-        R, omega = _euler_xyz(*q[3:])
+        R, omega = _euler(self.sequence, *q[3:])
         return R, sp.Matrix(q[:3]), omega
 
     @classmethod
@@ -673,7 +788,8 @@ def _child_pose(j: _Joint, view, dim: int, parent: str, child: str, bodies) -> P
             raise ModelError(f"joint {j.name!r}: a driven joint needs its motion as a SymPy expression of t.")
     else:
         names = j.names(dim)
-        coords = [Coordinate.named(n, f"{n.split('_')[0]} of {j.kind} joint {j.name!r}") for n in names]
+        texts = j.coordinate_descriptions(dim, names) or [f"{n.split('_')[0]} of {j.kind} joint {j.name!r}" for n in names]
+        coords = [Coordinate.named(n, text) for n, text in zip(names, texts)]
         view.coordinates.extend(coords)
         q = [c.function for c in coords]
     P, C = j.points(dim)

@@ -950,3 +950,202 @@ def test_bodies_and_circuit_elements_share_one_model():
                      rtol=1e-11, atol=1e-13)
     assert np.allclose(res["q_L1"], 0.1 * np.cos(res.t), atol=1e-9)  # LC tank: q = q0 cos(t/√(LC))
     assert res.energy_drift() < 1e-8
+
+
+# ---------------------------------------------------------------------------
+# Angle sequences of spherical (and free) joints
+# ---------------------------------------------------------------------------
+# References: sympy.physics.mechanics frames oriented with orient_body_fixed(parent, angles, sequence), whose
+# rotation is R = R_1(q1) R_2(q2) R_3(q3) about the body's axes in turn — the convention the joint documents.
+
+ALL_SEQUENCES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx", "zxz", "zyz", "xyx", "xzx", "yxy", "yzy")
+
+
+def heavy_top(inertia=(0.25, 0.25, 0.5), m=0.3, l=0.4, sequence="zxz") -> lg.Model:
+    """A symmetric top: pivot at the ground origin, centre of mass l up its body z axis, gravity along −z."""
+    top = lg.Model("heavy top", dim=3)
+    top.add("body", "top", "top", m=m, inertia=inertia, com=(0, 0, l))
+    top.add("spherical", "ball", ("ground", "top"), sequence=sequence)
+    top.add("gravity", "g", g=G, direction=(0, 0, -1))
+    return top
+
+
+def kane_body_on_ball(sequence, mass, I, com, pivot=(0, 0, 0), at=(0, 0, 0), g_dir=(0, 0, -1)):
+    """KanesMethod for a rigid body whose frame is oriented body-fixed by ``sequence`` (u = q̇)."""
+    q = me.dynamicsymbols("q1:4")
+    u = me.dynamicsymbols("u1:4")
+    N = me.ReferenceFrame("N")
+    B = me.ReferenceFrame("B")
+    B.orient_body_fixed(N, q, sequence)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    vec = lambda xs, F: sum((x * e for x, e in zip(xs, (F.x, F.y, F.z))), sp.S(0) * F.x)  # noqa: E731
+    Gc = O.locatenew("P", vec(pivot, N)).locatenew("Ob", -vec(at, B)).locatenew("G", vec(com, B))
+    Gc.set_vel(N, Gc.pos_from(O).dt(N))
+    I = sp.Matrix(I) if not isinstance(I[0], (int, float)) else sp.diag(*I)
+    body = me.RigidBody("b", Gc, B, mass, (me.inertia(B, I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[1, 2], I[2, 0]), Gc))
+    kane = me.KanesMethod(N, q_ind=list(q), u_ind=list(u), kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)])
+    kane.kanes_equations([body], [(Gc, mass * G * vec(g_dir, N))])
+    return kane.mass_matrix, kane.forcing, list(q), list(u)
+
+
+def test_heavy_top_in_zxz_angles_has_precession_and_spin_ignorable():
+    """Classical Euler angles: L of a symmetric top depends on θ only (T = ½ I₁(θ̇² + φ̇² sin²θ) +
+    ½ I₃(ψ̇ + φ̇ cos θ)², V = m g l cos θ), so φ and ψ are both ignorable."""
+    from lagrangian import routh
+
+    top = heavy_top()  # exactly representable moments: the structural verdict alone
+    assert top.coordinate_names == ["phi_ball", "theta_ball", "psi_ball"]
+    assert sorted(routh.ignorable(top)) == ["phi_ball", "psi_ball"]
+    assert sorted(routh.ignorable(heavy_top(inertia=(0.3, 0.3, 0.5)))) == ["phi_ball", "psi_ball"]
+    # the default x-y-z angles: only the spin about the body's own z axis, γ, is ignorable
+    assert routh.ignorable(heavy_top(sequence="xyz")) == ["gamma_ball"]
+    # and the Lagrangian is the textbook one
+    I1, I3, m, l = 0.25, 0.5, 0.3, 0.4
+    eq = top.eq
+    ph, th, ps = eq.sym.q
+    dph, dth, dps = eq.sym.v
+    textbook = (I1 + m * l**2) / 2 * (dth**2 + dph**2 * sp.sin(th) ** 2) + I3 / 2 * (dps + dph * sp.cos(th)) ** 2 \
+        - m * G * l * sp.cos(th)
+    diff = sp.lambdify((eq.sym.q, eq.sym.v), eq.L - textbook)
+    for _ in range(5):
+        q, v = RNG.uniform(-3, 3, 3), RNG.uniform(-2, 2, 3)
+        assert abs(diff(q, v)) < 1e-12 * (1 + np.abs(v).max() ** 2)
+
+
+def test_heavy_top_in_zxz_angles_matches_sympy_kane():
+    MM, F, q, u = kane_body_on_ball("zxz", 0.3, (0.3, 0.3, 0.5), (0, 0, 0.4))
+    assert agree(heavy_top(inertia=(0.3, 0.3, 0.5)), *theirs(MM, F, q, u)) < 1e-12
+
+
+@pytest.mark.parametrize("sequence", ["zxz", "zyx", "yzy", "xzy"])
+def test_general_body_on_a_spherical_joint_matches_sympy_kane_in_each_family(sequence):
+    """A full inertia tensor, the pivot away from the body origin and the centre of mass: every term of M and f."""
+    MM, F, q, u = kane_body_on_ball(sequence, SB["m"], SB["I"], SB["com"], SB["pivot"], SB["at"])
+    model = lg.Model("body", dim=3)
+    model.add("body", "b", "b", m=SB["m"], inertia=SB["I"], com=SB["com"])
+    model.add("spherical", "ball", ("ground", "b"), parent_point=SB["pivot"], child_point=SB["at"], sequence=sequence)
+    model.add("gravity", "g", g=G, direction=(0, 0, -1))
+    names = ("phi", "theta", "psi") if sequence[0] == sequence[2] else ("alpha", "beta", "gamma")
+    assert model.coordinate_names == [f"{n}_ball" for n in names]
+    assert agree(model, *theirs(MM, F, q, u)) < 1e-12
+
+
+def test_free_joint_takes_a_sequence_too():
+    m = lg.Model("flying top", dim=3)
+    m.add("body", "b", "b", m=0.3, inertia=(0.25, 0.25, 0.5))
+    m.add("free", "fly", ("ground", "b"), sequence="zxz")
+    assert m.coordinate_names == ["x_fly", "y_fly", "z_fly", "phi_fly", "theta_fly", "psi_fly"]
+    from lagrangian import routh
+
+    # no gravity: the three translations, precession and spin are ignorable; nutation is not
+    assert sorted(routh.ignorable(m)) == ["phi_fly", "psi_fly", "x_fly", "y_fly", "z_fly"]
+
+
+@pytest.mark.parametrize("bad", ["zxx", "xx", "abc", "x y z", "ZXZ", "__import__('os').system('true')", 3, ("z", "x", "z"), ""])
+def test_a_bad_sequence_is_a_parameter_error_listing_the_twelve(bad):
+    m = lg.Model("bad", dim=3)
+    m.add("body", "b", "b", m=0.3, inertia=(0.25, 0.25, 0.5))
+    with pytest.raises(lg.ParameterError, match=r"component 'ball', parameter 'sequence'.*spherical joint 'ball'.*"
+                                                 r"not an angle sequence.*'zxz'.*'xyz'") as info:
+        m.add("spherical", "ball", ("ground", "b"), sequence=bad)
+    assert repr(bad) in str(info.value)
+    with pytest.raises(lg.ParameterError, match="free joint 'fly'"):
+        m.add("free", "fly", ("ground", "b"), sequence=bad)
+
+
+def test_the_sequence_names_its_gimbal_lock_in_the_coordinate_descriptions():
+    top = heavy_top()
+    text = {c.name: c.description for c in top.coordinates}
+    assert "'zxz'" in text["phi_ball"] and "theta_ball = 0 or ±π" in text["phi_ball"]
+    assert "second angle (about the body's x axis) of spherical joint 'ball'" in text["theta_ball"]
+    xyz = {c.name: c.description for c in heavy_top(sequence="xyz").coordinates}
+    assert "beta_ball = ±π/2" in xyz["gamma_ball"]
+
+
+def test_multibody_docstrings_run():
+    import doctest
+
+    import lagrangian.plugins.multibody as mb
+
+    result = doctest.testmod(mb, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.failed == 0 and result.attempted > 10
+
+
+# Property: for every sequence, random angles, rates and body parameters over decades, the joint's kinematics
+# (rotation, angular velocity) and the body's kinetic energy agree with sympy.physics.vector's for that sequence.
+
+_SYM = sp.symbols("m_b I1 I2 I3 cx cy cz", positive=True)
+
+
+def _kinematics(sequence):
+    """(ours, theirs): functions (q, v, params) → (R, ω, T), each built once per sequence with symbolic parameters."""
+    if sequence in _KIN:
+        return _KIN[sequence]
+    mb, I1, I2, I3, cx, cy, cz = _SYM
+    model = lg.Model("ball", dim=3)
+    model.add("body", "b", "b", m=mb, inertia=(I1, I2, I3), com=(cx, cy, cz))
+    model.add("spherical", "j", ("ground", "b"), sequence=sequence)
+    eq = model.eq
+    pose = model.assembly.views["mechanical"].poses["b"]
+    funcs = [c.function for c in model.coordinates]
+    to_plain = {**{f.diff(t): vi for f, vi in zip(funcs, eq.sym.v)}, **dict(zip(funcs, eq.sym.q))}
+    R, w = pose.R.subs(to_plain), pose.omega.subs(to_plain)
+    ours_fn = sp.lambdify((eq.sym.q, eq.sym.v, _SYM), [R, w, eq.T], "numpy")
+    q = me.dynamicsymbols("q1:4")
+    N, B = me.ReferenceFrame("N"), me.ReferenceFrame("B")
+    B.orient_body_fixed(N, q, sequence)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    Gc = O.locatenew("G", cx * B.x + cy * B.y + cz * B.z)
+    Gc.set_vel(N, Gc.pos_from(O).dt(N))
+    body = me.RigidBody("b", Gc, B, mb, (me.inertia(B, I1, I2, I3), Gc))
+    Q, U = sp.symbols("Q1:4"), sp.symbols("U1:4")
+    plain = lambda e: me.msubs(e, {qi.diff(t_mech()): ui for qi, ui in zip(q, U)}, dict(zip(q, Q)))  # noqa: E731
+    theirs_fn = sp.lambdify((Q, U, _SYM), [plain(N.dcm(B)), plain(B.ang_vel_in(N).to_matrix(N)),
+                                           plain(body.kinetic_energy(N))], "numpy")
+    _KIN[sequence] = (ours_fn, theirs_fn)
+    return _KIN[sequence]
+
+
+_KIN: dict = {}
+
+
+def _log_uniform(lo, hi):
+    from hypothesis import strategies as st
+
+    return st.floats(math.log10(lo), math.log10(hi)).map(lambda e: 10.0**e)
+
+
+def _signed(lo, hi):
+    from hypothesis import strategies as st
+
+    return st.tuples(_log_uniform(lo, hi), st.sampled_from((-1.0, 1.0))).map(lambda p: p[0] * p[1])
+
+
+def _property_test():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    angles = st.tuples(*[st.floats(-math.pi, math.pi)] * 3)
+    rates = st.tuples(*[_signed(1e-2, 1e2)] * 3)
+    # principal moments over four decades that make a body (triangle inequality): I3 ≤ I1 + I2
+    moments = st.tuples(_log_uniform(1e-3, 1e1), _log_uniform(1e-3, 1e1), st.floats(0.05, 1.0))
+    params = st.tuples(_log_uniform(1e-2, 1e2), moments, st.tuples(*[_signed(1e-2, 1e1)] * 3))
+
+    @settings(max_examples=30)
+    @given(sequence=st.sampled_from(ALL_SEQUENCES), q=angles, v=rates, p=params)
+    def test_joint_kinematics_and_body_energy_match_sympy_vector_for_every_sequence(sequence, q, v, p):
+        mass, (I1, I2, frac), com = p
+        values = (mass, I1, I2, frac * (I1 + I2), *com)
+        ours_fn, theirs_fn = _kinematics(sequence)
+        (R, w, T), (R_ref, w_ref, T_ref) = ours_fn(q, v, values), theirs_fn(q, v, values)
+        R, w, R_ref, w_ref = (np.asarray(x, dtype=float).reshape(-1) for x in (R, w, R_ref, w_ref))
+        assert np.max(np.abs(R - R_ref)) < 1e-13
+        assert np.max(np.abs(w - w_ref)) < 1e-13 * np.max(np.abs(v))
+        assert abs(float(T) - float(T_ref)) < 1e-12 * float(T_ref)
+
+    return test_joint_kinematics_and_body_energy_match_sympy_vector_for_every_sequence
+
+
+test_joint_kinematics_and_body_energy_match_sympy_vector_for_every_sequence = _property_test()
