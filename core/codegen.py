@@ -961,7 +961,7 @@ class CompiledModel:
     def _raise(self, rc: int, t: float, y: np.ndarray):
         if rc == 1:
             A, _ = self.matrix(t, y[: self.n], y[self.n :])
-            raise SingularMassMatrixError(self.numeric._singular_message(t, A))
+            raise SingularMassMatrixError(self.numeric._singular_message(t, A, y[: self.n]))
         raise NumericalError(
             f"the equations are not finite at t={t:g} (state {np.array2string(y, precision=4)}): a singular "
             f"configuration of some component, or a diverging solution. Start elsewhere or reduce the step."

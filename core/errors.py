@@ -141,7 +141,13 @@ class NumericalError(LagrangianError, ArithmeticError):
 
 
 class SingularMassMatrixError(NumericalError):
-    """The mass matrix (with first-order rows) cannot be solved for the accelerations."""
+    """The mass matrix (with first-order rows) cannot be solved for the accelerations.
+
+    The message says which case it is and what to do: dependent loop-closure constraints (an over-constrained
+    loop, or a loop at a singular position), a coordinate or a direction of the coordinates without inertia at
+    any configuration (a massless coordinate), or a direction lost at this configuration only (a gimbal lock of
+    a joint's angle sequence, a pole of the angles).
+    """
 
 
 class IntegrationError(NumericalError):

@@ -125,29 +125,55 @@ class NumericModel:
         try:
             return np.linalg.solve(A, b)
         except np.linalg.LinAlgError:
-            raise SingularMassMatrixError(self._singular_message(time, A)) from None
+            raise SingularMassMatrixError(self._singular_message(time, A, qv)) from None
 
-    def _singular_message(self, time: float, A: np.ndarray) -> str:
-        """Which of the three cases a singular solve is, and what to do: dependent loop constraints, a coordinate
-        with no inertia at all, or a configuration where the chosen coordinates lose a direction (gimbal lock)."""
+    def _singular_message(self, time: float, A: np.ndarray, q: np.ndarray | None = None) -> str:
+        """Which case a singular solve ``A u = b`` is, at whose fault, and what to do.
+
+        The cases, tried in turn: dependent loop-closure constraints (an over-constrained loop, or a loop at a
+        singular position); first-order coordinates whose dissipation fixes only part of their rates; a
+        coordinate held only by a loop that does not fix it; a direction of the coordinates with no inertia at
+        any configuration (a massless coordinate: ``A`` is singular at random states too); a direction lost only
+        at this configuration (a gimbal lock of the chosen angles, a pole).  ``A`` may also be the mass matrix
+        alone (a problem without constraints or first-order coordinates); ``q``, when given, is quoted.
+        """
         eq = self.eq
         A = np.asarray(A, dtype=float)
-        names = [eq.names[i] for i in eq.inertial + eq.first_order] + [f"multiplier {k}" for k in range(len(eq.multipliers))]
+        nI, nF, m = len(eq.inertial), len(eq.first_order), len(eq.multipliers)
+        if A.shape[0] == nI + nF + m:
+            names = [eq.names[i] for i in eq.inertial + eq.first_order] + [f"multiplier {k}" for k in range(m)]
+        else:  # the mass matrix of all the coordinates
+            names, nI, nF, m = list(eq.names)[: A.shape[0]], A.shape[0], 0, 0
         _, s, vt = np.linalg.svd(A)
         null = vt[-1]
         involved = [n for n, w in zip(names, null) if abs(w) > 1e-8] or names
-        head = f"the mass matrix is singular at t={time:g} (smallest singular value {s[-1]:.3g}): "
-        m = len(eq.multipliers)
+        coords = [n for n in involved if not n.startswith("multiplier")]
+        at = ""
+        if q is not None and len(q) == len(eq.names):
+            at = " at " + ", ".join(f"{n} = {float(x):.6g}" for n, x in zip(eq.names, q))
+        head = f"the mass matrix is singular at t={time:g}{at} (smallest singular value {s[-1]:.3g}): "
         if m:
-            rows = A[-m:, : len(eq.inertial)]
-            sv = np.linalg.svd(rows, compute_uv=False)
-            if sv.size and sv[-1] <= 1e-9 * max(float(sv[0]), 1e-300):
+            J = A[nI + nF :, :nI]
+            U, sj, _ = np.linalg.svd(J)
+            rank = int(np.sum(sj > 1e-9 * max(float(sj[0]) if sj.size else 0.0, 1e-300)))
+            if rank < m:
+                rows = sorted({k for col in range(rank, m) for k in np.flatnonzero(np.abs(U[:, col]) > 1e-8)})
+                on = [eq.names[i] for j, i in enumerate(eq.inertial) if np.any(np.abs(J[:, j]) > 1e-12)]
+                where = (
+                    "at every configuration: an over-constrained loop — a redundant joint repeats what the others "
+                    "already impose, so its reaction is not determined. Remove the redundant joint, or replace it by "
+                    "one that imposes less"
+                    if self._singular_everywhere(time, A.shape[0]) else
+                    "at this configuration only: a loop at a singular position (links in line, a dead centre), where "
+                    "the constraints lose a direction. Start away from that position"
+                )
                 return head + (
-                    "the loop-closure constraints are dependent here (an over-constrained loop: a redundant joint, "
-                    "or a loop at a singular position). Remove the redundant joint, or start away from that position."
+                    f"the loop-closure constraints on {', '.join(on) or 'the coordinates'} (rows "
+                    f"{', '.join(map(str, rows))} of the {m} of Φ) are dependent {where}. "
+                    f"(lagrangian.plugins.multibody.independent_coordinates(model, state) names the joints.)"
                 )
         first = [eq.names[i] for i in eq.first_order if eq.names[i] in involved]
-        if first and len(first) == len([n for n in involved if not n.startswith("multiplier")]):
+        if first and len(first) == len(coords):
             return head + (
                 f"the motion of {', '.join(first)} is not determined there: they have no inertia, and their "
                 f"dissipation fixes only part of their rates (a damper alone between massless nodes fixes their "
@@ -161,18 +187,61 @@ class NumericModel:
                 f"constraints do not fix it (a massless coordinate). Give it a mass, or a damper so that it moves as a "
                 f"first-order coordinate."
             )
-        angles = [c.name for c in eq.coordinates if c.name in involved and _is_angle(c)]
-        if angles and len(angles) == len([n for n in involved if not n.startswith("multiplier")]):
+        described = {c.name: c.description for c in eq.coordinates}
+        whose = "; ".join(f"{n}: {described[n].split(';')[0]}" for n in coords if described.get(n))
+        whose = f" ({whose})" if whose else ""
+        sign = 1.0 if null[int(np.argmax(np.abs(null)))] > 0 else -1.0
+        direction = " ".join(f"{'+' if sign * w > 0 else '−'} {abs(w):.3g}·{n}" for n, w in zip(names, null)
+                             if n in coords and abs(w) > 1e-8).lstrip("+ ")
+        if self._singular_everywhere(time, A.shape[0]):
             return head + (
-                f"the motion of {', '.join(angles)} is not determined there: the angles lose a direction in this "
-                f"configuration (a gimbal lock of the chosen angles, or a pole, such as a spherical pendulum hanging "
-                f"straight down in azimuth–tilt angles). Start away from it, or describe the rotation with other "
-                f"angles (for a spherical joint, another angle sequence)."
+                f"the motion of {', '.join(coords)}{whose} is not determined: no inertia along {direction or 'them'}, "
+                f"at any configuration (a massless coordinate, or a direction without inertia — a massless link "
+                f"between two joints, a slender rod's spin about its own axis). Give it inertia (a mass, a body with "
+                f"a moment about that axis), make it first-order with a damper, or remove the coordinate (a joint "
+                f"with fewer degrees of freedom)."
+            )
+        angles = [c.name for c in eq.coordinates if c.name in coords and _is_angle(c)]
+        if angles and len(angles) == len(coords):
+            notes = list(dict.fromkeys(described[n].split(";", 1)[1].strip() for n in coords if ";" in described.get(n, "")))
+            return head + (
+                f"the motion of {', '.join(angles)} is not determined there{whose}: the angles lose a direction in "
+                f"this configuration only (a gimbal lock of the chosen angles, or a pole, such as a spherical pendulum "
+                f"hanging straight down in azimuth–tilt angles). "
+                + (f"{'; '.join(notes)}. " if notes else "")
+                + "Start away from it, or describe the rotation with other angles (a spherical or free joint: "
+                "another sequence=, whose lock the motion avoids)."
             )
         return head + (
-            f"the motion of {', '.join(involved)} is not determined there. Check for coordinates without inertia "
-            f"coupled only through constraints, or choose another formulation."
+            f"the motion of {', '.join(involved)}{whose} is not determined there (a direction lost at this "
+            f"configuration only). Check for coordinates without inertia coupled only through constraints, start "
+            f"elsewhere, or choose other coordinates."
         )
+
+    def _singular_everywhere(self, time: float, size: int, probes: int = 3) -> bool:
+        """Whether the solve's matrix is singular at random states as well (a structural singularity), not only at
+        the one where it failed; False when no random state could be evaluated."""
+        rng = np.random.default_rng(12345)
+        seen = 0
+        for _ in range(4 * probes):
+            q = rng.uniform(0.2, 1.3, self.n) * rng.choice((-1.0, 1.0), self.n)
+            vI = rng.uniform(-1.0, 1.0, self.nI)
+            try:
+                with np.errstate(all="ignore"):
+                    A = np.asarray(self._solve_fn(time, q, vI)[0], dtype=float)
+            except Exception:  # a signal or function that cannot be evaluated there: not evidence either way
+                continue
+            if not np.all(np.isfinite(A)):
+                continue
+            if A.shape[0] != size:  # the caller's matrix is M alone: the same coordinates, no multipliers
+                A = A[:size, :size]
+            sv = np.linalg.svd(A, compute_uv=False)
+            if sv[-1] > 1e-10 * sv[0]:
+                return False
+            seen += 1
+            if seen == probes:
+                return True
+        return False
 
     def velocities(self, time: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """All generalized velocities and the inertial accelerations at one state."""
@@ -203,7 +272,7 @@ class NumericModel:
             u = np.linalg.solve(A, b[..., None])[..., 0]
         except np.linalg.LinAlgError:
             k = next(i for i in range(N) if np.linalg.matrix_rank(A[i]) < m)
-            raise SingularMassMatrixError(self._singular_message(times[k], A[k])) from None
+            raise SingularMassMatrixError(self._singular_message(times[k], A[k], Y[:n, k])) from None
         v[self.eq.first_order] = u[:, self.nI : self.nI + len(self.eq.first_order)].T
         return v
 

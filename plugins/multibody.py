@@ -480,10 +480,28 @@ def _lock(sequence: str) -> str:
     return "0 or ±π" if sequence in PROPER_EULER else "±π/2"
 
 
+def _elsewhere(sequence: str) -> tuple[str, str]:
+    """A sequence whose gimbal lock is a quarter turn away from that of ``sequence``, and where it locks.
+
+    ``"aba"`` locks with the body's a axis along the parent's a axis; ``"cba"`` (Tait–Bryan, c the axis after a in
+    x → y → z → x) with the body's a axis along the parent's c axis.  ``"abc"`` locks with the body's c axis along
+    the parent's a axis; ``"cbc"`` with it along the parent's c axis."""
+    a, b, c = sequence
+    if a == c:
+        c = "xyz"[("xyz".index(a) + 1) % 3]
+        other = c + ({"x", "y", "z"} - {a, c}).pop() + a
+        return other, f"the body's {a} axis along the parent's {c} axis"
+    return c + b + c, f"the body's {c} axis along the parent's {c} axis"
+
+
 def _angle_descriptions(kind: str, name: str, sequence: str, names: list[str]) -> list[str]:
-    """Coordinate descriptions of a joint's three angles: which rotation each is, and the sequence's gimbal lock."""
-    lock = (f"sequence {sequence!r} is in gimbal lock where {names[1]} = {_lock(sequence)} ({names[0]} and "
-            f"{names[2]} then turn about one axis): another sequence= moves the lock")
+    """Coordinate descriptions of a joint's three angles: which rotation each is, then (after a semicolon) the
+    sequence's gimbal lock and a sequence that locks elsewhere."""
+    a, c = sequence[0], sequence[2]
+    other, where = _elsewhere(sequence)
+    lock = (f"sequence {sequence!r} is in gimbal lock where {names[1]} = {_lock(sequence)} (the body's {c} axis along "
+            f"the parent's {a} axis: {names[0]} and {names[2]} then turn about one axis); sequence={other!r} locks "
+            f"elsewhere ({where})")
     order = ("first", "second", "third")
     return [f"{order[k]} angle (about the body's {sequence[k]} axis) of {kind} joint {name!r}; {lock}" for k in range(3)]
 
