@@ -1013,6 +1013,19 @@ def test_heavy_top_in_zxz_angles_has_precession_and_spin_ignorable():
         assert abs(diff(q, v)) < 1e-12 * (1 + np.abs(v).max() ** 2)
 
 
+def test_heavy_top_in_zxz_angles_keeps_both_textbook_momenta_along_a_run():
+    """p_ψ = I₃(ψ̇ + φ̇ cos θ) and p_φ = (I₁ + m l²) φ̇ sin²θ + p_ψ cos θ are constant for the heavy top."""
+    I1, I3, m, l = 0.3, 0.5, 0.3, 0.4
+    res = heavy_top(inertia=(I1, I1, I3), m=m, l=l).simulate(
+        3.0, initial={"phi_ball": 0.2, "theta_ball": 0.7, "psi_ball": -0.4},
+        velocity={"phi_ball": 0.9, "theta_ball": -0.3, "psi_ball": 11.0}, method="DOP853", **TIGHT)
+    th, dph, dps = res["theta_ball"], res.v["phi_ball"], res.v["psi_ball"]
+    p_psi = I3 * (dps + dph * np.cos(th))
+    p_phi = (I1 + m * l**2) * dph * np.sin(th) ** 2 + p_psi * np.cos(th)
+    assert np.ptp(th) > 0.05  # it nutates
+    assert np.ptp(p_psi) < 1e-8 * abs(p_psi[0]) and np.ptp(p_phi) < 1e-8 * abs(p_phi[0])
+
+
 def test_heavy_top_in_zxz_angles_matches_sympy_kane():
     MM, F, q, u = kane_body_on_ball("zxz", 0.3, (0.3, 0.3, 0.5), (0, 0, 0.4))
     assert agree(heavy_top(inertia=(0.3, 0.3, 0.5)), *theirs(MM, F, q, u)) < 1e-12
