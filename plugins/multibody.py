@@ -499,9 +499,10 @@ def _angle_descriptions(kind: str, name: str, sequence: str, names: list[str]) -
     sequence's gimbal lock and a sequence that locks elsewhere."""
     a, c = sequence[0], sequence[2]
     other, where = _elsewhere(sequence)
-    lock = (f"sequence {sequence!r} is in gimbal lock where {names[1]} = {_lock(sequence)} (the body's {c} axis along "
-            f"the parent's {a} axis: {names[0]} and {names[2]} then turn about one axis); sequence={other!r} locks "
-            f"elsewhere ({where})")
+    # sequences in double quotes: a quoted 'name' in a description is the component that owns the coordinate
+    lock = (f'sequence "{sequence}" is in gimbal lock where {names[1]} = {_lock(sequence)} (the body\'s {c} axis along '
+            f'the parent\'s {a} axis: {names[0]} and {names[2]} then turn about one axis); sequence="{other}" locks '
+            f'elsewhere ({where})')
     order = ("first", "second", "third")
     return [f"{order[k]} angle (about the body's {sequence[k]} axis) of {kind} joint {name!r}; {lock}" for k in range(3)]
 
@@ -559,7 +560,7 @@ class Spherical(_Joint):
     >>> top.simulate(0.1, initial={"phi_ball": 0, "theta_ball": 0, "psi_ball": 0}, velocity={"psi_ball": 7})
     Traceback (most recent call last):
     ...
-    lagrangian.errors.SingularMassMatrixError: the mass matrix is singular at t=0 at phi_ball = 0, theta_ball = 0, psi_ball = 0 (...): the motion of phi_ball, psi_ball is not determined there ... sequence 'zxz' is in gimbal lock where theta_ball = 0 or ±π ...; sequence='xyz' locks elsewhere ...
+    lagrangian.errors.SingularMassMatrixError: the mass matrix is singular at t=0 at phi_ball = 0, theta_ball = 0, psi_ball = 0 (...): the motion of phi_ball, psi_ball is not determined there ... sequence "zxz" is in gimbal lock where theta_ball = 0 or ±π ...; sequence="xyz" locks elsewhere ...
     >>> lg.Model("m", dim=3).add("spherical", "j", ("ground", "b"), sequence="zxx")
     Traceback (most recent call last):
     ...

@@ -1070,7 +1070,8 @@ def test_a_bad_sequence_is_a_parameter_error_listing_the_twelve(bad):
 def test_the_sequence_names_its_gimbal_lock_in_the_coordinate_descriptions():
     top = heavy_top()
     text = {c.name: c.description for c in top.coordinates}
-    assert "'zxz'" in text["phi_ball"] and "theta_ball = 0 or ±π" in text["phi_ball"]
+    assert '"zxz"' in text["phi_ball"] and "theta_ball = 0 or ±π" in text["phi_ball"]
+    assert all("'" not in d.replace("'ball'", "").replace("'s ", "") for d in text.values())  # only the owner quoted
     assert "second angle (about the body's x axis) of spherical joint 'ball'" in text["theta_ball"]
     xyz = {c.name: c.description for c in heavy_top(sequence="xyz").coordinates}
     assert "beta_ball = ±π/2" in xyz["gamma_ball"]
