@@ -98,7 +98,8 @@ class Equations:
 
     @classmethod
     def from_energies(cls, coordinates, T, V, G, D, Q, constraints=(), constraint_rate: float = 10.0,
-                      quadratures: Mapping[int, sp.Expr] | None = None) -> "Equations":
+                      quadratures: Mapping[int, sp.Expr] | None = None,
+                      values: Mapping[sp.Symbol, sp.Expr] | None = None) -> "Equations":
         """Equations of a system given directly by its energies, in the plain symbols ``q_<name>``, ``v_<name>``.
 
         ``coordinates`` are :class:`~lagrangian.domain.Coordinate` objects;
@@ -106,12 +107,14 @@ class Equations:
         coordinate indices to expressions ``g(t, q, q̇)`` those coordinates
         follow by ``q̇_i = g`` instead of a Lagrange equation (first-order
         rows, integrated along with the rest: reconstruction of ignorable
-        coordinates).
+        coordinates).  ``values`` gives numbers to symbols of the energies
+        (parameters given as numbers), put in after the derivation as for a
+        model's own equations.
         """
         self = cls.__new__(cls)
         self._setup(coordinates)
         self.load_shares = []
-        self._derive(T, V, G, D, list(Q), list(constraints), constraint_rate, quadratures or {})
+        self._derive(T, V, G, D, list(Q), list(constraints), constraint_rate, quadratures or {}, values=values)
         return self
 
     def _setup(self, coordinates) -> None:
@@ -149,7 +152,7 @@ class Equations:
             M[i, :] = sp.zeros(1, len(q))
             f[i] = g - v[i]
         # generic: the parameters given as numbers still symbols (compiled code takes their values at run time)
-        self._generic = {"M": M, "f": f, "constraints": sp.Matrix(constraints)}
+        self._generic = {"M": M, "f": f, "Q": sp.Matrix(Q), "constraints": sp.Matrix(constraints)}
         self.T, self.V, self.D, self.G = put(T), put(V), put(D), put(G)
         self._generic_energies = (T, V, D, T - V + G)
         self.L = self.T - self.V + self.G

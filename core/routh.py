@@ -45,6 +45,8 @@ from __future__ import annotations
 
 import itertools
 import math
+import threading
+from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -241,6 +243,48 @@ def _factors_vanishing(det: sp.Expr) -> list[sp.Expr]:
     return out
 
 
+#: Reductions kept by structure (least recently used dropped first).
+CACHE_SIZE = 128
+_CACHE: "OrderedDict[tuple, dict]" = OrderedDict()
+_CACHE_LOCK = threading.Lock()
+
+
+def _by_structure(key: tuple, values: Mapping[sp.Symbol, sp.Expr], compute) -> dict:
+    """``compute()`` (a dict of parts in the symbols of ``values``), once per structure.
+
+    ``key`` holds the expressions the parts are computed from; the symbols
+    standing for numbers (the keys of ``values``, unique to one model) are
+    renamed to canonical symbols in the key and in the stored parts, and back
+    on the way out, so the same components given other numbers reuse the work.
+    """
+    canon = {s: sp.Symbol(s.name, **s.assumptions0) for s in values}
+    key = tuple(_put(k, canon) for k in key)
+    with _CACHE_LOCK:
+        cached = _CACHE.get(key)
+        if cached is not None:
+            _CACHE.move_to_end(key)
+    if cached is None:
+        parts = compute()
+        with _CACHE_LOCK:
+            _CACHE[key] = {k: _put(part, canon) for k, part in parts.items()}
+            while len(_CACHE) > CACHE_SIZE:
+                _CACHE.popitem(last=False)
+        return parts
+    back = {c: s for s, c in canon.items()}
+    return {k: _put(part, back) for k, part in cached.items()}
+
+
+def _put(part: Any, values: Mapping[sp.Symbol, sp.Expr]) -> Any:
+    """A part of the reduction with the values of parameters given as numbers put in (lists part by part)."""
+    if not values or isinstance(part, (bool, int)):
+        return part
+    if isinstance(part, list):
+        return [_put(e, values) for e in part]
+    if isinstance(part, tuple):
+        return tuple(_put(e, values) for e in part)
+    return part.xreplace(values) if isinstance(part, sp.Basic) else part
+
+
 # -- the reduced model ------------------------------------------------------------------------------
 
 
@@ -279,8 +323,12 @@ class ReducedModel(DerivedModel):
 
     # -- the reduction -------------------------------------------------------
     def _reduce(self, momenta: Mapping[str, Any]) -> None:
+        """Reduce the generic equations (parameters given as numbers still symbols), then put the values in:
+        a model given numbers and its twin given symbols take the same decisions on the same expressions."""
         full = self.full
         eq = full.eq
+        generic = eq.generic()
+        values = eq.values
         names = eq.names
         I = [names.index(n) for n in self.ignored]
         K = [i for i in range(len(names)) if i not in I]
@@ -293,8 +341,21 @@ class ReducedModel(DerivedModel):
         unknown = [k for k in momenta if k not in self.ignored]
         if unknown:
             raise UnknownNameError("ignorable coordinate (for momenta=)", unknown[0], self.ignored)
-        p = [_drop(eq.p[i], qI) for i in I]
-        MII = sp.Matrix([[_drop(eq.M[i, j], qI) for j in I] for i in I])
+        # One reduction per structure: the same components with other numbers reuse it (the symbols standing
+        # for the numbers are renamed to canonical ones in the key, and back in the parts).
+        key = ("reduce", tuple(names), tuple(self.ignored), tuple(C),
+               *(sp.sympify(generic[k]) for k in ("L", "D")),
+               *(sp.ImmutableMatrix(generic[k]) for k in ("M", "Q", "constraints")))
+        parts = _by_structure(key, values, lambda: self._reduce_generic(generic, names, I, K, q, v, C))
+        self._r_generic = parts
+        self._r_values = dict(values)
+        self._r_parts = {k: _put(part, values) for k, part in parts.items()}
+
+    def _reduce_generic(self, generic, names, I, K, q, v, C) -> dict:
+        full = self.full
+        qI, vI = [q[i] for i in I], [v[i] for i in I]
+        p = [_drop(generic["p"][i], qI) for i in I]
+        MII = sp.Matrix([[_drop(generic["M"][i, j], qI) for j in I] for i in I])
         rest = [e.xreplace(dict.fromkeys(vI, sp.Integer(0))) for e in p]
         # p = rest + M·v̇ term by term (never their difference: SymPy would merge round-off into a "term")
         affine = all(equal(p[a], rest[a] + sum(MII[a, b] * vI[b] for b in range(len(I)))) for a in range(len(I)))
@@ -325,7 +386,7 @@ class ReducedModel(DerivedModel):
         adjugate = MII.adjugate().applyfunc(_tidy)
         rates = [_tidy(e / det) for e in adjugate * w]
         at = dict(zip(vI, rates))
-        L = _drop(eq.L, qI)
+        L = _drop(generic["L"], qI)
         R = _tidy((w.T * adjugate * w)[0, 0] / (2 * det) - L.xreplace(dict.fromkeys(vI, sp.Integer(0))))
         vK = [v[k] for k in K]
         lam = sp.Dummy("lambda")
@@ -339,17 +400,17 @@ class ReducedModel(DerivedModel):
             T, G, V = _terms(parts[2]), _terms(parts[1]), _terms(-parts[0])
         else:  # not quadratic in the velocities: no effective potential
             T, G, V = Lr - parts[0], sp.Integer(0), -parts[0]
-        D = _drop(eq.D, qI)
-        Q = [_tidy(_drop(eq.Q[k], qI).xreplace(at)) for k in K]
-        constraints = [_drop(c, qI) for c in eq.constraints]
-        self._r_parts = {
+        D = _drop(generic["D"], qI)
+        Q = [_tidy(_drop(generic["Q"][k], qI).xreplace(at)) for k in K]
+        constraints = [_drop(c, qI) for c in generic["constraints"]]
+        return {
             "K": K, "I": I, "C": C, "rates": rates, "R": R, "T": T, "G": G, "V": V, "D": D, "Q": Q,
             "constraints": constraints, "quadratic": quadratic,
             "singular": _factors_vanishing(det), "det": det,
         }
 
     def _build_equations(self) -> Equations:
-        parts = self._r_parts
+        parts = self._r_generic
         full_eq = self.full.eq
         keep = [i for i in range(len(full_eq.names))
                 if i in parts["K"] or full_eq.names[i] in self._quadrature]
@@ -362,7 +423,7 @@ class ReducedModel(DerivedModel):
             else:
                 quad[row] = parts["rates"][parts["I"].index(i)]
         return Equations.from_energies(coords, parts["T"], parts["V"], parts["G"], parts["D"], Q,
-                                       parts["constraints"], full_eq.constraint_rate, quad)
+                                       parts["constraints"], full_eq.constraint_rate, quad, values=self._r_values)
 
     # -- what the reduction found --------------------------------------------------
     def _show(self, expr):
@@ -407,16 +468,16 @@ class ReducedModel(DerivedModel):
             for name in given:
                 if name not in eq.names:
                     raise UnknownNameError("coordinate", name, eq.names)
-        values = {s: v for s, v in self.full._values(self._full_params(params)).items()}
+        values = {s: v for s, v in self.full._values(self._full_params(params), overrides=True).items()}
         point = {**{q: float(initial.get(n, 0.0)) for q, n in zip(eq.sym.q, eq.names)},
                  **{v: float(velocity.get(n, 0.0)) for v, n in zip(eq.sym.v, eq.names)}, t: 0.0}
         out = {}
         for n, i in zip(self.ignored, self._r_parts["I"]):
-            out[n] = float(eq.p[i].xreplace(values).xreplace(point))
+            out[n] = float(eq.generic()["p"][i].xreplace(values).xreplace(point))
         return out
 
     def _full_params(self, params: Mapping[str, float] | None) -> dict[str, float]:
-        full_names = {s.name for s in self.full.parameters}
+        full_names = {s.name for s in self.full.parameters} | set(self.full.parameter_values)
         return {k: v for k, v in (params or {}).items() if k in full_names}
 
     # -- simulation --------------------------------------------------------------------
@@ -477,7 +538,7 @@ class ReducedModel(DerivedModel):
         if dropped:
             raise UnknownNameError("coordinate", dropped[0], self.full.eq.names)
         target._check_singular(start, params)
-        known = {s.name for s in target.parameters}
+        known = {s.name for s in target.parameters} | set(target.parameter_values)
         unknown = [k for k in params if k not in known and k not in {s.name for s in self.full.parameters}]
         if unknown:
             raise UnknownNameError("parameter", unknown[0], known)
@@ -545,7 +606,9 @@ class ReducedModel(DerivedModel):
         if len(eq.constraints):
             raise ReductionError(f"steady motions of {self.name!r}: models with loop constraints are not supported.")
         rest = dict.fromkeys(eq.sym.v, sp.Integer(0))
-        out = [_tidy(e.xreplace(rest)) for e in eq.f]
+        f = sp.ImmutableMatrix(eq.generic()["f"])
+        parts = _by_structure(("steady", f), eq.values, lambda: {"exprs": [_tidy(e.xreplace(rest)) for e in f]})
+        out = _put(parts["exprs"], eq.values)
         if any(e.has(t) for e in out):
             raise ReductionError(
                 f"the reduced equations of {self.name!r} depend explicitly on time: there is no steady motion."
