@@ -32,15 +32,27 @@ class Assembly:
     ``generic`` holds the contributions with every parameter given as a
     number still a symbol (the equations are derived from them), ``values``
     those symbols' values, and ``contributions`` the contributions with the
-    values in (what the components add, as users gave them).
+    values in (what the components add, as users gave them).  Likewise
+    ``generic_views`` are the domains' views built from the components'
+    symbolic views (kinematics in symbols: what the derivation uses), and
+    ``views`` the same built from the components as given (positions and
+    branch quantities in numbers; built on first use).
     """
 
     coordinates: list[Coordinate]
-    views: dict[str, DomainView]
+    generic_views: dict[str, DomainView]
     contributions: dict[str, Contribution]
     signals: dict[sp.Function, Any] = field(default_factory=dict)
     generic: dict[str, Contribution] = field(default_factory=dict)
     values: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
+    build_views: Any = field(default=None, repr=False)  # () -> the views with the values in
+
+    @property
+    def views(self) -> dict[str, DomainView]:
+        """The domains' views with the values of parameters given as numbers in (built on first use)."""
+        if "_views" not in self.__dict__:
+            self.__dict__["_views"] = self.generic_views if self.build_views is None else self.build_views()
+        return self.__dict__["_views"]
 
     def energy(self, part: str, generic: bool = False) -> sp.Expr:
         """The sum of every component's ``part`` (``"T"``, ``"V"``, ``"D"`` or ``"G"``)."""
@@ -83,14 +95,29 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     roles = {k: d["component"].role for _, _, k, d in whole.edges(keys=True, data=True)}
     check_topology(whole, GROUND, roles.get)
 
-    views: dict[str, DomainView] = {}
-    for dname in dict.fromkeys(d for c in components for d in c.domains):
-        domain = registry.domains.get(dname)
-        if domain is None:
-            raise DomainError(f"no installed plugin provides the domain {dname!r}.")
-        members = [c for c in components if dname in c.domains]
-        opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
-        views[dname] = domain.build(Network(graph.graph(members, domain=dname), members), opts)
+    # Domains build their views (kinematics, networks) from the components' symbolic views: geometry given as
+    # numbers is symbols there too, and the values go in with the rest after the derivation.
+    symbolic = [comp.symbolic_view() for comp in components]
+    standing = {c.name: view for c, view in zip(components, symbolic)}
+
+    def build(stand: Mapping[str, Component] | None) -> dict[str, DomainView]:
+        out: dict[str, DomainView] = {}
+        for dname in dict.fromkeys(d for c in components for d in c.domains):
+            domain = registry.domains.get(dname)
+            if domain is None:
+                raise DomainError(f"no installed plugin provides the domain {dname!r}.")
+            members = [c for c in components if dname in c.domains]
+            opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
+            network = graph.graph(members, domain=dname)
+            if stand is not None:
+                for _, _, data in network.edges(data=True):
+                    if "component" in data:
+                        data["component"] = stand[data["component"].name]
+                members = [stand[c.name] for c in members]
+            out[dname] = domain.build(Network(network, members), opts)
+        return out
+
+    views = build(standing)
 
     coordinates: list[Coordinate] = []
     seen: dict[str, str] = {}
@@ -106,7 +133,6 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     for comp in components:
         signals.update(comp.signals())
     contributions, generic, values = {}, {}, {}
-    symbolic = [comp.symbolic_view() for comp in components]
     for comp in components:
         values.update(comp.values)
     for comp, view in zip(components, symbolic):
@@ -122,7 +148,8 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
         _check_contribution(comp, contribution, allowed | set(signals))
         generic[comp.name] = contribution
         contributions[comp.name] = _with_values(contribution, values)
-    return Assembly(coordinates, views, contributions, signals, generic, values)
+    valued = None if all(view is comp for comp, view in zip(components, symbolic)) else (lambda: build(None))
+    return Assembly(coordinates, views, contributions, signals, generic, values, valued)
 
 
 def _with_values(c: Contribution, values: Mapping) -> Contribution:

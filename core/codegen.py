@@ -229,8 +229,9 @@ def _generic_programs(eq, parameters: tuple) -> tuple[Program, Program]:
     if parameters in cache:
         return cache[parameters]
     a_entries, b_entries, energies = _arrays_of(eq)
-    callables = sorted({f.func.__name__ for e in [*a_entries, *b_entries, *energies] for f in sp.sympify(e).atoms(AppliedUndef)})
-    if callables or any(sp.sympify(e).has(sp.Derivative) for e in [*a_entries, *b_entries]):
+    scan = eq.scan()
+    callables = scan["callables"]
+    if callables or scan["derivatives"]:
         raise _Unavailable(
             f"the model uses time signal(s) given as Python callables ({', '.join(callables) or 'derivatives'}), "
             f"which compiled code cannot call; give them as SymPy expressions of t to compile"
@@ -255,7 +256,7 @@ def generate_source(numeric) -> str:
     matrix, energy = programs(numeric)
     n, nI = numeric.n, numeric.nI
     first = list(eq.first_order)
-    m = int(math.isqrt(len(numeric._flat_exprs[0])))
+    m = int(math.isqrt(len(numeric.eq.generic()["A"])))
     inputs_m = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + j: f"vI[{j}]" for j in range(nI)}}
     inputs_e = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + i: f"v[{i}]" for i in range(n)}}
     body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(m * m)] + [f"b[{k}]" for k in range(m)], "    ")
@@ -898,7 +899,7 @@ class CompiledModel:
         self.kind = "tape" if lib is None else "native"
         self.from_cache, self.codegen_seconds, self.build_seconds = from_cache, codegen_seconds, build_seconds
         self.n, self.nI, self.dim = numeric.n, numeric.nI, numeric.n + numeric.nI
-        self.m = int(math.isqrt(len(numeric._flat_exprs[0])))
+        self.m = int(math.isqrt(len(numeric.eq.generic()["A"])))
         dbl, ptr, lng, cint = ctypes.c_double, ctypes.c_void_p, ctypes.c_long, ctypes.c_int
         if lib is not None:
             dims = (ctypes.c_int * 4)()

@@ -63,9 +63,14 @@ class Parameter:
     *value of a symbol*: the derivation sees a symbol (exact arithmetic,
     the same structure as a model built with SymPy symbols, and faster than
     arithmetic on floats) and the value is substituted once the equations
-    are derived (:meth:`Component.symbolic_view`).  ``symbolic=False`` keeps
-    the number itself, for a value that decides the form of the energy
-    (an exponent; a rest length whose zero removes a square root).
+    are derived (:meth:`Component.symbolic_view`).  So is every nonzero
+    number in a vector, matrix or mapping of vectors (a centre of mass,
+    principal moments, a body's points): zeros stay zeros, equal numbers
+    of one parameter share a symbol (equal principal moments stay a
+    symmetric body), and each symbol keeps its value's sign.
+    ``symbolic=False`` keeps the number itself, for a value that decides
+    the form of the energy (an exponent; a rest length whose zero removes a
+    square root; a direction, normalized when the energy is built).
 
     >>> Parameter("stiffness", unit="N/m").coerce(4, "k1", "k")
     4
@@ -189,6 +194,39 @@ _ASSUMPTIONS = {
     "nonzero": {"nonzero": True, "real": True},
     "real": {"real": True},
 }
+
+
+class _Standing:
+    """Symbols standing for the nonzero numbers in the entries of one vector, matrix or mapping of vectors.
+
+    Zeros stay zeros (they decide the form of the energy); equal numbers
+    share one symbol (equal principal moments make a symmetric body, whose
+    spin is then ignorable whether given as numbers or symbols).  Each
+    symbol's sign is its value's.
+    """
+
+    def __init__(self, prefix: str, values: dict):
+        self.prefix, self.values, self.by_value, self.used = prefix, values, {}, False
+
+    def view(self, value: Any, where: str = "") -> Any:
+        if isinstance(value, Mapping):
+            return {k: self.view(v, f"{where}_{k}") for k, v in value.items()}
+        if isinstance(value, sp.MatrixBase):
+            cols = value.shape[1]
+            return value.__class__(value.rows, cols, [
+                self.entry(e, f"{where}_{i}" if cols == 1 else f"{where}_{i}_{j}")
+                for i in range(value.rows) for j in range(cols) for e in [value[i, j]]])
+        return value
+
+    def entry(self, value: Any, where: str) -> Any:
+        if not _plain_number(value) or value == 0:
+            return value
+        if value not in self.by_value:
+            symbol = sp.Dummy(f"{self.prefix}{where}", **({"positive": True} if value > 0 else {"negative": True}))
+            self.by_value[value] = symbol
+            self.values[symbol] = value
+        self.used = True
+        return self.by_value[value]
 
 
 def _plain_number(value: Any) -> bool:
@@ -325,10 +363,17 @@ class Component:
         self._symbols: dict[str, sp.Symbol] = {}
         for pname, spec in self.parameters.items():
             value = values.get(pname)
-            if pname in params and spec.symbolic and spec.shape in ("scalar", "signal") and _plain_number(value):
+            if pname not in params or not spec.symbolic or value is None:
+                continue
+            if spec.shape in ("scalar", "signal", "tensor") and _plain_number(value):
                 symbol = sp.Dummy(f"{pname}_{name}", **_ASSUMPTIONS[spec.check])
                 self._symbols[pname] = symbol
                 self.values[symbol] = value
+            elif spec.shape in ("vector", "tensor", "mapping"):
+                standing = _Standing(f"{pname}_{name}", self.values)
+                view = standing.view(value)
+                if standing.used:
+                    self._symbols[pname] = view
 
     def symbolic_view(self) -> "Component":
         """This component with every parameter given as a number replaced by a symbol standing for it.

@@ -33,6 +33,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from .assembly import Assembly
 from .component import t
@@ -66,6 +67,7 @@ class Equations:
                 "between free nodes), or use the other circuit formulation."
             )
         self._setup(assembly.coordinates)
+        self._signals = set(assembly.signals)
         q, v = self.sym.q, self.sym.v
         n = len(q)
         # derived from the generic contributions (parameters given as numbers still symbols), values put in after
@@ -92,8 +94,8 @@ class Equations:
                     share[i] = sp.Add(*terms)
                     Q[i] += share[i]
             self.load_shares.append((name, [e.xreplace(values) for e in share] if values else share))
-        constraints = [self.symbolic(c) for view in assembly.views.values() for c in view.constraints]
-        rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.views.values()), default=10.0)
+        constraints = [self.symbolic(c) for view in assembly.generic_views.values() for c in view.constraints]
+        rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.generic_views.values()), default=10.0)
         self._derive(T, V, G, D, Q, constraints, rate, values=values)
 
     @classmethod
@@ -158,7 +160,7 @@ class Equations:
         self.L = self.T - self.V + self.G
         self.Q = put(sp.Matrix(Q))
         self.M = put(M)
-        self.f = put(f)
+        self._f = None if values else f  # with values: put in on first use (large, and unused by compiled runs)
         self.constraints = put(self._generic["constraints"])
         self.constraint_rate = constraint_rate
         self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(len(self.constraints))]
@@ -215,7 +217,7 @@ class Equations:
         """``A u = b`` with ``u = (q̈_inertial, q̇_first_order, λ)``, built block by block: the rows of the
         coordinates are ``Σ_j M_ij q̈_j − f_i − Σ_k λ_k ∂Φ_k/∂q_i = 0``, linear in ``u``."""
         n = len(self.names)
-        M, f = self.M, self.f
+        M = self.M
         zero_rows = [i for i in range(n) if all(_is_zero(M[i, j]) for j in [i, *range(n)])]
         # A coordinate without inertia of its own whose motion a loop constraint fixes (a massless slider
         # closed by a loop) stays second-order: its acceleration follows from the constraint rows, and the
@@ -227,7 +229,49 @@ class Equations:
             zero_rows = [i for i in zero_rows if i not in self.held]
         self.inertial = [i for i in range(n) if i not in zero_rows]
         self.first_order = zero_rows
-        self.A, self.b = self._system(M, f, self.constraints, check=True)
+        self._b = None
+        if not self.first_order and not len(self.constraints):
+            self.A = M.copy()  # b = f, put together on first use
+        else:
+            self.A, self._b = self._system(M, self.f, self.constraints, check=True)
+
+    @property
+    def f(self) -> sp.Matrix:
+        """The forcing ``f`` of ``M q̈ = f``, with the values of parameters given as numbers in."""
+        if self._f is None:
+            self._f = self._generic["f"].xreplace(self._values)
+        return self._f
+
+    @property
+    def b(self) -> sp.Matrix:
+        """The right-hand side of ``A u = b``, with the values in."""
+        if self._b is None:
+            self._b = self.f.copy()
+        return self._b
+
+    def scan(self) -> dict:
+        """What the generic equations call (cached): ``callables``, the names of functions of time given as Python
+        callables (in ``A``, ``b`` or the energies), and ``derivatives``, time derivatives of them in ``A`` or ``b``."""
+        if getattr(self, "_scan", None) is None and not getattr(self, "_signals", True):
+            self._scan = {"callables": [], "derivatives": []}  # no signal given as a callable: nothing to look for
+        if getattr(self, "_scan", None) is None:
+            g = self.generic()
+            solve = [g["A"], g["b"]]
+            energies = [sp.sympify(g[k]) for k in ("T", "V", "D", "L")] + [g["p"]]
+            self._scan = {
+                "callables": sorted({f.func.__name__ for e in solve + energies for f in e.atoms(AppliedUndef)}),
+                "derivatives": sorted({d for e in solve for d in e.atoms(sp.Derivative)}, key=sp.default_sort_key),
+            }
+        return self._scan
+
+    def parameter_symbols(self) -> set[sp.Symbol]:
+        """Symbols without values in the equations and energies (not coordinates, velocities or ``t``); cached."""
+        if getattr(self, "_free", None) is None:
+            g = self.generic()
+            inner = set(self.sym.q) | set(self.sym.v) | set(self.sym.a) | {t}
+            free = set().union(*(sp.sympify(g[k]).free_symbols for k in ("A", "b", "T", "V", "D")))
+            self._free = free - inner - set(self._values)
+        return set(self._free)
 
     def _system(self, M, f, constraints, check: bool = False) -> tuple[sp.Matrix, sp.Matrix]:
         """``A`` and ``b`` from ``M``, ``f`` and the constraints, with the split already made; ``check``: refuse what

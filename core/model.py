@@ -23,7 +23,7 @@ from .assembly import Assembly, assemble
 from .component import Component, check_value, t
 from .domain import Coordinate
 from .equations import Equations
-from .errors import ModelError, UnknownNameError
+from .errors import ModelError, ParameterError, UnknownNameError
 from .graph import ComponentGraph
 from .registry import Registry, default_registry
 from .simulation import NumericModel, Result, initial_state
@@ -207,10 +207,7 @@ class Model:
     @property
     def parameters(self) -> list[sp.Symbol]:
         """Symbols that need numeric values before simulating, sorted by name."""
-        eq = self.eq
-        inner = set(eq.sym.q) | set(eq.sym.v) | set(eq.sym.a) | {t}
-        free = (eq.A.free_symbols | eq.b.free_symbols | eq.T.free_symbols | eq.V.free_symbols | eq.D.free_symbols) - inner
-        return sorted(free, key=lambda s: (s.name, str(s.assumptions0)))
+        return sorted(self.eq.parameter_symbols(), key=lambda s: (s.name, str(s.assumptions0)))
 
     def latex(self) -> str:
         """The Lagrangian, Rayleigh function and equations of motion as LaTeX."""
@@ -242,7 +239,9 @@ class Model:
     def parameter_values(self) -> dict[str, float]:
         """The parameters given as numbers, by the name that gives them another value in ``params=``
         (``<parameter>_<component>``): ``simulate(..., params={"k_k1": 5.0})`` runs the model with that value
-        without deriving anything again (compiled code takes parameter values at run time).
+        without deriving anything again (compiled code takes parameter values at run time).  A nonzero entry of a
+        vector is named by its index (``com_b_2``, ``points_arm_tip_0``; equal entries of one parameter share a
+        name) and keeps its sign.
 
         >>> import lagrangian as lg
         >>> m = lg.Model("oscillator")
@@ -302,8 +301,22 @@ class Model:
             return
         for comp in self._graph.components.values():
             for pname, symbol in getattr(comp, "_symbols", {}).items():
-                if symbol in given:
-                    check_value(sp.Float(given[symbol]), comp.parameters[pname].check, comp.name, pname)
+                if isinstance(symbol, sp.Symbol):
+                    if symbol in given:
+                        check_value(sp.Float(given[symbol]), comp.parameters[pname].check, comp.name, pname)
+                    continue
+                # an entry of a vector, matrix or mapping: its symbol carries its value's sign, which must stay
+                entries = symbol.values() if isinstance(symbol, Mapping) else [symbol]
+                for entry in {s for e in entries for s in sp.sympify(e).free_symbols if s in given}:
+                    value = float(given[entry])
+                    if not (value > 0 if entry.is_positive else value < 0):
+                        sign = "positive" if entry.is_positive else "negative"
+                        raise ParameterError(
+                            comp.name, pname,
+                            f"entry {entry.name!r} was given as a {sign} number ({float(comp.values[entry]):g}); another "
+                            f"value must be {sign} too, got {value:g} (build the model with a sympy.Symbol there to vary "
+                            f"its sign)."
+                        )
 
     def numeric(self, params: Mapping[str, float] | None = None) -> NumericModel:
         """The model's numeric functions for the given parameter values (cached)."""

@@ -46,24 +46,18 @@ class NumericModel:
 
     def __init__(self, eq: Equations, values: Mapping[sp.Symbol, float], signals: Mapping[Any, Any]):
         self.eq = eq
-        subs = {s: sp.Float(v) for s, v in values.items()}
-        generic = eq.generic()  # values given as numbers are symbols there: every value comes from ``values``
-        A = generic["A"].xreplace(subs)
-        b = generic["b"].xreplace(subs)
-        energies = [generic["T"].xreplace(subs), generic["V"].xreplace(subs), generic["D"].xreplace(subs)]
         q, v = eq.sym.q, eq.sym.v
         self.vI = [v[i] for i in eq.inertial]
-        leftover = (A.free_symbols | b.free_symbols) - set(q) - set(self.vI) - {t}
+        leftover = eq.parameter_symbols() - set(values)
         if leftover:  # pragma: no cover - caught earlier by Model.simulate
             raise ModelError(f"parameters without values: {', '.join(sorted(map(str, leftover)))}")
-        for expr in (A, b):
-            for d in expr.atoms(sp.Derivative):
-                raise ModelError(
-                    f"the equations need the time derivative {d} of a callable signal; give that signal as a SymPy expression of t."
-                )
-        self._solve_args = ((t, q, self.vI), [A, b], (t, q, v), energies)  # lambdified on first use
+        derivatives = eq.scan()["derivatives"]
+        if derivatives:
+            raise ModelError(
+                f"the equations need the time derivative {derivatives[0]} of a callable signal; give that signal as "
+                f"a SymPy expression of t."
+            )
         self._flat_fn = None  # entries of A and b, for many states at once (built on first use)
-        self._flat_exprs = (list(A), list(b), (t, q, self.vI), signals)
         self.n = len(q)
         self.nI = len(eq.inertial)
         self.values = dict(values)
@@ -72,6 +66,21 @@ class NumericModel:
         self._mode = "auto"  # what compile() builds when a method with a compiled loop asks (use_compiled sets it)
         self.compile_note: str | None = None
         self._fast: Any = None  # the CompiledModel that rhs() and energies() use (use_compiled)
+
+    @functools.cached_property
+    def _solve_args(self):
+        """The generic equations with the values in, for the NumPy functions (large: built only when they are)."""
+        subs = {s: sp.Float(v) for s, v in self.values.items()}
+        generic = self.eq.generic()  # values given as numbers are symbols there: every value comes from ``values``
+        A, b = generic["A"].xreplace(subs), generic["b"].xreplace(subs)
+        energies = [generic[k].xreplace(subs) for k in ("T", "V", "D")]
+        q, v = self.eq.sym.q, self.eq.sym.v
+        return (t, q, self.vI), [A, b], (t, q, v), energies
+
+    @property
+    def _flat_exprs(self):
+        (args, (A, b), _, _) = self._solve_args
+        return list(A), list(b), args, self.signals
 
     @functools.cached_property
     def _solve_fn(self):

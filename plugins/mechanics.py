@@ -223,7 +223,7 @@ class Gravity(Component):
     terminals = ()
     parameters = {
         "g": Parameter("gravitational acceleration", default=9.81, unit="m/s²"),
-        "direction": Parameter("direction of gravity (normalized)", default=None, shape="vector"),
+        "direction": Parameter("direction of gravity (normalized)", default=None, shape="vector", symbolic=False),
     }
 
     def contribute(self, ctx) -> Contribution:

@@ -213,7 +213,12 @@ class Body(_BodyBase):
                 d = sorted(eig)
                 if d[0] + d[1] < d[2] * (1 - 1e-12):
                     raise lg_param_error(name, "inertia", f"principal moments {d} violate the triangle inequality I1 + I2 ≥ I3: no body has them.")
-        self._inertia = matrix if matrix is not None else I
+
+    @property
+    def _inertia(self):
+        """The inertia as a 3 × 3 matrix (spatial) or a scalar (planar), from the parameter (a symbolic view's too)."""
+        I = self.params["inertia"]
+        return sp.diag(*I) if isinstance(I, sp.MatrixBase) and I.shape == (3, 1) else I
 
     @property
     def mass_value(self):
@@ -390,7 +395,7 @@ class Revolute(_Joint):
 
     kind = "revolute"
     parameters = _joint_params({
-        "axis": Parameter("rotation axis in the parent frame (spatial)", default=None, shape="vector"),
+        "axis": Parameter("rotation axis in the parent frame (spatial)", default=None, shape="vector", symbolic=False),
         "absolute": Parameter("planar: the angle is the child's absolute angle", default=False, shape="flag"),
         "angle": Parameter("prescribed angle (an expression of t): a driven joint", default=None, check="real", shape="signal"),
     })
@@ -424,7 +429,7 @@ class Prismatic(_Joint):
 
     kind = "prismatic"
     parameters = _joint_params({
-        "axis": Parameter("sliding direction in the parent frame", default=None, shape="vector"),
+        "axis": Parameter("sliding direction in the parent frame", default=None, shape="vector", symbolic=False),
         "displacement": Parameter("prescribed displacement (expression of t)", default=None, check="real", shape="signal"),
     })
 

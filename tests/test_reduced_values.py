@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from sympy.core.function import AppliedUndef
 
+import lagrangian as lg
 from lagrangian import models, routh
 
 
@@ -38,14 +39,21 @@ def test_models_sharing_a_structure_each_keep_their_own_values():
 
 def test_a_reduced_model_takes_other_values_at_run_time():
     red = routh.reduce(models.spherical_pendulum(0.3, 0.7, 9.81))
-    assert red.parameter_values == {"m_bob": 0.3, "g_g": 9.81}
+    # the bob's point on the arm (0, 0, −0.7) is a value too: its nonzero entry
+    assert red.parameter_values == {"m_bob": 0.3, "g_g": 9.81, "points_arm_bob_2": -0.7}
     start = {"theta_tilt": 0.4, "theta_turn": 0.0}
     speed = {"theta_tilt": 0.0, "theta_turn": 1.9}
     opts = dict(rtol=1e-11, atol=1e-12)
-    other = {"m_bob": 0.45, "g_g": 3.7}
+    other = {"m_bob": 0.45, "g_g": 3.7, "points_arm_bob_2": -1.3}
     got = red.simulate(2, initial=start, velocity=speed, params=other, **opts)
-    rebuilt = routh.reduce(models.spherical_pendulum(0.45, 0.7, 3.7))
+    rebuilt = routh.reduce(models.spherical_pendulum(0.45, 1.3, 3.7))
     want = rebuilt.simulate(2, initial=start, velocity=speed, **opts)
     np.testing.assert_allclose(got["theta_tilt"], want["theta_tilt"], rtol=0, atol=1e-10)
     full = models.spherical_pendulum(0.3, 0.7, 9.81).simulate(2, initial=start, velocity=speed, params=other, **opts)
     np.testing.assert_allclose(np.interp(full.t, got.t, got["theta_tilt"]), full["theta_tilt"], atol=1e-7)
+
+
+def test_an_entry_of_a_vector_keeps_its_sign():
+    model = models.spherical_pendulum(0.3, 0.7, 9.81)
+    with pytest.raises(lg.ParameterError, match=r"'points_arm_bob_2' was given as a negative number .* must be negative"):
+        model.simulate(1, initial={"theta_tilt": 0.3}, params={"points_arm_bob_2": 0.5})
