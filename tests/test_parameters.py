@@ -9,6 +9,7 @@ oscillator, and against the same model built with the new value.
 import math
 
 import numpy as np
+import sympy as sp
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -80,3 +81,22 @@ def test_what_depends_on_parameters_alone_is_computed_once_per_set_of_values(k, 
     assert len(folded.code) < len(program.code)
     expected = [float(e.evalf(30, subs={K: k, Mm: m, X: x, Y: y})) for e in exprs]
     np.testing.assert_allclose(folded.evaluate([x, y]), expected, rtol=1e-13, atol=1e-300)
+
+
+def test_geometry_given_as_numbers_is_symbols_in_the_derivation():
+    """The heavy top from numbers derives the very Lagrangian of the top from symbols (the values go in after):
+    its centre of mass and principal moments are symbols too, the two equal moments one symbol."""
+    from lagrangian import models
+
+    num = models.heavy_top(0.3, 0.4, 0.3, 0.5, 9.81)
+    sym = models.heavy_top(*sp.symbols("m l I1 I3 g", positive=True))
+    names = {"m_top": "m", "inertia_top_0": "I1", "inertia_top_2": "I3", "com_top_2": "l", "g_g": "g"}
+    assert num.parameter_values == {"m_top": 0.3, "inertia_top_0": 0.3, "inertia_top_2": 0.5, "com_top_2": 0.4, "g_g": 9.81}
+    rename = {s: sp.Symbol(names[s.name], positive=True) for s in num.eq.values}
+    assert sp.expand(num.eq.generic()["L"].xreplace(rename) - sym.eq.L) == 0
+    # another centre of mass at run time is the model rebuilt with it
+    start = dict(initial={"theta_precession": 0.0, "theta_nutation": 0.5, "theta_spin": 0.0},
+                 velocity={"theta_precession": 1.0, "theta_nutation": 0.0, "theta_spin": 30.0})
+    got = num.simulate(0.5, params={"com_top_2": 0.25}, rtol=1e-11, atol=1e-12, **start)
+    want = models.heavy_top(0.3, 0.25, 0.3, 0.5, 9.81).simulate(0.5, rtol=1e-11, atol=1e-12, **start)
+    np.testing.assert_allclose(got["theta_nutation"], want["theta_nutation"], atol=1e-10)
