@@ -1060,13 +1060,18 @@ def jacobi_integral(model: Model) -> JacobiIntegral:
     (True, True, 3*x_p(t)**2/2 + Derivative(x_p(t), t)**2)
     """
     eq = model.eq
-    h = sp.Add(*[vi * pi for vi, pi in zip(eq.sym.v, eq.p)]) - eq.L
-    E = eq.T + eq.V
-    h = _tidy(sp.expand(h), 2000)
-    if equal(h, E):
-        h, diff = _without_residues(h, E), sp.Integer(0)
-    else:
-        diff = _tidy(sp.expand(h - E), 2000)
+    generic = eq.generic()
+
+    def integral() -> dict:  # on the generic energies, once per structure; the values go in after
+        h = sp.Add(*[vi * pi for vi, pi in zip(eq.sym.v, generic["p"])]) - generic["L"]
+        E = generic["T"] + generic["V"]
+        h = _tidy(sp.expand(h), 2000)
+        if equal(h, E):
+            return {"h": _without_residues(h, E), "E": E, "diff": sp.Integer(0)}
+        return {"h": h, "E": E, "diff": _tidy(sp.expand(h - E), 2000)}
+
+    parts = _by_structure(("jacobi", tuple(eq.sym.v), generic["L"], generic["T"], generic["V"]), eq.values, integral)
+    h, E, diff = (_put(parts[k], eq.values) for k in ("h", "E", "diff"))
     reasons = []
     if _depends(eq, eq.L, t):
         moving = [name for name, c in model.assembly.contributions.items()
