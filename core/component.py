@@ -9,14 +9,14 @@ virtual power).  The assembly sums contributions into one Lagrangian.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import sympy as sp
 
-from .errors import ParameterError
+from .errors import ExpressionError, ParameterError
+from .text import parse_expression
 
 __all__ = ["t", "GROUND", "Parameter", "Load", "Contribution", "Example", "Component", "dot"]
 
@@ -105,13 +105,17 @@ class Parameter:
             return {str(k): Parameter(self.doc, shape="vector").coerce(v, component, f"{name}[{k!r}]") for k, v in value.items()}
         if self.shape == "tensor":
             if isinstance(value, (Sequence, sp.MatrixBase)) and not isinstance(value, (str, bytes)):
-                try:
-                    matrix = sp.Matrix(value)
-                except (ValueError, TypeError, sp.SympifyError):
-                    raise ParameterError(component, name, f"expected a scalar, a vector or a square matrix, got {value!r}.") from None
-                for entry in matrix:
-                    self._scalar(entry, component, name, check="real")
-                return matrix
+                rows = list(value.tolist()) if isinstance(value, sp.MatrixBase) else list(value)
+                nested = [isinstance(r, (Sequence, sp.MatrixBase)) and not isinstance(r, (str, bytes)) for r in rows]
+                if any(nested) and not all(nested):
+                    raise ParameterError(component, name, f"expected a scalar, a vector or a square matrix, got {value!r}.")
+                # every entry read on its own first (text is parsed, never sympified), then the matrix built
+                if all(nested) and rows:
+                    rows = [[self._scalar(e, component, name, check="real") for e in r] for r in rows]
+                    if len({len(r) for r in rows}) != 1:
+                        raise ParameterError(component, name, f"expected a scalar, a vector or a square matrix, got {value!r}.")
+                    return sp.Matrix(rows)
+                return sp.Matrix([self._scalar(e, component, name, check="real") for e in rows])
             return self._scalar(value, component, name, check=self.check)
         if self.shape == "name":
             if not isinstance(value, str) or not value.strip():
@@ -135,7 +139,9 @@ class Parameter:
         if isinstance(value, bool):
             raise ParameterError(component, name, f"expected a number or a SymPy expression, got {value!r}.")
         try:
-            expr = _parse(value) if isinstance(value, str) else sp.sympify(value, strict=True)
+            expr = parse_expression(value, "the text") if isinstance(value, str) else sp.sympify(value, strict=True)
+        except ExpressionError as exc:
+            raise ParameterError(component, name, f"expected a number or a SymPy expression; {exc}") from None
         except (sp.SympifyError, SyntaxError, TypeError, ValueError) as exc:
             raise ParameterError(
                 component, name, f"expected a number or a SymPy expression, got {value!r} ({exc.__class__.__name__})."
@@ -150,17 +156,6 @@ class Parameter:
         return expr
 
 
-def _parse(text: str) -> sp.Expr:
-    """Parse a string parameter: every name is a plain symbol, except called names (SymPy functions), ``pi`` and ``t`` (time).
-
-    >>> _parse("E*beta + sin(t)")
-    E*beta + sin(t)
-    """
-    names = set(re.findall(r"\b([A-Za-z_][A-Za-z0-9_]*)\b(?!\s*\()", text))  # names not called
-    local = {n: sp.Symbol(n) for n in names}
-    local.pop("pi", None)
-    local["t"] = t
-    return sp.sympify(text, locals=local)
 
 
 def check_value(expr: Any, check: str, component: str, name: str) -> None:

@@ -27,6 +27,7 @@ __all__ = [
     "TopologyError",
     "FloatingNetworkError",
     "ReductionError",
+    "ExpressionError",
     "NumericalError",
     "SingularMassMatrixError",
     "IntegrationError",
@@ -134,6 +135,11 @@ class ReductionError(ModelError):
     """A Routhian reduction cannot be carried out as asked: a coordinate that is not
     ignorable, momentum equations that cannot be solved for the ignorable
     velocities, or a state on the singular set of the reduced model."""
+
+
+class ExpressionError(ModelError):
+    """Text given as an expression holds something an expression may not (a call, an attribute), or cannot be
+    read; nothing in it is ever run (:mod:`lagrangian.text`)."""
 
 
 class NumericalError(LagrangianError, ArithmeticError):

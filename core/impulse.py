@@ -79,8 +79,10 @@ import sympy as sp
 
 from .component import t
 from .errors import ModelError, NumericalError, SingularMassMatrixError, UnknownNameError, IntegrationError, closest
+from .errors import ExpressionError
 from .simulation import Result, initial_state
 from .model import Model
+from .text import as_expr
 
 __all__ = [
     "Impulse",
@@ -154,8 +156,8 @@ def _contact_name(given, default):
 
 def _restitution(e, name):
     try:
-        e = sp.sympify(e)
-    except sp.SympifyError:
+        e = as_expr(e, f"contact {name!r}: the coefficient of restitution")
+    except ExpressionError:
         raise ContactError(f"contact {name!r}: the coefficient of restitution must be a number in [0, 1], got {e!r}.") from None
     if not isinstance(e, sp.Expr) or e.is_real is False:
         raise ContactError(f"contact {name!r}: the coefficient of restitution must be a real number in [0, 1], got {e!r}.")
@@ -168,11 +170,13 @@ def _restitution(e, name):
 
 
 def _as_vector(value, dim, what) -> sp.Matrix:
-    if isinstance(value, (list, tuple, sp.MatrixBase, np.ndarray)):
-        vec = sp.Matrix(list(np.asarray(value, dtype=object).reshape(-1)) if not isinstance(value, sp.MatrixBase) else value)
+    if isinstance(value, sp.MatrixBase):
+        entries = list(value)
+    elif isinstance(value, (list, tuple, np.ndarray)):
+        entries = list(np.asarray(value, dtype=object).reshape(-1))
     else:
-        vec = sp.Matrix([value])
-    vec = vec.applyfunc(sp.sympify)
+        entries = [value]
+    vec = sp.Matrix([as_expr(x, what) for x in entries])  # each entry read first: text is never sympified
     if vec.shape != (dim, 1):
         raise ContactError(f"{what} must have {dim} entr{'y' if dim == 1 else 'ies'} (one per axis of this {dim}-D model), got {value!r}.")
     return vec
@@ -215,7 +219,7 @@ class _Plane(Contact):
 
 class _Between(Contact):
     def __init__(self, a, b, distance, e, name):
-        self.a, self.b, self.distance = a, b, sp.sympify(distance)
+        self.a, self.b, self.distance = a, b, as_expr(distance, "between(): distance")
         self.name = _contact_name(name, f"between({a}, {b})")
         self.e = _restitution(e, self.name)
 
@@ -244,7 +248,7 @@ def plane(point: str, normal, through=None, *, e=1, name: str | None = None) -> 
 
 class _Ground(Contact):
     def __init__(self, point, level, e, name):
-        self.point, self.level = point, sp.sympify(level)
+        self.point, self.level = point, as_expr(level, "ground(): level")
         self.name = _contact_name(name, f"ground({point})")
         self.e = _restitution(e, self.name)
 
@@ -258,7 +262,7 @@ class _Wall(Contact):
         self.name = _contact_name(name, f"wall({point})")
         if side not in (-1, 1):
             raise ContactError(f"contact {self.name!r}: side must be -1 (the point at x < wall) or +1 (x > wall), got {side!r}.")
-        self.point, self.x, self.side = point, sp.sympify(x), side
+        self.point, self.x, self.side = point, as_expr(x, "wall(): x"), side
         self.e = _restitution(e, self.name)
 
     def gap(self, model):
@@ -426,7 +430,7 @@ def _applied(model, impulses) -> sp.Matrix:
         elif isinstance(item, Mapping):
             _check_names(model, item, "coordinate (generalized impulse)")
             for name, value in item.items():
-                Q[eq.names.index(name)] += sp.sympify(value)
+                Q[eq.names.index(name)] += as_expr(value, f"the generalized impulse on {name!r}")
         else:
             raise ContactError(f"impulses are lagrangian.impulse.Impulse(point, vector) or {{coordinate: value}} mappings, got {item!r}.")
     return Q
@@ -460,7 +464,7 @@ def generalized_impulse(model, impulses, *, at: Mapping[str, Any] | None = None,
     missing = [n for n in eq.names if n not in coordinates]
     if missing:
         raise ContactError(f"`coordinates` must give every model coordinate in terms of the new ones; missing: {', '.join(missing)}.")
-    exprs = [sp.sympify(coordinates[n]) for n in eq.names]
+    exprs = [as_expr(coordinates[n], f"coordinates[{n!r}]") for n in eq.names]
     new = sorted(set().union(*(e.free_symbols for e in exprs)) - set(_param_symbols(model)) - {t}, key=str)
     back = {s: e for s, e in zip(eq.sym.q, exprs)}
     Q = Q.applyfunc(lambda x: eq.symbolic(x).xreplace(back))
@@ -478,9 +482,9 @@ def _substitution(model, at, velocity, params, time) -> dict:
     _check_names(model, velocity, "coordinate")
     subs: dict = {}
     for q, name in zip(eq.sym.q, eq.names):
-        subs[q] = sp.sympify(at[name]) if name in at else eq.display(q)
+        subs[q] = as_expr(at[name], f"at[{name!r}]") if name in at else eq.display(q)
     for v, name in zip(eq.sym.v, eq.names):
-        subs[v] = sp.sympify(velocity.get(name, 0))
+        subs[v] = as_expr(velocity.get(name, 0), f"velocity[{name!r}]")
     by_name: dict[str, list] = {}
     for s in model.parameters:
         by_name.setdefault(s.name, []).append(s)
@@ -488,9 +492,9 @@ def _substitution(model, at, velocity, params, time) -> dict:
         if name not in by_name:
             raise UnknownNameError("parameter", name, by_name)
         for s in by_name[name]:
-            subs[s] = sp.sympify(value)
+            subs[s] = as_expr(value, f"params[{name!r}]")
     if time is not None:
-        subs[t] = sp.sympify(time)
+        subs[t] = as_expr(time, "time")
     return subs
 
 

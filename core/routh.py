@@ -61,6 +61,7 @@ from .equations import Equations
 from .errors import ReductionError, UnknownNameError
 from .identity import depends_on, equal, is_zero
 from .model import Model
+from .text import as_expr
 from .simulation import Result
 
 __all__ = [
@@ -337,7 +338,7 @@ class ReducedModel(DerivedModel):
         C = []
         for n in self.ignored:
             given = momenta.get(n)
-            C.append(sp.Symbol(f"C_{n}", real=True) if given is None else sp.sympify(given))
+            C.append(sp.Symbol(f"C_{n}", real=True) if given is None else as_expr(given, f"momenta[{n!r}]"))
         unknown = [k for k in momenta if k not in self.ignored]
         if unknown:
             raise UnknownNameError("ignorable coordinate (for momenta=)", unknown[0], self.ignored)
@@ -585,13 +586,13 @@ class ReducedModel(DerivedModel):
         tau = sp.Symbol("tau", real=True)
         path = {}
         for i, n in enumerate(eq.names):
-            expr = sp.sympify(motion[n])
+            expr = as_expr(motion[n], f"the motion of {n!r}")
             path[eq.sym.q[i]] = expr.subs(t, tau)
             path[eq.sym.v[i]] = sp.diff(expr, t).subs(t, tau)
         out = {}
         initial = dict(initial or {})
         for n, rate in zip(self.ignored, self._r_parts["rates"]):
-            start = sp.sympify(initial.get(n, sp.Symbol(f"{n}_0", real=True)))
+            start = as_expr(initial.get(n, sp.Symbol(f"{n}_0", real=True)), f"initial[{n!r}]")
             integrand = _tidy(rate.xreplace(path).subs(t, tau))
             out[n] = start + sp.integrate(integrand, (tau, t0, t))
         return out

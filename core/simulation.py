@@ -22,6 +22,7 @@ import sympy as sp
 from .component import t
 from .equations import Equations
 from .errors import ModelError, SingularMassMatrixError, UnknownNameError
+from .text import as_expr, parse_expression
 
 __all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state"]
 
@@ -294,7 +295,12 @@ class NumericModel:
     def evaluate(self, expr: Any, res: Result) -> np.ndarray:
         """An expression in ``q(t)``, ``q̇(t)``, ``t`` and parameters, along a result of this model."""
         eq = self.eq
-        plain = eq.symbolic(sp.sympify(expr))
+        if isinstance(expr, str):  # text: coordinate names stand for the coordinates, parameters for their values
+            names = {c.name: c.function for c in eq.coordinates} | {s.name: s for s in self.values}
+            expr = parse_expression(expr, "the quantity", names=names)
+        elif not isinstance(expr, sp.MatrixBase):
+            expr = as_expr(expr, "the quantity")
+        plain = eq.symbolic(expr)
         bad = plain.free_symbols - set(eq.sym.q) - set(eq.sym.v) - {t} - set(self.values)
         if bad:
             raise ModelError(f"cannot evaluate {expr}: {', '.join(sorted(map(str, bad)))} are not coordinates, rates or parameters.")

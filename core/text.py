@@ -1,0 +1,170 @@
+"""Expressions typed as text, read without running them.
+
+Parameters, momenta, impulses and quantities may be given as strings
+(``"0.3"``, ``"k*x**2/2"``, ``"1e-3*sin(2*pi*50*t)"``).  They come from
+users, files and colleagues' netlists, so they are *data*: this module
+reads them with Python's parser into a syntax tree and builds the SymPy
+expression from a whitelist — numbers, names, ``+ - * / **``, unary signs
+and calls of the functions in :data:`FUNCTIONS`.  Nothing in the text is
+evaluated by Python (no ``eval``, no ``sympify`` of the string), and sizes
+are bounded: the text's length, its nesting, and powers of numbers whose
+value would not fit in a float.
+
+Every name that is not called is a plain symbol, except ``pi`` and ``t``
+(the time symbol) and names the caller maps (``names=``).
+
+>>> parse_expression("E*beta + sin(2*pi*t)", "a force")
+E*beta + sin(2*pi*t)
+>>> parse_expression("open('notes.txt', 'w')", "a force")  # doctest: +ELLIPSIS
+Traceback (most recent call last):
+...
+lagrangian.errors.ExpressionError: a force: 'open' is not a function an expression may call (known: Abs, abs, acos, ...); write numbers, names, + - * / ** and known functions only.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import sympy as sp
+
+from .errors import ExpressionError
+
+__all__ = ["parse_expression", "as_expr", "FUNCTIONS", "MAX_LENGTH"]
+
+#: Longest text read as an expression.
+MAX_LENGTH = 10_000
+#: Deepest nesting of operations and calls.
+MAX_DEPTH = 200
+
+#: Functions an expression may call, by the names it may call them.
+FUNCTIONS: dict[str, Any] = {
+    **{name: getattr(sp, name) for name in (
+        "sin", "cos", "tan", "cot", "sec", "csc", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
+        "asinh", "acosh", "atanh", "exp", "log", "sqrt", "Abs", "sign", "floor", "ceiling", "Heaviside",
+        "Min", "Max", "erf", "erfc")},
+    "abs": sp.Abs, "ln": sp.log, "min": sp.Min, "max": sp.Max,
+}
+
+#: The time symbol (``lagrangian.t``; SymPy symbols of one name and assumptions are one symbol).
+_TIME = sp.Symbol("t", real=True)
+
+_BINARY = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
+           ast.Div: lambda a, b: a / b}
+
+
+def _known() -> str:
+    return ", ".join(sorted(FUNCTIONS, key=str.lower))
+
+
+def parse_expression(text: str, what: str, *, names: Mapping[str, sp.Basic] | None = None) -> sp.Expr:
+    """The SymPy expression written in ``text`` (see the module docstring); ``what`` names the argument in errors.
+
+    Raises :class:`~lagrangian.ExpressionError` (a ``ModelError``) saying
+    what in the text is not allowed, or why it cannot be read.
+    """
+    if not isinstance(text, str):
+        raise ExpressionError(f"{what}: expected text, got {type(text).__name__}.")
+    if len(text) > MAX_LENGTH:
+        raise ExpressionError(f"{what}: an expression of {len(text)} characters is longer than {MAX_LENGTH}; build it "
+                              f"with SymPy instead.")
+    if not text.strip():
+        raise ExpressionError(f"{what}: the expression is empty.")
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except (SyntaxError, ValueError, MemoryError, RecursionError) as exc:
+        detail = exc.msg if isinstance(exc, SyntaxError) else type(exc).__name__
+        raise ExpressionError(f"{what}: cannot read {_short(text)} as an expression ({detail}).") from None
+    return _Reader(what, dict(names or {})).read(tree.body, 0)
+
+
+def as_expr(value: Any, what: str, *, names: Mapping[str, sp.Basic] | None = None) -> sp.Expr:
+    """A number, a SymPy expression or text (read by :func:`parse_expression`) as a SymPy expression.
+
+    Anything else (a bool, a list, an arbitrary object) is an
+    :class:`~lagrangian.ExpressionError` naming ``what``.
+
+    >>> as_expr(0.3, "m"), as_expr("3/4", "m"), as_expr(sp.Symbol("k"), "m")
+    (0.300000000000000, 3/4, k)
+    """
+    if isinstance(value, str):
+        return parse_expression(value, what, names=names)
+    if isinstance(value, bool) or value is None:
+        raise ExpressionError(f"{what}: expected a number or an expression, got {value!r}.")
+    try:
+        expr = sp.sympify(value, strict=True)
+    except (sp.SympifyError, TypeError, ValueError):
+        raise ExpressionError(f"{what}: expected a number or an expression, got {_short(repr(value))}.") from None
+    if not isinstance(expr, sp.Expr):
+        raise ExpressionError(f"{what}: expected a scalar number or expression, got {_short(repr(value))}.")
+    return expr
+
+
+def _short(text: str, width: int = 60) -> str:
+    return repr(text if len(text) <= width else text[: width - 3] + "...")
+
+
+class _Reader:
+    def __init__(self, what: str, names: dict):
+        self.what, self.names = what, names
+
+    def refuse(self, message: str):
+        raise ExpressionError(f"{self.what}: {message}; write numbers, names, + - * / ** and known functions only.")
+
+    def read(self, node: ast.AST, depth: int) -> sp.Expr:
+        if depth > MAX_DEPTH:
+            raise ExpressionError(f"{self.what}: the expression nests deeper than {MAX_DEPTH} levels.")
+        if isinstance(node, ast.Constant):
+            value = node.value
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                self.refuse(f"{value!r} is not a number")
+            if isinstance(value, float) and not math.isfinite(value):
+                raise ExpressionError(f"{self.what}: the number {value!r} is not finite.")
+            return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
+        if isinstance(node, ast.Name):
+            if node.id in self.names:
+                return self.names[node.id]
+            if node.id == "pi":
+                return sp.pi
+            if node.id == "t":
+                return _TIME
+            if node.id in FUNCTIONS:
+                self.refuse(f"{node.id!r} is a function: call it, as {node.id}(x)")
+            return sp.Symbol(node.id)
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            inner = self.read(node.operand, depth + 1)
+            return -inner if isinstance(node.op, ast.USub) else inner
+        if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+            a, b = self.read(node.left, depth + 1), self.read(node.right, depth + 1)
+            return _BINARY[type(node.op)](a, b)
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
+            return self.power(self.read(node.left, depth + 1), self.read(node.right, depth + 1))
+        if isinstance(node, ast.Call):
+            func = node.func.id if isinstance(node.func, ast.Name) else None
+            if func is None or func not in FUNCTIONS:
+                shown = func or ast.unparse(node.func)
+                self.refuse(f"{shown!r} is not a function an expression may call (known: {_known()})")
+            if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
+                self.refuse(f"{func}() takes plain arguments only")
+            args = [self.read(a, depth + 1) for a in node.args]
+            try:
+                return FUNCTIONS[func](*args)
+            except (TypeError, ValueError) as exc:
+                raise ExpressionError(f"{self.what}: {func}() cannot take these arguments ({exc}).") from None
+        self.refuse(f"{_short(ast.unparse(node))} is not allowed")
+
+    def power(self, base: sp.Expr, exponent: sp.Expr) -> sp.Expr:
+        """``base**exponent``; numbers only when the value fits a float (``9**9**9`` is refused, not computed)."""
+        if base.is_number and exponent.is_number:
+            small = exponent.is_Integer and abs(int(exponent)) <= 64 and base.is_Rational \
+                and abs(base.p) < 2**64 and base.q < 2**64
+            if not small:
+                try:
+                    value = math.pow(float(base), float(exponent))
+                except (OverflowError, ValueError, TypeError):
+                    value = math.inf
+                if not math.isfinite(value):
+                    raise ExpressionError(f"{self.what}: the power {base}**{exponent} is not a finite number.")
+        return base**exponent

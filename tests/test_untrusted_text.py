@@ -1,0 +1,142 @@
+"""Text given where an expression is expected is read, never run.
+
+A payload that would create a marker file if Python evaluated it goes to
+every entry point that takes text (parameters, forces, impulses, momenta,
+quantities, contacts); each must answer with the project's error and the
+marker must never appear.  Ordinary text still reads as the expression it
+writes.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import lagrangian as lg
+from lagrangian import models, routh
+from lagrangian.impulse import Impulse, ground, velocity_jump
+from lagrangian.text import MAX_LENGTH, parse_expression
+
+
+@pytest.fixture
+def marker(tmp_path):
+    path = tmp_path / "executed"
+    yield path
+    assert not path.exists(), "a payload ran"
+
+
+def payloads(path):
+    p = str(path)
+    return [
+        f"__import__('os').system('touch {p}')",
+        f"open('{p}', 'w')",
+        f"(lambda: open('{p}', 'w'))()",
+        f"sin.__globals__['__builtins__']['open']('{p}', 'w')",
+        f"[c for c in ().__class__.__base__.__subclasses__()]",
+        f"Symbol('x').__class__",
+        f"exec('open(\"{p}\", \"w\")')",
+    ]
+
+
+def oscillator(**params):
+    model = lg.Model("oscillator")
+    model.add("mass", "m", "p", m=params.get("m", 0.3))
+    model.add("spring", "k", ("ground", "p"), k=params.get("k", 40))
+    return model
+
+
+def test_parameters_and_forces(marker):
+    for text in payloads(marker):
+        with pytest.raises(lg.ParameterError, match="component 'm', parameter 'm'"):
+            oscillator(m=text)
+        model = oscillator()
+        with pytest.raises(lg.ParameterError, match="component 'F', parameter 'F'"):
+            model.add("force", "F", "p", F=text)
+
+
+def test_impulses_contacts_and_momenta(marker):
+    pendulum = lg.Model("pendulum", dim=2)
+    pendulum.add("link", "arm", "arm", points={"bob": (0.7, 0)})
+    pendulum.add("revolute", "pin", ("ground", "arm"), absolute=True)
+    pendulum.add("mass", "m", "arm.bob", m=0.3)
+    spherical = models.spherical_pendulum(0.3, 0.7)
+    for text in payloads(marker):
+        with pytest.raises(lg.ModelError):
+            velocity_jump(pendulum, [Impulse("arm.bob", (text, 0))], at={"theta_pin": 0.2})
+        with pytest.raises(lg.ModelError):
+            velocity_jump(pendulum, [{"theta_pin": text}], at={"theta_pin": 0.2})
+        with pytest.raises(lg.ModelError):
+            velocity_jump(pendulum, [{"theta_pin": 1.0}], at={"theta_pin": text})
+        with pytest.raises(lg.ModelError):
+            ground("arm.bob", level=text)
+        with pytest.raises(lg.ModelError):
+            routh.reduce(spherical, momenta={"theta_turn": text})
+
+
+def test_quantities(marker):
+    model = oscillator()
+    res = model.simulate(0.5, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=11)
+    for text in payloads(marker):
+        with pytest.raises(lg.ModelError):
+            res.quantity(text)
+    # ordinary text: coordinate names stand for the coordinates, parameters for their values
+    np.testing.assert_allclose(res.quantity("k_k * x_p**2 / 2"), 40 * res["x_p"] ** 2 / 2, rtol=1e-12)
+
+
+def test_ordinary_text_reads_as_written():
+    t = lg.t
+    k, x = sp.symbols("k x")
+    assert parse_expression("k*x**2/2", "e") == k * x**2 / 2
+    assert parse_expression("1e-3*sin(2*pi*50*t)", "e") == sp.Float(1e-3) * sp.sin(100 * sp.pi * t)
+    assert parse_expression("3/4", "e") == sp.Rational(3, 4)
+    assert parse_expression("-2**-1", "e") == -sp.Rational(1, 2)
+    assert parse_expression("Abs(x) + ln(k) + max(x, k)", "e") == sp.Abs(x) + sp.log(k) + sp.Max(x, k)
+    force = oscillator().add("force", "F", "p", F="0.5*cos(3*t)")
+    assert force.F == sp.Float(0.5) * sp.cos(3 * t)
+
+
+@pytest.mark.parametrize("text, why", [
+    ("9**9**9", "not a finite number"),
+    ("(" * 300 + "1" + ")" * 300, "nest|cannot read"),
+    ("1" * (MAX_LENGTH + 1), "longer than"),
+    ("x if x else 1", "not allowed"),
+    ("sin", "is a function"),
+    ("sin(x, key=1)", "plain arguments"),
+    ("'text'", "not a number"),
+    ("", "empty"),
+    ("1 +", "cannot read"),
+])
+def test_what_an_expression_may_not_hold_is_named(text, why):
+    with pytest.raises(lg.ExpressionError, match=why):
+        parse_expression(text, "a force")
+
+
+ALPHABET = st.sampled_from(list("()[]{}.,:;'\"\\`$|&!?_=+-*/%<>^~@# \n\t0123456789abcxyzEIO") +
+                           ["__", "import", "os", "system", "lambda", "exec", "eval", "open", "class", "sin", "pi",
+                            "t", "**", "globals", "subclasses", "builtins", "__import__('os')"])
+
+
+@settings(max_examples=300)
+@given(st.lists(ALPHABET, max_size=40).map("".join))
+def test_any_text_is_an_expression_or_an_expression_error(text):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        try:
+            expr = parse_expression(text, "fuzz")
+        except lg.ExpressionError:
+            return
+    assert isinstance(expr, sp.Expr)
+
+
+def test_vectors_and_matrices_read_each_entry_as_text(marker):
+    for text in payloads(marker):
+        for inertia in ((text, 1, 1), [[1, 0, 0], [0, text, 0], [0, 0, 1]]):
+            with pytest.raises(lg.ParameterError, match="component 'b', parameter 'inertia'"):
+                lg.Model("body", dim=3).add("body", "b", "b", m=1, inertia=inertia)
+        with pytest.raises(lg.ParameterError, match="parameter 'com'"):
+            lg.Model("body", dim=3).add("body", "b", "b", m=1, inertia=(1, 1, 1), com=(0, text, 0))
+    body = lg.Model("body", dim=3).add("body", "b", "b", m=1, inertia=[["0.3", 0, 0], [0, "0.3", 0], [0, 0, "1/2"]])
+    assert body.params["inertia"] == sp.diag(sp.Float(0.3), sp.Float(0.3), sp.Rational(1, 2))
