@@ -17,7 +17,7 @@ from .domain import Context, Coordinate, Domain, DomainView, Network, Option
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
 from .hookspecs import hookimpl
-from .integrate import EnergyDriftWarning
+from .integrate import EnergyDriftWarning, StiffnessWarning
 from .model import Model
 from .registry import Registry, default_registry
 from .simulation import InitialConditionWarning, Result
@@ -46,5 +46,6 @@ __all__ = [
     "dot",
     "InitialConditionWarning",
     "EnergyDriftWarning",
+    "StiffnessWarning",
     *_errors,
 ]

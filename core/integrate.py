@@ -95,6 +95,20 @@ class EnergyDriftWarning(UserWarning):
     """A run of a conservative model did not keep its energy (Jacobi integral) within the tolerance."""
 
 
+class StiffnessWarning(UserWarning):
+    """An explicit method was asked to integrate a stiff model: it will take very many steps."""
+
+
+#: The stiffness check before an explicit run looks at models of at most this many state variables (an
+#: eigenvalue problem of the linearization; larger models are not checked).
+STIFFNESS_CHECK_DIM = 400
+#: ... and warns when the run is stiff and would take at least this many explicit steps (span · |λ|max).
+STIFFNESS_CHECK_STEPS = 1e5
+#: A fixed-step run of a conservative model whose energy changes by more than this (relative) has passed a
+#: singularity or gone unstable: its state is not a solution, and the run is an IntegrationError.
+EXPLODED = 1.0
+
+
 # ---------------------------------------------------------------------------
 # The contract
 # ---------------------------------------------------------------------------
@@ -938,6 +952,10 @@ def integrate(
             f"{start[~np.isfinite(start)][0]}): the start is a singular configuration of some component "
             f"(e.g. a 2-D spring or damper of zero length). Start elsewhere."
         )
+    stiff_note = _stiffness_note(problem, integrator, t_span, y0, model)
+    if stiff_note:
+        notes = [*notes, "WARNING: " + stiff_note]
+        warnings.warn(stiff_note, StiffnessWarning, stacklevel=4)
     problem.nfev = 0
     problem._report = _reporter(t_span, model, progress) if progress else None
     try:
@@ -970,6 +988,8 @@ def integrate(
     q = sol_y[:n]
     T, V, D = numeric.energies(sol_t, q, v)
     all_notes = [*notes, *sol.notes]
+    if problem._conservative[0] and sol_t.size > 1:
+        _explosion_check(problem, integrator, sol_t, q, v, T, V, model)
     if problem._conservative[0] and sol_t.size > 1 and energy_tol is not False:
         all_notes.append(_energy_check(problem, integrator, sol_t, q, v, T, V, options, energy_tol, model))
     return Result(
@@ -989,10 +1009,56 @@ def integrate(
     )
 
 
-def _energy_check(problem, integrator, t, q, v, T, V, options, energy_tol, model) -> str:
+def _stiffness_note(problem: Problem, integrator, t_span, y0, model) -> str | None:
+    """Why an explicit adaptive method will crawl on this model (its linearization at the start is stiff), or
+    ``None``: explicit methods need steps of about 1/|λ|max, so a span of many slow time scales takes
+    ``span·|λ|max`` evaluations and more."""
+    if integrator.kind != "adaptive" or integrator.implicit or integrator.stiff or problem.dim > STIFFNESS_CHECK_DIM:
+        return None
+    try:
+        spec = problem.spectrum(float(t_span[0]), np.asarray(y0, dtype=float))
+    except Exception:  # advice only: a model the linearization cannot take is not refused here
+        return None
+    span = float(t_span[1]) - float(t_span[0])
+    slow = max(spec.slowest, 1.0 / span) if span > 0 else spec.slowest
+    if not (slow > 0 and spec.rho / slow > STIFFNESS_RATIO and span * spec.rho >= STIFFNESS_CHECK_STEPS):
+        return None
+    return (f"model {model!r} is stiff: the linearization at the start has rates from {spec.slowest:.3g} to "
+            f"{spec.rho:.3g} 1/s (ratio {spec.rho / slow:.3g}), so the explicit method {integrator.name} needs steps of "
+            f"about {1 / spec.rho:.3g} s, some {span * spec.rho:.3g} of them or more over this run; use method='auto' "
+            f"(which picks an implicit method here) or method='Radau'.")
+
+
+def _drift(problem, t, q, v, T, V):
+    """The Jacobi integral along a run, its scale and its largest change relative to that scale."""
     h = problem.jacobi(t, q, v)
     scale = max(abs(h[0]), float(np.max(np.abs(T))), float(np.max(np.abs(V))), np.finfo(float).tiny)
-    drift = float(np.max(np.abs(h - h[0])) / scale)
+    return h, scale, float(np.max(np.abs(h - h[0])) / scale)
+
+
+def _explosion_check(problem, integrator, t, q, v, T, V, model) -> None:
+    """A fixed-step explicit run of a conservative model whose energy left its start by more than its size there:
+    an :class:`IntegrationError` (the states are not a solution), whatever ``energy_tol`` says."""
+    if integrator.kind == "adaptive" or integrator.implicit:
+        return
+    h, scale, _ = _drift(problem, t, q, v, T, V)
+    # against the energy at the start (the run's own scale when the start has none): a run that gained or lost
+    # more than that passed a singularity or went unstable
+    start = max(abs(h[0]), abs(float(T[0])), abs(float(V[0])))
+    reference = start if start > 1e-3 * scale else scale
+    change = float(np.max(np.abs(h - h[0]))) / reference
+    if change > EXPLODED:
+        where = int(np.argmax(np.abs(h - h[0]) > EXPLODED * reference))
+        raise IntegrationError(
+            f"the state of model {model!r} exploded under {integrator.name}: its energy (Jacobi integral), "
+            f"conserved by the model, changed by {change:.3g} times its size at the start by t={t[where]:g}, so "
+            f"the run passed a singularity or went unstable and its states are not a solution. Reduce step=, or "
+            f"use an adaptive method (method='auto')."
+        )
+
+
+def _energy_check(problem, integrator, t, q, v, T, V, options, energy_tol, model) -> str:
+    h, scale, drift = _drift(problem, t, q, v, T, V)
     if energy_tol is None:
         energy_tol = max(1e-6, 1e3 * float(options.get("rtol", 0.0))) if integrator.kind == "adaptive" else 1e-2
     note = f"energy (Jacobi integral) kept to {drift:.2e} relative over the run (tolerance {energy_tol:.1e})"

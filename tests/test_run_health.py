@@ -1,0 +1,55 @@
+"""Runs that cannot give a right answer, or only at great cost, say so.
+
+Expected values come from the physics: the damped oscillator's rates
+(k/c and c/m) decide whether it is stiff; a mass let go at rest above a
+central force k/r² falls into the centre in the finite time
+π/2·√(m r₀³/(2k)), which a fixed step passes through.
+"""
+
+import math
+import warnings
+
+import pytest
+
+import lagrangian as lg
+from lagrangian import integrate
+
+
+def damped(c):
+    model = lg.Model("damped")
+    model.add("mass", "m", "p", m=0.3)
+    model.add("spring", "k", ("ground", "p"), k=40)
+    model.add("damper", "c", ("ground", "p"), c=c)
+    return model
+
+
+def test_an_explicit_method_on_a_stiff_model_warns_before_it_crawls(monkeypatch):
+    # rates k/c = 4e-3 and c/m = 3.3e4 1/s: a 1 s run needs some 3e4 explicit steps (warned from 1e5 on; a
+    # lower threshold here keeps the test short)
+    monkeypatch.setattr(integrate, "STIFFNESS_CHECK_STEPS", 1e4)
+    with pytest.warns(lg.StiffnessWarning, match=r"'damped' is stiff.*method='auto'.*'Radau'"):
+        res = damped(1e4).simulate(1.0, initial={"x_p": 0.01}, velocity={"x_p": 0.0})
+    assert any(note.startswith("WARNING: model 'damped' is stiff") for note in res.notes)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", lg.StiffnessWarning)
+        damped(1e4).simulate(1.0, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, method="auto")
+        damped(1e4).simulate(1.0, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, method="Radau")
+        damped(0.7).simulate(1.0, initial={"x_p": 0.01}, velocity={"x_p": 0.0})
+        monkeypatch.setattr(integrate, "STIFFNESS_CHECK_STEPS", 1e5)
+        damped(1e4).simulate(1.0, initial={"x_p": 0.01}, velocity={"x_p": 0.0})  # stiff, but 3e4 steps are quick
+
+
+def test_a_fixed_step_through_a_singularity_is_an_error_not_a_state():
+    m, k, r0 = 0.3, 2.0, 1.0
+    fall = math.pi / 2 * math.sqrt(m * r0**3 / (2 * k))  # 0.43 s to the centre
+    model = lg.Model("fall", dim=2)
+    model.add("mass", "planet", "p", m=m)
+    model.add("central_force", "sun", ("ground", "p"), k=k)
+    start = dict(initial={"x_p": r0, "y_p": 0.0}, velocity={"x_p": 0.0, "y_p": 0.0})
+    for method in ("verlet", "rk4"):
+        with pytest.raises(lg.IntegrationError, match=rf"exploded under {method}.*t=0\.4"):
+            model.simulate(3 * fall, method=method, step=0.01, energy_tol=False, **start)
+    # before the fall, the same steps are a fine solution
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.simulate(0.8 * fall, method="verlet", step=1e-4, **start)
