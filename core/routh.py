@@ -676,6 +676,12 @@ class ReducedModel(DerivedModel):
                     f"{', '.join(unknowns_names)}; give numeric params= and momenta= to solve them numerically."
                 )
             branches = self._numeric_roots(exprs, names, q, search or {})
+        for n, (lo, hi) in (search or {}).items():  # solved symbolically too: only what lies in the ranges asked
+            if n not in lookup or lookup[n] not in q:
+                raise UnknownNameError("remaining coordinate (for search=)", n, names)
+            qi = lookup[n]
+            branches = [sol for sol in branches if qi not in sol or not sol[qi].is_number
+                        or float(lo) <= float(sol[qi]) <= float(hi)]
         out = []
         for sol in branches:
             coords = {}

@@ -479,3 +479,20 @@ def test_example_spherical_steady(scripts):
     assert "ReductionError: the initial state" in out
     turn, through = map(float, re.search(r"θ turns back at (\S+) rad .* θ reaches (\S+) rad through the pole", out).groups())
     assert 0 < turn < 0.05 and through < -1.0
+
+
+def test_steady_motions_solved_symbolically_keep_to_the_search_ranges():
+    """Kepler (k/r²) circular orbits r₀ = C²/(m k), solved exactly: the radius coordinate s may be negative
+    (the bead across the axis), so s = ±r₀; search= keeps those in its range."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
+    from kepler import central
+
+    m, k, C = 0.599, 0.0706, 0.5
+    r0 = C**2 / (m * k)
+    red = routh.reduce(central(m, k, 2))
+    both = sorted(float(s.coordinates["s_radius"]) for s in red.steady_motions(momenta={"theta_orbit": C}))
+    assert both == pytest.approx([-r0, r0], rel=1e-12)
+    (one,) = red.steady_motions(momenta={"theta_orbit": C}, search={"s_radius": (r0 / 30, 30 * r0)})
+    assert float(one.coordinates["s_radius"]) == pytest.approx(r0, rel=1e-12)
+    with pytest.raises(lg.UnknownNameError, match="theta_orbit"):
+        red.steady_motions(momenta={"theta_orbit": C}, search={"theta_orbit": (0, 1)})
