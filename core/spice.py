@@ -38,6 +38,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "SpiceElement",
+    "Behaviour",
     "Netlist",
     "SpiceRun",
     "NgspiceError",
@@ -73,7 +74,11 @@ class SpiceElement:
     components named in ``refs`` (a ``K`` line names its inductors); ``state``, for
     energy-storing elements, is ``("v", voltage)`` or ``("i", current)``: the
     quantity (a SymPy expression in the model's coordinates) that becomes the
-    element's ``ic=`` and is read back from ngspice.
+    element's ``ic=`` and is read back from ngspice, labelled ``v(<component>)``
+    / ``i(<component>)``, or ``v(<component>.<tag>)`` when the component has
+    several state elements.  ``value`` may also be a :class:`Behaviour`: the
+    law of a ``B`` source written from SymPy, its node and element names
+    filled in here.
     """
 
     prefix: str
@@ -82,6 +87,29 @@ class SpiceElement:
     state: tuple[str, sp.Expr] | None = None
     tag: str = ""
     refs: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Behaviour:
+    """The law of a behavioural (``B``) source: ``V=expr`` or ``I=expr``, written as SymPy.
+
+    ``expr`` is an expression of :data:`t`, of the component's parameters
+    (their values put in like every element value, ``params=...``) and of the
+    symbols keyed in ``controls``, each standing for what ngspice measures:
+    ``("v", node)`` a node voltage, ``("v", node_a, node_b)`` a voltage
+    difference (model nodes or the component's internal ``"~name"`` nodes),
+    ``("i", tag)`` the current through the component's own voltage source
+    tagged ``tag``.  :func:`netlist` prints it with the SPICE names of those
+    nodes and elements, through the same printer as every behavioural source.
+    """
+
+    quantity: str
+    expr: Any
+    controls: tuple[tuple[sp.Symbol, tuple[str, ...]], ...] = ()
+
+    def __post_init__(self):
+        if self.quantity not in ("V", "I"):
+            raise ModelError(f"a behavioural source sets V or I, not {self.quantity!r}.")
 
 
 @dataclass
@@ -128,15 +156,27 @@ class SpiceRun:
 
 
 class _SpicePrinter(sp.printing.str.StrPrinter):
+    def __init__(self, names: Mapping[sp.Symbol, str] | None = None):
+        super().__init__()
+        self.names = dict(names or {})
+
     def _print_Symbol(self, expr):
         if expr == t:
             return "time"
+        if expr in self.names:
+            return self.names[expr]
         raise ModelError(f"the expression still has the symbol {expr}: give it a value (params=...).")
+
+    _print_Dummy = _print_Symbol
 
     def _print_Pow(self, expr, rational=False):
         base, exp = expr.as_base_exp()
         if exp == sp.Rational(1, 2):
             return f"sqrt({self._print(base)})"
+        if exp.is_Integer and int(exp) % 2:  # ngspice's pow(x, n) is |x|^n: odd powers keep the sign by a factor x
+            n = abs(int(exp))
+            odd = f"({self._print(base)})" if n == 1 else f"({self._print(base)})*pow({self._print(base)},{n - 1})"
+            return f"1/({odd})" if exp < 0 else odd
         return f"pow({self._print(base)},{self._print(exp)})"
 
     def _print_Float(self, expr):
@@ -192,13 +232,20 @@ def _fmt(x: Any) -> str:
     return f"{float(x):.15g}"
 
 
-def spice_expression(expr: Any) -> str:
+def spice_expression(expr: Any, names: Mapping[sp.Symbol, str] | None = None) -> str:
     """An expression of :data:`t` as ngspice behavioural-source text (``time`` for t).
+
+    ``names`` writes other symbols as the given text (what :func:`netlist`
+    does for a :class:`Behaviour`'s node voltages and currents).  Odd integer
+    powers are written with a factor of their base, since ngspice's
+    ``pow(x, n)`` is ``|x|^n``.
 
     >>> spice_expression(3 * sp.sin(2 * t) + t**2)
     'pow(time,2) + 3*sin(2*time)'
+    >>> spice_expression(sp.sin(t) ** 3)
+    '(sin(time))*pow(sin(time),2)'
     """
-    return _SpicePrinter().doprint(sp.sympify(expr))
+    return _SpicePrinter(names).doprint(sp.sympify(expr))
 
 
 def spice_waveform(expr: Any) -> str | None:
@@ -275,12 +322,17 @@ def netlist(
     t_end: float = 1.0,
     step: float | None = None,
     max_step: float | None = None,
+    options: Mapping[str, float] | None = None,
 ) -> Netlist:
     """The SPICE netlist of a circuit model, with element initial conditions from its initial state.
 
     Every component must implement ``spice(ctx)``; the ``.tran`` line uses
     ``step`` (default ``t_end/1000``) and the step cap ``max_step`` (default
-    ``step/10``) with ``uic``.
+    ``step/10``) with ``uic``.  ``options`` adds an ``.options`` line of
+    numeric simulator options (``{"reltol": 1e-7, "abstol": 1e-16}``): a
+    circuit whose charges, currents or voltages are far below ngspice's
+    absolute tolerances (``abstol`` 1e-12 A, ``vntol`` 1e-6 V, ``chgtol``
+    1e-14 C) needs smaller ones.
 
     >>> import lagrangian as lg
     >>> m = lg.Model("rc")
@@ -333,30 +385,61 @@ def netlist(
         element_of.setdefault(comp_name, name)
     for comp, parts, names in pending:
         tags = {el.tag: name for el, name in zip(parts, names) if el.tag}
-        for el, name in zip(parts, names):
-            text = _number(el.value, subs, comp.name) if isinstance(el.value, (sp.Basic, int, float)) else el.value
-            if tags or el.refs:
+        several = sum(el.state is not None for el in parts) > 1
+        for index, (el, name) in enumerate(zip(parts, names)):
+            inner = [f"~{comp.name}.{n[1:]}" if n.startswith("~") else n for n in el.nodes]
+            if isinstance(el.value, Behaviour):
+                text = _behaviour(el.value, subs, nodes, tags, comp)
+            elif isinstance(el.value, (sp.Basic, int, float)):
+                text = _number(el.value, subs, comp.name)
+            else:
+                text = el.value
+            if (tags or el.refs) and not isinstance(el.value, Behaviour):
                 try:
                     text = text.format(**tags, **{f"ref{i}": element_of[r] for i, r in enumerate(el.refs)})
                 except KeyError as exc:
                     raise ModelError(f"{comp.kind} {comp.name!r}: its SPICE line refers to {exc.args[0]!r}, which has no element.") from None
-            inner = [f"~{comp.name}.{n[1:]}" if n.startswith("~") else n for n in el.nodes]
             line = f"{name} {' '.join(nodes[n] for n in inner)} {text}".rstrip()
             if el.state is not None:
                 kind, expr = el.state
                 expr = sp.sympify(expr).xreplace(subs)
-                label = f"{kind}({comp.name})"
+                label = f"{kind}({comp.name}.{el.tag or index})" if several else f"{kind}({comp.name})"
                 value = float(eq.symbolic(expr).xreplace(point))
                 ics[label] = value
                 line += f" ic={_fmt(value)}"
                 quantities[label] = expr
-                probes[label] = ("i", name) if kind == "i" else ("v", *(nodes[n] for n in el.nodes[:2]))
+                probes[label] = ("i", name) if kind == "i" else ("v", *(nodes[n] for n in inner[:2]))
             lines.append(line)
+    if options:
+        bad = [k for k in options if not re.fullmatch(r"[a-z][a-z0-9_]*", str(k))]
+        if bad:
+            raise ModelError(f"SPICE option names are lower-case words; got {', '.join(map(repr, bad))}.")
+        lines.append(".options " + " ".join(f"{k}={_number(v, subs, 'options')}" for k, v in options.items()))
     step = step or t_end / 1000
     max_step = max_step or step / 10
     lines.append(f".tran {_fmt(step)} {_fmt(t_end)} 0 {_fmt(max_step)} uic")
     lines.append(".end")
     return Netlist("\n".join(lines), elements, nodes, probes, quantities, ics)
+
+
+def _behaviour(law: Behaviour, subs: Mapping, nodes: Mapping[str, str], tags: Mapping[str, str], comp) -> str:
+    """``V=...`` / ``I=...`` text of a behavioural law, its controls named as in the netlist."""
+    names = {}
+    for symbol, control in law.controls:
+        kind, *args = control
+        if kind == "v" and len(args) in (1, 2):
+            inner = [f"~{comp.name}.{n[1:]}" if n.startswith("~") else n for n in args]
+            names[symbol] = f"v({','.join(nodes[n] for n in inner)})"
+        elif kind == "i" and len(args) == 1 and args[0] in tags:
+            names[symbol] = f"i({tags[args[0]]})"
+        else:
+            raise ModelError(f"{comp.kind} {comp.name!r}: its behavioural source refers to {control!r}, which is not "
+                             f"('v', node), ('v', node_a, node_b) or ('i', tag of its own voltage source).")
+    expr = sp.sympify(law.expr).xreplace(subs)
+    try:
+        return f"{law.quantity}={_SpicePrinter(names).doprint(expr)}"
+    except ModelError as exc:
+        raise ModelError(f"{comp.kind} {comp.name!r}: {exc}") from None
 
 
 # -- running ngspice -----------------------------------------------------------------------------
