@@ -24,6 +24,26 @@ flux linkage to the motion (``λ_ab = Bl·x``), a holonomic constraint between
 two domains' coordinates that the domains cannot impose yet; its charge
 form is an ordinary Lagrangian term.
 
+Every transducer has a circuit analogue, so a model holding one runs in
+ngspice as one deck (``lagrangian.compare.compare_with_ngspice(model, t_end,
+analogy=...)``): its mechanical (rotational) part becomes the analogue
+network and the transducer a two-port between its electrical branch and the
+branch standing for its motion.
+
+===================  ===============================  =====================================================
+kind                 analogies                        two-port, and in SPICE
+===================  ===============================  =====================================================
+moving_coil          force-voltage                    ``gyrator``: two current-controlled voltage sources
+dc_motor             torque-voltage                   ``gyrator``: two current-controlled voltage sources
+variable_capacitor   force-voltage, force-current     ``capacitive_two_port``: q = C(x)·v held on an
+                                                      internal capacitor by a B source; force q²/2εA
+solenoid             force-voltage, force-current     ``inductive_two_port``: λ = ∫v on an internal node,
+                                                      i = λ/L(x) a B source; force −λ²/(2 L0 x0)
+===================  ===============================  =====================================================
+
+The force–voltage analogy keeps the model's charge formulation (the default),
+the force–current analogy needs ``formulation='flux'``.
+
 The electrostatic actuator also gets two helpers: :func:`electrostatic_equilibria`
 (equilibria of the plate at a DC voltage, their stability, the pull-in
 voltage and displacement) and :func:`simulate_checked` (a simulation that
@@ -60,6 +80,8 @@ __all__ = [
     "DCMotor",
     "VariableCapacitor",
     "Solenoid",
+    "CapacitiveTwoPort",
+    "InductiveTwoPort",
     "Equilibrium",
     "ElectrostaticEquilibria",
     "PullInError",
@@ -235,6 +257,27 @@ class VariableCapacitor(_Transducer):
     formulation.  With a spring ``k`` and a DC voltage the plate snaps onto
     the electrode above the pull-in voltage ``sqrt(8 k gap³ / (27 eps_A))``,
     reached at ``x = gap/3`` (see :func:`electrostatic_equilibria`).
+
+    In ngspice it is a :class:`CapacitiveTwoPort` (behavioural sources), its
+    plate's mass, spring and damper the analogue network: an actuator of
+    1 cm² plates 100 µm apart on a 100 N/m spring, charged to 100 V through
+    4.7 MΩ, agrees with ngspice to 1e-4 of each quantity's peak (step cap
+    1 µs):
+
+    >>> import lagrangian as lg
+    >>> from lagrangian.compare import compare_with_ngspice
+    >>> m = lg.Model("actuator")
+    >>> _ = m.add("voltage_source", "V", ("n1", "0"), E=100)
+    >>> _ = m.add("resistor", "R", ("n1", "n2"), R=4.7e6)
+    >>> _ = m.add("variable_capacitor", "Cx", ("n2", "0", "plate"), eps_A=8.85e-16, gap=1e-4)
+    >>> _ = m.add("mass", "m", "plate", m=1e-5)
+    >>> _ = m.add("spring", "k", ("ground", "plate"), k=100)
+    >>> _ = m.add("damper", "c", ("ground", "plate"), c=0.03)
+    >>> cmp = compare_with_ngspice(m, 5e-3, analogy="force-voltage", max_step=1e-6)
+    >>> [(r.label, r.meaning) for r in cmp.rows if r.label.startswith("v(T_Cx")]  # q/C0 and x/gap
+    [('v(T_Cx.q)', '112994350282.486*q_R(t)'), ('v(T_Cx.x)', '10000.0*x_plate(t)')]
+    >>> cmp.worst_rel < 1e-4
+    True
     """
 
     kind = "variable_capacitor"
@@ -280,6 +323,29 @@ class Solenoid(_Transducer):
     force on ``p`` is ``F = ½ i² L'(x) = −L0 i² / (2 x0 (1 + x/x0)²)``: the
     armature is pulled towards smaller x, closing the gap.  Valid for
     ``x > −x0``.
+
+    In ngspice it is an :class:`InductiveTwoPort` (behavioural sources), the
+    plunger's mass, spring and damper the analogue network: a 50 mH coil
+    behind 50 Ω pulling a 10 g plunger on a 1000 N/m spring after a 5 V
+    step agrees with ngspice to 1e-4 of each quantity's peak (step cap
+    10 µs), and the plunger comes to rest at the root of
+    ``k x = ½ (V/R)² L'(x)``:
+
+    >>> import lagrangian as lg
+    >>> from lagrangian.compare import compare_with_ngspice
+    >>> m = lg.Model("plunger", formulation="flux")
+    >>> _ = m.add("voltage_source", "V", ("n1", "0"), E=5)
+    >>> _ = m.add("resistor", "R", ("n1", "n2"), R=50)
+    >>> _ = m.add("solenoid", "S", ("n2", "0", "plunger"), L0=0.05, x0=2e-3)
+    >>> _ = m.add("mass", "m", "plunger", m=0.01)
+    >>> _ = m.add("spring", "k", ("ground", "plunger"), k=1000)
+    >>> _ = m.add("damper", "c", ("ground", "plunger"), c=3)
+    >>> cmp = compare_with_ngspice(m, 0.2, analogy="force-current", max_step=1e-5)
+    >>> cmp.worst_rel < 1e-4
+    True
+    >>> x = float(2e-3 * cmp.spice["v(T_S.x)"][-1])  # v(T_S.x) is x/x0
+    >>> round(x * 1e6, 3), round(1000 * x * (1 + x / 2e-3) ** 2 / (-0.05 * 0.1**2 / (2 * 2e-3)), 9)
+    (-145.362, 1.0)
     """
 
     kind = "solenoid"
@@ -314,9 +380,169 @@ class Solenoid(_Transducer):
         )
 
 
+# ---------------------------------------------------------------------------
+# circuit analogues: a variable capacitor or a solenoid as an electrical two-port
+
+
+class _TwoPort(Component):
+    """Electrical two-port standing for a transducer: port ``a → b`` its coil or plates, port ``c → d`` its motion.
+
+    Under an analogy the transducer's moving terminal becomes a circuit
+    branch whose branch quantity is the displacement: the charge of
+    ``c → d`` in the charge formulation (force–voltage: velocity ↔ current,
+    force ↔ voltage), its flux linkage in the flux formulation (force–current:
+    velocity ↔ voltage, force ↔ current).  The two-port keeps the
+    transducer's Lagrangian term with ``x`` read from that branch.
+    """
+
+    domain = "electrical"
+    terminals = ("a", "b", "c", "d")
+
+    def branches(self) -> list[tuple[str, str]]:
+        a, b, c, d = self.nodes
+        return [(a, b), (c, d)]
+
+    def displacement(self, ctx) -> sp.Expr:
+        """The branch quantity of port ``c → d``: the displacement x of the transducer it stands for."""
+        if ctx.view.formulation == "charge":
+            return ctx.view.charge(self, 1)
+        return ctx.view.flux(self, 1)
+
+    def _motion_port(self, ctx, force: sp.Expr, controls: tuple, scale: sp.Expr) -> list:
+        """SPICE elements of port ``c → d``: the force as a source, and x integrated on an internal node.
+
+        Charge formulation: a 0 V sense source measures ``ẋ`` (the port
+        current) and a behavioural voltage source ``v_cd = −F`` in series
+        with it drives the mesh; flux formulation: a behavioural current
+        source ``i_cd = −F`` injects ``F`` into node ``c`` and ``ẋ = v_cd``.
+        Either way ``ẋ / scale`` charges a 1 F capacitor on the internal node
+        ``x``, whose voltage is then ``x / scale`` (of order one).
+        """
+        from lagrangian.spice import Behaviour, SpiceElement
+
+        c, d = self.nodes[2:]
+        rate = sp.Dummy("rate")
+        if ctx.view.formulation == "charge":
+            out = [
+                SpiceElement("V", (c, "~m"), "DC 0", tag="sense_x"),
+                SpiceElement("B", ("~m", d), Behaviour("V", -force, controls), tag="force"),
+                SpiceElement("B", (GROUND, "~x"), Behaviour("I", rate / scale, ((rate, ("i", "sense_x")),)), tag="integrate_x"),
+            ]
+        else:
+            out = [
+                SpiceElement("B", (c, d), Behaviour("I", -force, controls), tag="force"),
+                SpiceElement("B", (GROUND, "~x"), Behaviour("I", rate / scale, ((rate, ("v", c, d)),)), tag="integrate_x"),
+            ]
+        out.append(SpiceElement("C", ("~x", GROUND), 1, state=("v", self.displacement(ctx) / scale), tag="x"))
+        return out
+
+
+class CapacitiveTwoPort(_TwoPort):
+    """Circuit analogue of a variable capacitor: ``C(x) = eps_A/(gap − x)`` across ``a → b``, x the branch quantity of ``c → d``.
+
+    Lagrangian term as the variable capacitor's (``V = q_ab² (gap − x)/(2 eps_A)``
+    in the charge formulation, ``T = ½ C(x) v_ab²`` in the flux formulation).
+    In SPICE (behavioural sources; internal nodes ``u``, ``uc``, ``x``):
+
+    - port ``a → b``: the charge ``q = C(x)·v_ab`` sits on an internal
+      capacitor ``C0 = eps_A/gap`` held at ``u = q/C0 = v_ab/(1 − x/gap)`` by
+      ``B V=v(a,b)/(1 - v(x))``; a current-controlled current source
+      ``F`` copies its current ``dq/dt`` into the port;
+    - port ``c → d``: the force ``F = ½ v² C'(x) = q²/(2 eps_A) = eps_A u²/(2 gap²)``
+      (towards +x) as a source, and ``x/gap`` integrated on the 1 F node ``x``
+      (see ``_motion_port``).
+
+    The state quantities read back are ``v(<name>.q) = q/C0`` and ``v(<name>.x) = x/gap``.
+    """
+
+    kind = "capacitive_two_port"
+    tree_priority = 1
+    parameters = VariableCapacitor.parameters
+    capacitance = VariableCapacitor.capacitance
+    contribute = VariableCapacitor.contribute
+
+    def spice(self, ctx) -> list:
+        from lagrangian.spice import Behaviour, SpiceElement
+
+        a, b = self.nodes[:2]
+        v, u, xs = sp.Dummy("v"), sp.Dummy("u"), sp.Dummy("x")
+        C0 = self.eps_A / self.gap
+        x = self.displacement(ctx)
+        q = ctx.view.charge(self) if ctx.view.formulation == "charge" else self.capacitance(x) * ctx.view.voltage(self)
+        return [
+            SpiceElement("B", ("~u", GROUND), Behaviour("V", v / (1 - xs), ((v, ("v", a, b)), (xs, ("v", "~x")))), tag="hold_q"),
+            SpiceElement("V", ("~u", "~uc"), "DC 0", tag="sense_q"),
+            SpiceElement("C", ("~uc", GROUND), C0, state=("v", q / C0), tag="q"),
+            SpiceElement("F", (a, b), "{sense_q} 1", tag="port"),
+            *self._motion_port(ctx, self.eps_A * u**2 / (2 * self.gap**2), ((u, ("v", "~uc")),), self.gap),
+        ]
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            ("n1", "0", "n2", "0"),
+            {"eps_A": 1, "gap": 3},
+            context=[
+                ("inductor", "L", ("n1", "0"), {"L": 1}),
+                ("inductor", "Lm", ("n2", "n3"), {"L": 1}),
+                ("capacitor", "Ck", ("n3", "0"), {"C": 0.5}),
+            ],
+        )
+
+
+class InductiveTwoPort(_TwoPort):
+    """Circuit analogue of a solenoid: ``L(x) = L0/(1 + x/x0)`` across ``a → b``, x the branch quantity of ``c → d``.
+
+    Lagrangian term as the solenoid's (``T = ½ L(x) i_ab²`` in the charge
+    formulation, ``V = λ_ab²/(2 L(x))`` in the flux formulation).  In SPICE
+    (behavioural sources; internal nodes ``lam``, ``x``):
+
+    - port ``a → b``: the flux linkage ``λ = ∫ v_ab dt`` is integrated on the
+      1 F node ``lam`` as ``λ/L0`` (``B I=v(a,b)/L0`` into it), and the port
+      draws ``i = λ/L(x) = v(lam)·(1 + v(x))``, a behavioural current source;
+    - port ``c → d``: the force ``F = ½ i² L'(x) = −λ²/(2 L0 x0) = −L0 v(lam)²/(2 x0)``
+      (towards −x, closing the gap) as a source, and ``x/x0`` integrated on
+      the 1 F node ``x`` (see ``_motion_port``).
+
+    The state quantities read back are ``v(<name>.lam) = λ/L0`` and ``v(<name>.x) = x/x0``.
+    """
+
+    kind = "inductive_two_port"
+    tree_priority = 3
+    parameters = Solenoid.parameters
+    inductance = Solenoid.inductance
+    contribute = Solenoid.contribute
+
+    def spice(self, ctx) -> list:
+        from lagrangian.spice import Behaviour, SpiceElement
+
+        a, b = self.nodes[:2]
+        v, lam, xs = sp.Dummy("v"), sp.Dummy("lam"), sp.Dummy("x")
+        x = self.displacement(ctx)
+        flux = self.inductance(x) * ctx.view.current(self) if ctx.view.formulation == "charge" else ctx.view.flux(self)
+        return [
+            SpiceElement("B", (GROUND, "~lam"), Behaviour("I", v / self.L0, ((v, ("v", a, b)),)), tag="integrate_lam"),
+            SpiceElement("C", ("~lam", GROUND), 1, state=("v", flux / self.L0), tag="lam"),
+            SpiceElement("B", (a, b), Behaviour("I", lam * (1 + xs), ((lam, ("v", "~lam")), (xs, ("v", "~x")))), tag="port"),
+            *self._motion_port(ctx, -self.L0 * lam**2 / (2 * self.x0), ((lam, ("v", "~lam")),), self.x0),
+        ]
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(
+            ("n1", "0", "n2", "0"),
+            {"L0": 1, "x0": 4},
+            context=[
+                ("capacitor", "C", ("n1", "0"), {"C": 1}),
+                ("inductor", "Lm", ("n2", "n3"), {"L": 1}),
+                ("capacitor", "Ck", ("n3", "0"), {"C": 0.5}),
+            ],
+        )
+
+
 @hookimpl
 def register_component_types(register):
-    for cls in (MovingCoil, DCMotor, VariableCapacitor, Solenoid):
+    for cls in (MovingCoil, DCMotor, VariableCapacitor, Solenoid, CapacitiveTwoPort, InductiveTwoPort):
         register(cls)
 
 
@@ -591,10 +817,34 @@ def _locate_contact(model, guards, t_end, kwargs, cause) -> None:
     ) from cause
 
 
+def _two_port(kind: str, names: tuple[str, ...]):
+    """Analogue builder: the transducer as a ``kind`` two-port between its electrical branch and its node's port."""
+    from lagrangian.analogy import Element
+
+    def build(c, ports):
+        params = {name: getattr(c, name) for name in names}
+        return [Element(kind, f"T_{c.name}", (*ports.branch(0), *ports.branch(1)), params, branch=((0, 0), (1, 1)))]
+
+    return build
+
+
 @hookimpl
 def register_analogues(register):
-    """Under the force– (torque–) voltage analogy a moving coil (DC motor) becomes a gyrator between its coil and its node's mesh."""
+    """Analogues of the transducers, for coupled models mapped to one circuit.
+
+    Under the force– (torque–) voltage analogy a moving coil (DC motor)
+    becomes a gyrator between its coil and its node's mesh.  A variable
+    capacitor becomes a ``capacitive_two_port``, a solenoid an
+    ``inductive_two_port``, under both the force–voltage analogy (the model in
+    the charge formulation; x is the charge of the plate's mesh) and the
+    force–current analogy (the flux formulation; x is the flux linkage of the
+    plate's node).
+    """
     from lagrangian.analogy import Element
+
+    for analogy in ("force-voltage", "force-current"):
+        register("variable_capacitor", analogy, _two_port("capacitive_two_port", ("eps_A", "gap")))
+        register("solenoid", analogy, _two_port("inductive_two_port", ("L0", "x0")))
 
     register(
         "moving_coil",
