@@ -295,6 +295,18 @@ class _NodeNames(dict):
         return name
 
 
+def spice_title(text: str) -> str:
+    """A model's name as a deck's title line: letters, digits, spaces and ``_ - . , ( )`` kept, anything else
+    (a newline that would start a ``.control`` block or an element, a ``*``, a ``;``) made ``_``, at most 80
+    characters — user text enters a deck only through this, :class:`_NodeNames` and ``_element_name``.
+
+    >>> spice_title("rlc" + chr(10) + ".control" + chr(10) + "shell touch x")
+    'rlc_.control_shell touch x'
+    """
+    safe = re.sub(r"[^A-Za-z0-9 _\-.,()]", "_", str(text))[:80].strip()
+    return safe or "model"
+
+
 def _element_name(prefix: str, component: str, used: set[str]) -> str:
     base = re.sub(r"[^a-z0-9_]", "_", component.lower())
     name = base if base.startswith(prefix.lower()) else f"{prefix.lower()}_{base}"
@@ -359,7 +371,7 @@ def netlist(
 
     asm = model.assembly
     nodes = _NodeNames(model.nodes)
-    lines = [f".title {model.name}"]
+    lines = [f".title {spice_title(model.name)}"]
     elements: dict[str, str] = {}
     probes: dict[str, tuple[str, ...]] = {}
     quantities: dict[str, sp.Expr] = {}

@@ -137,3 +137,21 @@ def test_scratch_beyond_the_stack_size_runs(private_cache):
         for kind in ("tape", True):
             got = model.simulate(0.2, initial=start, points=5, compiled=kind, rtol=1e-10, atol=1e-12)
             np.testing.assert_allclose(got[f"x_p{n - 1}"], ref[f"x_p{n - 1}"], atol=1e-9)
+
+
+def test_a_model_name_is_one_title_line_in_the_deck(tmp_path):
+    """The model name goes into the deck's title: a newline there must not add an element or a .control block."""
+    from lagrangian.spice import netlist, run_transient
+
+    marker = tmp_path / "deck-ran"
+    model = lg.Model(f"rc\nR99 in 0 1e-9\n.control\nshell touch {marker}\n.endc\n* ")
+    model.add("voltage_source", "V1", ("in", "0"), E=1)
+    model.add("resistor", "R1", ("in", "out"), R=1)
+    model.add("capacitor", "C1", ("out", "0"), C=1)
+    net = netlist(model)
+    title, *rest = net.text.splitlines()
+    assert title.startswith(".title rc") and "\n" not in title
+    assert not any(line.lower().startswith(("r99", ".control", "shell", ".endc")) for line in rest)
+    # the deck runs as the circuit it describes: v(C1) = 1 − e^(−t/RC) at t = 1 s (no 1 nΩ short across the source)
+    assert run_transient(net).quantities["v(C1)"][-1] == pytest.approx(1 - np.exp(-1), abs=1e-4)
+    assert not marker.exists()
