@@ -16,6 +16,13 @@ settles) and one above (the simulation stops with a GapClosedError when the
 gap closes).  The numbers are in units where gap = εA = k = m = 1: the
 problem is scale-free (V_pi / sqrt(k gap³/εA) = sqrt(8/27) always).
 
+The step below pull-in is cross-checked in ngspice: the model maps through
+the force–voltage analogy to one deck, the plate's mass, spring and damper
+an inductor, a capacitor and a resistor in series, the variable capacitor a
+two-port of behavioural sources (q = C(x)·v, force q²/2εA); every state
+quantity is compared with the simulation on ngspice's time points
+(lagrangian.compare.compare_with_ngspice).
+
 Run: .venv/bin/python examples/electrostatic_pullin.py [--out electrostatic_pullin.png]
 """
 
@@ -33,16 +40,19 @@ import numpy as np
 import sympy as sp
 
 import lagrangian as lg
+from lagrangian.compare import compare_with_ngspice
 from lagrangian.plugins.transducers import GapClosedError, PullInError, electrostatic_equilibria, simulate_checked
+from lagrangian.spice import NgspiceMissingError
 
 EPS_A, GAP = 1.0, 1.0  # ε·A, rest gap
 K, M, C = 1.0, 1.0, 1.0  # spring, plate mass, damper
 R = 0.1  # source resistance
 
 
-def actuator() -> lg.Model:
+def actuator(voltage=sp.Symbol("V")) -> lg.Model:
+    """The actuator; a DC step of ``voltage`` from t = 0 (by default a symbol V, its value given per run)."""
     m = lg.Model("electrostatic actuator")
-    m.add("voltage_source", "V", ("n1", "0"), E=sp.Symbol("V"))  # a DC step from t = 0, value per run
+    m.add("voltage_source", "V", ("n1", "0"), E=voltage)
     m.add("resistor", "R", ("n1", "n2"), R=R)
     m.add("variable_capacitor", "Cx", ("n2", "0", "plate"), eps_A=EPS_A, gap=GAP)
     m.add("mass", "m", "plate", m=M)
@@ -94,6 +104,19 @@ def main() -> None:
             print(f"step to V = 1.05 V_pi: {type(exc).__name__}: {exc}")
             contact = exc.time
         runs["1.05 V_pi: pull-in"] = model.simulate(0.999 * contact, params={"V": above}, points=801)
+
+    # the same step below pull-in in ngspice (its deck needs the voltage as a number)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", lg.InitialConditionWarning)
+            cmp = compare_with_ngspice(actuator(below), 60, analogy="force-voltage", step=0.01, max_step=1e-3)
+    except NgspiceMissingError as exc:
+        print(f"\nngspice cross-check skipped: {exc}")
+    else:
+        x_spice = GAP * cmp.spice["v(T_Cx.x)"][-1]  # the two-port's internal node holds x/gap
+        print(f"\nngspice cross-check of the step to 0.9 V_pi:\n{cmp.table()}")
+        print(f"ngspice vs simulation: worst {cmp.worst_rel:.2e} of peak; in ngspice the plate rests at x = {x_spice:.9f} "
+              f"(stable equilibrium {x_eq:.9f})")
 
     fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
     x = np.linspace(0, GAP, 400, endpoint=False)

@@ -10,7 +10,12 @@ impedance E/I with the closed form
     Z(jω) = Re + jωLe + (Bl)² / (c + jωm + k/(jω)),
 
 whose peak Re + (Bl)²/c sits at the mechanical resonance f_s = √(k/m)/2π.
-Writes a chart of |Z| and its phase against frequency.
+Writes a chart of |Z| and its phase against frequency.  The drive at f_s is
+cross-checked in ngspice: through the force–voltage analogy the cone's mass,
+suspension and damping become an inductor, a capacitor and a resistor, the
+moving coil a gyrator (two current-controlled voltage sources), all in one
+deck compared state by state with the simulation
+(lagrangian.compare.compare_with_ngspice).
 
 Run: .venv/bin/python examples/loudspeaker.py [--out loudspeaker.png] [--points 13]
 """
@@ -30,6 +35,8 @@ import numpy as np
 import sympy as sp
 
 import lagrangian as lg
+from lagrangian.compare import compare_with_ngspice
+from lagrangian.spice import NgspiceMissingError
 
 RE, LE = 6.0, 0.5e-3  # Ω, H: voice-coil resistance and inductance
 BL = 7.0  # T m: force factor
@@ -37,9 +44,10 @@ M, K, C = 0.02, 2000.0, 1.5  # kg, N/m, N s/m: moving mass, suspension stiffness
 OMEGA = sp.Symbol("omega", positive=True)  # drive frequency, given per simulation
 
 
-def loudspeaker() -> lg.Model:
+def loudspeaker(omega=OMEGA) -> lg.Model:
+    """The loudspeaker driven by sin(ωt); ω a symbol by default (given per simulation), or a number."""
     m = lg.Model("loudspeaker")
-    m.add("voltage_source", "E", ("n1", "0"), E=sp.sin(OMEGA * lg.t))  # 1 V peak
+    m.add("voltage_source", "E", ("n1", "0"), E=sp.sin(omega * lg.t))  # 1 V peak
     m.add("resistor", "Re", ("n1", "n2"), R=RE)
     m.add("inductor", "Le", ("n2", "n3"), L=LE)
     m.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=BL)  # current n3 → 0 pushes the cone in +x
@@ -101,6 +109,15 @@ def main() -> None:
     print(f"\nsimulated {len(freqs)} frequencies in {time.perf_counter() - start:.1f} s")
     print(f"max relative difference simulated vs closed-form impedance: {worst:.2e}")
     print(f"impedance peak of the simulated sweep: |Z| = {abs(sim[peak]):.4f} Ω at {freqs[peak]:.4f} Hz (f_s = {fs:.4f} Hz)")
+
+    try:  # the drive at f_s in ngspice (its deck needs ω as a number)
+        cmp = compare_with_ngspice(loudspeaker(2 * np.pi * fs), 0.1, analogy="force-voltage", step=1e-4, max_step=2e-6,
+                                   method="exact")
+    except NgspiceMissingError as exc:
+        print(f"\nngspice cross-check skipped: {exc}")
+    else:
+        print(f"\nngspice cross-check, 0.1 s of the drive at f_s:\n{cmp.table()}")
+        print(f"ngspice vs simulation: worst {cmp.worst_rel:.2e} of peak")
 
     dense = np.geomspace(10, 2000, 600)
     zc = closed_form(dense)

@@ -18,7 +18,10 @@ from __future__ import annotations
 import functools
 import math
 import re
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -376,3 +379,36 @@ def test_solenoid_plungers_over_decades_agree_with_ngspice_and_the_closed_form(L
     assert rel_err(xo, xs) < 2e-6, deck
     assert rel_err(i_o, i_s) < 2e-6, deck
     assert xs[-1] == pytest.approx(x_eq, rel=1e-7) and xo[-1] == pytest.approx(x_eq, rel=1e-7)
+
+
+# ---------------------------------------------------------------------------
+# every transducer example cross-checks itself in ngspice
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def run_example(script: str, tmp_path: Path, *args: str) -> str:
+    proc = subprocess.run([sys.executable, str(EXAMPLES / script), "--out", str(tmp_path / "chart.png"), *args],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "cross-check skipped" not in proc.stdout
+    return proc.stdout
+
+
+@pytest.mark.parametrize(("script", "args", "runs", "tol"), [
+    ("electrostatic_pullin.py", (), 1, 1e-5),
+    ("loudspeaker.py", ("--points", "3"), 1, 1e-5),
+    ("dc_motor.py", (), 1, 1e-5),
+    ("solenoid.py", (), 2, 1e-4),
+])
+def test_transducer_examples_agree_with_ngspice(script, args, runs, tol, tmp_path):
+    out = run_example(script, tmp_path, *args)
+    worst = [float(w) for w in re.findall(r"ngspice vs simulation.*: worst (\S+) of peak", out)]
+    assert len(worst) == runs and max(worst) < tol, out
+    if script == "electrostatic_pullin.py":
+        rest, exact = map(float, re.search(r"in ngspice the plate rests at x = (\S+) \(stable equilibrium (\S+)\)", out).groups())
+        assert rest == pytest.approx(exact, abs=2e-9)
+    if script == "solenoid.py":
+        diffs = [float(d) for d in re.findall(r"relative difference(?: to the closed form)? (\S+?)\)", out)]
+        assert len(diffs) == 3 and max(diffs) < 1e-9, out
