@@ -475,6 +475,23 @@ def _param_symbols(model) -> list[sp.Symbol]:
     return list(model.parameters)
 
 
+def _geometry_symbols(model) -> list[sp.Symbol]:
+    """Symbols the user gave in components' parameters (a point's position along a body, say) that the
+    equations may not contain: contacts and impulses at those points still need their values."""
+    out: set[sp.Symbol] = set()
+
+    def walk(value):
+        if isinstance(value, dict):
+            for item in value.values():
+                walk(item)
+        elif isinstance(value, (sp.Basic, sp.MatrixBase)):
+            out.update(s for s in value.free_symbols if isinstance(s, sp.Symbol) and s != t)
+
+    for comp in model.components.values():
+        walk(comp.params)
+    return sorted(out, key=lambda s: s.name)
+
+
 def _substitution(model, at, velocity, params, time) -> dict:
     """Values for the plain symbols: given coordinates, velocities (0 when absent), parameters by name, time."""
     eq = model.eq
@@ -486,8 +503,9 @@ def _substitution(model, at, velocity, params, time) -> dict:
     for v, name in zip(eq.sym.v, eq.names):
         subs[v] = as_expr(velocity.get(name, 0), f"velocity[{name!r}]")
     by_name: dict[str, list] = {}
-    for s in model.parameters:
-        by_name.setdefault(s.name, []).append(s)
+    for s in [*model.parameters, *_geometry_symbols(model)]:  # also symbols only in points (where impulses act)
+        if s not in by_name.get(s.name, []):
+            by_name.setdefault(s.name, []).append(s)
     for name, value in params.items():
         if name not in by_name:
             raise UnknownNameError("parameter", name, by_name)

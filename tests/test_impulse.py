@@ -541,3 +541,15 @@ def test_newton_energy_gain_at_several_contacts_is_refused():
     assert hit.T_after <= hit.T_before
     assert all(g >= -1e-12 for g in hit.normal_after.values())
     assert hit.after["x_fly"] == pytest.approx(vel["x_fly"], rel=1e-12)  # frictionless: no horizontal impulse
+
+
+def test_a_symbol_only_in_the_struck_point_takes_its_value_from_params():
+    """The point's place along the rod (a fraction f of it) is in no energy, only where the impulse acts."""
+    m, L, f = sp.symbols("m L f", positive=True)
+    rod = lg.Model("free rod", dim=2)
+    rod.add("rod", "rod", "rod", m=m, length=L, points={"P": (f * L, 0)})
+    rod.add("free", "fly", ("ground", "rod"), child_point=(L / 2, 0))
+    assert "f" not in {s.name for s in rod.parameters}
+    jump = velocity_jump(rod, [Impulse("rod.P", (0, 0.7))], at={"theta_fly": 0.0}, params={"m": 0.3, "L": 0.9, "f": 0.8})
+    # I Δω = d × P with d = (f − ½) L along the rod: Δω = 0.3·0.9·0.7 / (0.3·0.81/12)
+    assert float(jump.after["theta_fly"]) == pytest.approx((0.8 - 0.5) * 0.9 * 0.7 / (0.3 * 0.9**2 / 12), rel=1e-12)
