@@ -158,6 +158,10 @@ class Parameter:
 
 
 
+#: The largest magnitude a parameter's value may have (a square of it still fits a double).
+LARGEST = 1e150
+
+
 def check_value(expr: Any, check: str, component: str, name: str) -> None:
     """Check a scalar against a parameter rule; symbolic values are checked by their assumptions."""
     test, rule = _CHECKS[check]
@@ -168,6 +172,10 @@ def check_value(expr: Any, check: str, component: str, name: str) -> None:
             raise ParameterError(component, name, f"must be a finite real number (got {expr}).")
         if not test(float(expr)):
             raise ParameterError(component, name, f"{rule} (got {expr}).")
+        if abs(float(expr)) > LARGEST:
+            raise ParameterError(component, name, f"{float(expr):g} is beyond {LARGEST:g}: the equations multiply "
+                                                  f"parameters, and such products overflow floating point. Choose "
+                                                  f"units that keep values nearer 1.")
         return
     # symbolic: refuse only what the assumptions prove wrong
     verdict = {  # only the rule asked for is evaluated: assumption queries on sums are slow

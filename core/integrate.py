@@ -102,8 +102,10 @@ class StiffnessWarning(UserWarning):
 #: The stiffness check before an explicit run looks at models of at most this many state variables (an
 #: eigenvalue problem of the linearization; larger models are not checked).
 STIFFNESS_CHECK_DIM = 400
-#: ... and warns when the run is stiff and would take at least this many explicit steps (span · |λ|max).
+#: ... and warns when the run is stiff and would take at least this many explicit steps (span · |λ|max),
 STIFFNESS_CHECK_STEPS = 1e5
+#: ... and refuses the run (it would not end) from this many on.
+STIFFNESS_REFUSE_STEPS = 1e10
 #: A fixed-step run of a conservative model whose energy changes by more than this (relative) has passed a
 #: singularity or gone unstable: its state is not a solution, and the run is an IntegrationError.
 EXPLODED = 1.0
@@ -1021,7 +1023,14 @@ def _stiffness_note(problem: Problem, integrator, t_span, y0, model) -> str | No
         return None
     span = float(t_span[1]) - float(t_span[0])
     slow = max(spec.slowest, 1.0 / span) if span > 0 else spec.slowest
-    if not (slow > 0 and spec.rho / slow > STIFFNESS_RATIO and span * spec.rho >= STIFFNESS_CHECK_STEPS):
+    steps = span * spec.rho if np.isfinite(spec.rho) else math.inf
+    if steps >= STIFFNESS_REFUSE_STEPS:
+        raise IntegrationError(
+            f"model {model!r} has a rate of {spec.rho:.3g} 1/s in its linearization at the start: the explicit method "
+            f"{integrator.name} would need some {steps:.3g} steps over this run, which would not end. Use "
+            f"method='auto' or method='Radau' (implicit), or check the parameter values (a damper of c = 1e308?)."
+        )
+    if not (slow > 0 and spec.rho / slow > STIFFNESS_RATIO and steps >= STIFFNESS_CHECK_STEPS):
         return None
     return (f"model {model!r} is stiff: the linearization at the start has rates from {spec.slowest:.3g} to "
             f"{spec.rho:.3g} 1/s (ratio {spec.rho / slow:.3g}), so the explicit method {integrator.name} needs steps of "

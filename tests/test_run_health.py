@@ -53,3 +53,17 @@ def test_a_fixed_step_through_a_singularity_is_an_error_not_a_state():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         model.simulate(0.8 * fall, method="verlet", step=1e-4, **start)
+
+
+def test_a_run_that_would_not_end_is_refused_and_the_way_out_works():
+    # c/m = 3.3e9 1/s: an explicit method would need 3e10 steps over 10 s
+    with pytest.raises(lg.IntegrationError, match=r"3\.3\de\+10 steps.*would not end.*method='auto'"):
+        damped(1e9).simulate(10, initial={"x_p": 0.01}, velocity={"x_p": 0.0})
+    res = damped(1e9).simulate(10, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, method="auto")
+    # the slow mode creeps at k/c = 4e-8 1/s: x(10) = 0.01 exp(−4e-7) to first order
+    assert res["x_p"][-1] == pytest.approx(0.01 * math.exp(-40 / 1e9 * 10), rel=1e-6)
+
+
+def test_values_beyond_floating_point_products_are_refused_when_given():
+    with pytest.raises(lg.ParameterError, match=r"component 'c', parameter 'c': 1e\+308 is beyond 1e\+150"):
+        damped(1e308)
