@@ -158,7 +158,9 @@ def compare_with_ngspice(
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         start = _time.perf_counter()
-        res = model.simulate((0.0, float(t_end)), initial=initial, velocity=velocity, params=params,
+        # ngspice's last time point may pass t_end by a rounding: the span covers every point it returned
+        end = max(float(t_end), float(run.time[-1])) if len(run.time) else float(t_end)
+        res = model.simulate((0.0, end), initial=initial, velocity=velocity, params=params,
                              t_eval=run.time, method=method, rtol=rtol, atol=atol)
         ours_s = _time.perf_counter() - start
     ours, rows = {}, []

@@ -385,7 +385,7 @@ def netlist(
                 f"{comp.kind} {comp.name!r} has no SPICE equivalent (its kind does not implement spice(ctx)); "
                 f"map a mechanism to its circuit analogue first (lagrangian.analogy)."
             )
-        ctx = Context(asm.views[comp.domain], asm.views, model.options, list(model.components.values()))
+        ctx = Context(asm.views[comp.domain], asm.views, model.options, list(model.components.values()), values=subs)
         parts = spice(ctx)
         names = [_element_name(el.prefix, comp.name if len(parts) == 1 else f"{comp.name}_{el.tag or i}", used)
                  for i, el in enumerate(parts)]

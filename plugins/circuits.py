@@ -180,7 +180,9 @@ class _Element(Component):
     domain = "electrical"
 
 
-def _source(component: Component, letter: str, value: Any) -> SpiceElement:
+def _source(component: Component, letter: str, value: Any, ctx) -> SpiceElement:
+    if isinstance(value, (sp.Basic, sp.MatrixBase)):
+        value = value.xreplace(ctx.values)  # symbols of the waveform (an amplitude E, a frequency) as given values
     wave = spice_waveform(value)
     if wave is not None:
         return SpiceElement(letter, component.nodes, wave)
@@ -272,7 +274,7 @@ class VoltageSource(_Element):
         return Contribution()
 
     def spice(self, ctx) -> list[SpiceElement]:
-        return [_source(self, "V", self.E)]
+        return [_source(self, "V", self.E, ctx)]
 
     @classmethod
     def example(cls) -> Example:
@@ -301,7 +303,7 @@ class CurrentSource(_Element):
         return Contribution()
 
     def spice(self, ctx) -> list[SpiceElement]:
-        return [_source(self, "I", self.I)]
+        return [_source(self, "I", self.I, ctx)]
 
     @classmethod
     def example(cls) -> Example:
