@@ -49,10 +49,9 @@ K, M, C = 1.0, 1.0, 1.0  # spring, plate mass, damper
 R = 0.1  # source resistance
 
 
-def actuator(voltage=sp.Symbol("V")) -> lg.Model:
-    """The actuator; a DC step of ``voltage`` from t = 0 (by default a symbol V, its value given per run)."""
+def actuator() -> lg.Model:
     m = lg.Model("electrostatic actuator")
-    m.add("voltage_source", "V", ("n1", "0"), E=voltage)
+    m.add("voltage_source", "V", ("n1", "0"), E=sp.Symbol("V"))  # a DC step from t = 0, value per run
     m.add("resistor", "R", ("n1", "n2"), R=R)
     m.add("variable_capacitor", "Cx", ("n2", "0", "plate"), eps_A=EPS_A, gap=GAP)
     m.add("mass", "m", "plate", m=M)
@@ -105,11 +104,10 @@ def main() -> None:
             contact = exc.time
         runs["1.05 V_pi: pull-in"] = model.simulate(0.999 * contact, params={"V": above}, points=801)
 
-    # the same step below pull-in in ngspice (its deck needs the voltage as a number)
-    try:
+    try:  # the same step below pull-in in ngspice
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", lg.InitialConditionWarning)
-            cmp = compare_with_ngspice(actuator(below), 60, analogy="force-voltage", step=0.01, max_step=1e-3)
+            cmp = compare_with_ngspice(model, 60, analogy="force-voltage", params={"V": below}, step=0.01, max_step=1e-3)
     except NgspiceMissingError as exc:
         print(f"\nngspice cross-check skipped: {exc}")
     else:
