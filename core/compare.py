@@ -106,6 +106,32 @@ class Comparison:
         return out
 
 
+def _state_scale(model: Model, res) -> np.ndarray:
+    """Each state's peak over ``res`` (coordinates, then velocities of the inertial ones), as a scale for ``atol``.
+
+    A state that stays at zero takes 1e-12 of the largest peak of its kind, so it does not ask for steps of round-off.
+    """
+    eq = model.eq
+    q = np.array([np.max(np.abs(res.q[n])) for n in eq.names])
+    v = np.array([np.max(np.abs(res.v[eq.names[i]])) for i in eq.inertial])
+    floor = lambda x: np.maximum(x, 1e-12 * (np.max(x) if x.size and np.max(x) > 0 else 1.0))  # noqa: E731
+    return np.concatenate([floor(q), floor(v)])
+
+
+def _scaled_atol(model: Model, span, initial, velocity, params, t_eval, method) -> np.ndarray:
+    """Each state's scale, from runs at ``rtol=1e-6``: the first with ``atol=1e-12``, again while a state's peak
+    proves far smaller than the absolute tolerance it ran with (at most three runs)."""
+    atol: Any = 1e-12
+    for _ in range(3):
+        res = model.simulate(span, initial=initial, velocity=velocity, params=params, t_eval=t_eval,
+                             method=method, rtol=1e-6, atol=atol)
+        scale = _state_scale(model, res)
+        if np.all(1e-6 * scale >= 0.1 * np.asarray(atol)):
+            break
+        atol = 1e-6 * scale
+    return scale
+
+
 def compare_with_ngspice(
     model: Model,
     t_end: float,
@@ -118,14 +144,19 @@ def compare_with_ngspice(
     max_step: float | None = None,
     method: str = "DOP853",
     rtol: float = 1e-11,
-    atol: float = 1e-13,
+    atol: float | None = None,
 ) -> Comparison:
     """Simulate ``model`` and run it (or its ``analogy`` analogue) in ngspice; compare every state quantity.
 
     ``step`` is the output step of ngspice (default ``t_end/1000``) and
     ``max_step`` its step cap (default ``step/10``): ngspice's error follows
     the cap (about 0.3·h² for the trapezoidal rule), so choose it for the
-    accuracy wanted.  Our integration uses ``method``, ``rtol``, ``atol``.
+    accuracy wanted.  Our integration uses ``method``, ``rtol``, ``atol``;
+    ``atol=None`` (default) scales the absolute tolerance to each state: a
+    first run at ``rtol=1e-6`` finds each state's peak, and the run compared
+    takes ``atol = rtol × peak`` per state.  A fixed absolute tolerance is
+    wrong for circuits, whose charges are often 1e-8 C or less: 1e-13 would
+    be a relative error of 1e-5 there.
     """
     from .analogy import map_model
     from .spice import netlist, run_transient
@@ -160,6 +191,8 @@ def compare_with_ngspice(
         start = _time.perf_counter()
         # ngspice's last time point may pass t_end by a rounding: the span covers every point it returned
         end = max(float(t_end), float(run.time[-1])) if len(run.time) else float(t_end)
+        if atol is None:
+            atol = _scaled_atol(model, (0.0, end), initial, velocity, params, run.time, method) * rtol
         res = model.simulate((0.0, end), initial=initial, velocity=velocity, params=params,
                              t_eval=run.time, method=method, rtol=rtol, atol=atol)
         ours_s = _time.perf_counter() - start

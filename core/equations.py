@@ -40,6 +40,7 @@ from .component import t
 from .derive import Derivation, Rewriter
 from .errors import ModelError
 from .identity import is_zero
+from .switching import SWITCHES
 
 __all__ = ["Equations"]
 
@@ -263,6 +264,18 @@ class Equations:
                 "derivatives": sorted({d for e in solve for d in e.atoms(sp.Derivative)}, key=sp.default_sort_key),
             }
         return self._scan
+
+    def time_switches(self) -> list[sp.Expr]:
+        """The switching functions of ``t`` in the generic ``A`` and ``b`` (pulses, steps, ...; cached): those whose
+        arguments hold ``t`` and no coordinate or velocity, where an adaptive integrator restarts
+        (:mod:`lagrangian.switching`)."""
+        if getattr(self, "_switches", None) is None:
+            g = self.generic()
+            state = set(self.sym.q) | set(self.sym.v) | set(self.sym.a)
+            found = {a for e in (g["A"], g["b"]) for a in sp.Matrix(e).atoms(*SWITCHES)
+                     if t in a.free_symbols and not a.free_symbols & state}
+            self._switches = sorted(found, key=sp.default_sort_key)
+        return list(self._switches)
 
     def parameter_symbols(self) -> set[sp.Symbol]:
         """Symbols without values in the equations and energies (not coordinates, velocities or ``t``); cached."""

@@ -22,6 +22,7 @@ import sympy as sp
 from .component import t
 from .equations import Equations
 from .errors import ModelError, SingularMassMatrixError, UnknownNameError
+from .switching import switching_times
 from .text import as_expr, parse_expression
 
 __all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state"]
@@ -77,6 +78,18 @@ class NumericModel:
         energies = [generic[k].xreplace(subs) for k in ("T", "V", "D")]
         q, v = self.eq.sym.q, self.eq.sym.v
         return (t, q, self.vI), [A, b], (t, q, v), energies
+
+    def switching_times(self, lo: float, hi: float) -> list[float]:
+        """Times in ``(lo, hi)`` where a function of ``t`` in the equations switches branch, with these values.
+
+        Raises ``ValueError`` when they cannot be found (a switch at the root of a transcendental function).
+        """
+        switches = self.eq.time_switches()
+        if not switches:
+            return []
+        subs = {s: sp.Float(v) for s, v in self.values.items()}
+        timed = [a.xreplace(subs) for a in switches]
+        return switching_times([a for a in timed if a.free_symbols == {t}], lo, hi)
 
     @property
     def _flat_exprs(self):

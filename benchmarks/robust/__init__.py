@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-MODULES = ("robust.routh_cases", "robust.impulse_cases", "robust.circuit_cases", "robust.scene_cases")
+MODULES = ("robust.routh_cases", "robust.impact_cases", "robust.circuit_cases", "robust.scene_cases")
 
 
 class Mismatch(AssertionError):
