@@ -63,6 +63,7 @@ from scipy.linalg import expm
 from sympy.core.function import AppliedUndef
 from sympy.core.relational import Relational
 
+from . import arguments
 from .component import t
 from .errors import IntegrationError, ModelError, SingularMassMatrixError
 from .identity import depends_on, is_zero
@@ -491,31 +492,6 @@ def _march(prop: _Propagator, z: np.ndarray, start: float, times: np.ndarray, un
     return out
 
 
-def _span(t_end) -> tuple[float, float]:
-    try:
-        span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
-    except (TypeError, ValueError):
-        raise ModelError(f"t_end must be a number or a pair (t0, t1), got {t_end!r}.") from None
-    if len(span) != 2 or not np.all(np.isfinite(span)) or not span[1] > span[0]:
-        raise ModelError(f"the time span must end after it starts, got {span}.")
-    return span
-
-
-def _grid(span: tuple[float, float], points: int, t_eval) -> np.ndarray:
-    if t_eval is None:
-        if not isinstance(points, (int, np.integer)) or points < 1:
-            raise ModelError(f"points must be a positive integer, got {points!r}.")
-        return np.linspace(*span, points)
-    grid = np.asarray(t_eval, dtype=float)
-    if grid.ndim != 1 or grid.size == 0 or not np.all(np.isfinite(grid)):
-        raise ModelError("t_eval must be a non-empty sequence of finite times.")
-    if np.any(np.diff(grid) < 0):
-        raise ModelError("t_eval must be sorted in increasing order.")
-    if grid[0] < span[0] or grid[-1] > span[1]:
-        raise ModelError(f"t_eval must lie within the time span {span}, got [{grid[0]:g}, {grid[-1]:g}].")
-    return grid
-
-
 def simulate_exact(
     model,
     t_end: float | tuple[float, float] = 10.0,
@@ -554,8 +530,10 @@ def simulate_exact(
     >>> res.method
     'exact'
     """
-    span = _span(t_end)
-    grid = _grid(span, points, t_eval)
+    span = arguments.span(t_end)
+    initial = arguments.states("initial", initial, model.eq.names)
+    velocity = arguments.states("velocity", velocity, model.eq.names)
+    grid = arguments.grid(span, points, t_eval, len(model.eq.names) + len(model.eq.inertial))
     ss = state_space(model, params)
     y0, defaulted = initial_state(model.eq, initial or {}, velocity or {})
     inputs = list(ss.inputs)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from . import arguments
 from .assembly import Assembly, assemble
 from .component import Component, check_value, t
 from .domain import Coordinate
@@ -416,6 +417,18 @@ class Model:
         """
         from .integrate import Problem, choose, resolve
 
+        t_end = arguments.span(t_end)
+        initial = arguments.states("initial", initial, self.eq.names)
+        velocity = arguments.states("velocity", velocity, self.eq.names)
+        params = arguments.states("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]}))
+        dim = len(self.eq.names) + len(self.eq.inertial)
+        arguments.grid(t_end, points, t_eval, dim)
+        rtol = arguments.positive("rtol", rtol)
+        atol = arguments.absolute_tolerance(atol, dim)
+        max_step = arguments.positive("max_step", max_step, infinite=True)
+        step = arguments.positive("step", step)
+        energy_tol = arguments.energy_tolerance(energy_tol)
+        progress = arguments.progress(progress)
         if method == "auto":
             numeric = self.numeric(params)
             span = self._span(t_end)
@@ -458,13 +471,7 @@ class Model:
 
     @staticmethod
     def _span(t_end) -> tuple[float, float]:
-        try:
-            span = (0.0, float(t_end)) if np.isscalar(t_end) else tuple(map(float, t_end))
-        except (TypeError, ValueError):
-            raise ModelError(f"t_end must be a number or a pair (t0, t1), got {t_end!r}.") from None
-        if len(span) != 2 or not np.all(np.isfinite(span)) or not span[1] > span[0]:
-            raise ModelError(f"the time span must end after it starts, got {span}.")
-        return span
+        return arguments.span(t_end)
 
     def _linear(self, params) -> bool:
         """Whether the model is linear time-invariant (so ``method="exact"`` may apply)."""
@@ -508,7 +515,7 @@ class Model:
             notes = [*notes, note]
         y0, defaulted = initial_state(self.eq, initial or {}, velocity or {})
         self._check_constraints(numeric, span[0], y0)
-        grid = np.linspace(*span, points) if t_eval is None else np.asarray(t_eval, dtype=float)
+        grid = arguments.grid(span, points, t_eval, len(y0))
         problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
         given = {"rtol": rtol, "atol": atol, "max_step": max_step, "step": step}
         wanted = {"rtol": 1e-9, "atol": 1e-12, "max_step": np.inf} if integrator.kind == "adaptive" else {"step": None}

@@ -38,8 +38,31 @@ class InitialConditionWarning(UserWarning):
     """Some initial conditions were not given and default to zero."""
 
 
+def _checked_signal(name: str, fn: Callable) -> Callable:
+    """A user's callable signal, whose value must be one number per time (a scalar, or an array shaped as ``t``)."""
+
+    def signal(time):
+        value = fn(time)
+        try:
+            if value is None:
+                raise TypeError
+            out = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"the signal {name}(t), a Python callable, returned {value!r:.60} at t={time!r:.30}: it must "
+                             f"return a number.") from None
+        if out.shape not in ((), np.shape(time)):
+            raise ModelError(f"the signal {name}(t), a Python callable, returned an array of shape {out.shape} at "
+                             f"t={time!r:.30}: it must return one number per time.")
+        if not np.all(np.isfinite(out)):
+            raise ModelError(f"the signal {name}(t), a Python callable, returned {value!r:.60} at t={time!r:.30}: it must "
+                             f"return a finite number.")
+        return out
+
+    return signal
+
+
 def _lambdify(args, exprs, signals):
-    modules = [{f.__name__: fn for f, fn in signals.items()}, "numpy"]
+    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, "numpy"]
     return sp.lambdify(args, exprs, modules=modules, cse=True)
 
 

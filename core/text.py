@@ -83,8 +83,8 @@ def parse_expression(text: str, what: str, *, names: Mapping[str, sp.Basic] | No
 def as_expr(value: Any, what: str, *, names: Mapping[str, sp.Basic] | None = None) -> sp.Expr:
     """A number, a SymPy expression or text (read by :func:`parse_expression`) as a SymPy expression.
 
-    Anything else (a bool, a list, an arbitrary object) is an
-    :class:`~lagrangian.ExpressionError` naming ``what``.
+    Anything else (a bool, a list, an arbitrary object, nan or an infinity) is
+    an :class:`~lagrangian.ExpressionError` naming ``what``.
 
     >>> as_expr(0.3, "m"), as_expr("3/4", "m"), as_expr(sp.Symbol("k"), "m")
     (0.300000000000000, 3/4, k)
@@ -99,6 +99,8 @@ def as_expr(value: Any, what: str, *, names: Mapping[str, sp.Basic] | None = Non
         raise ExpressionError(f"{what}: expected a number or an expression, got {_short(repr(value))}.") from None
     if not isinstance(expr, sp.Expr):
         raise ExpressionError(f"{what}: expected a scalar number or expression, got {_short(repr(value))}.")
+    if expr.has(sp.nan, sp.oo, -sp.oo, sp.zoo):
+        raise ExpressionError(f"{what}: expected a finite number or expression, got {_short(repr(value))}.")
     return expr
 
 
