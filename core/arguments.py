@@ -5,11 +5,11 @@ same arguments; these functions check them before any work is done, so a
 wrong type or value is a :class:`~lagrangian.errors.ModelError` naming the
 argument — never a NumPy, SciPy or SymPy error from deep inside a run.
 
->>> span("10")
+>>> check_span("10")
 Traceback (most recent call last):
 ...
 lagrangian.errors.ModelError: t_end must be a number of seconds or a pair (t0, t1), got '10' of type str: write t_end=10.
->>> grid((0.0, 1.0), 3, None)
+>>> check_grid((0.0, 1.0), 3, None)
 array([0. , 0.5, 1. ])
 """
 
@@ -38,7 +38,7 @@ def _kind(value: Any) -> str:
     return type(value).__name__
 
 
-def span(t_end: Any) -> tuple[float, float]:
+def check_span(t_end: Any) -> tuple[float, float]:
     """``t_end`` (a number) or ``(t0, t1)`` as a pair of finite floats with ``t1 > t0``."""
     if _number(t_end):
         pair: Sequence[Any] = (0.0, t_end)
@@ -61,7 +61,7 @@ def _parses(text: str) -> bool:
     return True
 
 
-def grid(bounds: tuple[float, float], points: Any, t_eval: Any, states: int = 1) -> np.ndarray:
+def check_grid(bounds: tuple[float, float], points: Any, t_eval: Any, states: int = 1) -> np.ndarray:
     """The output times: ``points`` evenly spaced over ``bounds``, or ``t_eval`` (sorted, finite, within ``bounds``).
 
     ``states`` values are kept per time; a grid whose outputs would not fit in
@@ -116,7 +116,7 @@ def _fits(times: int, states: int, what: str) -> None:
         )
 
 
-def positive(name: str, value: Any, *, infinite: bool = False) -> float | None:
+def check_positive(name: str, value: Any, *, infinite: bool = False) -> float | None:
     """``value`` as a float > 0 (``None`` stays ``None``); ``infinite`` allows ``inf``."""
     if value is None:
         return None
@@ -128,10 +128,10 @@ def positive(name: str, value: Any, *, infinite: bool = False) -> float | None:
     return out
 
 
-def absolute_tolerance(value: Any, states: int) -> Any:
+def check_atol(value: Any, states: int) -> Any:
     """``atol``: a positive number, or one per state value (``states`` of them)."""
     if value is None or _number(value):
-        return positive("atol", value)
+        return check_positive("atol", value)
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -144,7 +144,7 @@ def absolute_tolerance(value: Any, states: int) -> Any:
     return arr
 
 
-def energy_tolerance(value: Any) -> float | bool | None:
+def check_energy_tol(value: Any) -> float | bool | None:
     """``energy_tol``: ``None`` (the default), ``False`` (no check), ``True``, or a relative drift ≥ 0."""
     if value is None or isinstance(value, bool):
         return value
@@ -154,7 +154,7 @@ def energy_tolerance(value: Any) -> float | bool | None:
     return float(value)
 
 
-def states(name: str, value: Any, names: Sequence[str]) -> dict[str, Any]:
+def check_mapping(name: str, value: Any, names: Sequence[str]) -> dict[str, Any]:
     """``initial`` / ``velocity`` / ``params``: a mapping by name (``None`` is empty)."""
     if value is None:
         return {}
@@ -166,7 +166,7 @@ def states(name: str, value: Any, names: Sequence[str]) -> dict[str, Any]:
                      f"Names: {', '.join(names) or '(none)'}.")
 
 
-def progress(value: Any) -> bool | Callable[[float, float], None]:
+def check_progress(value: Any) -> bool | Callable[[float, float], None]:
     """``progress``: a bool or a callable ``progress(t, t_end)``."""
     if isinstance(value, bool) or callable(value):
         return value

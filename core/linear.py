@@ -63,7 +63,7 @@ from scipy.linalg import expm
 from sympy.core.function import AppliedUndef
 from sympy.core.relational import Relational
 
-from . import arguments
+from .arguments import check_grid, check_mapping, check_span
 from .component import t
 from .errors import IntegrationError, ModelError, SingularMassMatrixError
 from .identity import depends_on, is_zero
@@ -530,10 +530,10 @@ def simulate_exact(
     >>> res.method
     'exact'
     """
-    span = arguments.span(t_end)
-    initial = arguments.states("initial", initial, model.eq.names)
-    velocity = arguments.states("velocity", velocity, model.eq.names)
-    grid = arguments.grid(span, points, t_eval, len(model.eq.names) + len(model.eq.inertial))
+    span = check_span(t_end)
+    initial = check_mapping("initial", initial, model.eq.names)
+    velocity = check_mapping("velocity", velocity, model.eq.names)
+    grid = check_grid(span, points, t_eval, len(model.eq.names) + len(model.eq.inertial))
     ss = state_space(model, params)
     y0, defaulted = initial_state(model.eq, initial or {}, velocity or {})
     inputs = list(ss.inputs)

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from . import arguments
+from .arguments import check_atol, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
 from .assembly import Assembly, assemble
 from .component import Component, check_value, t
 from .domain import Coordinate
@@ -417,18 +417,18 @@ class Model:
         """
         from .integrate import Problem, choose, resolve
 
-        t_end = arguments.span(t_end)
-        initial = arguments.states("initial", initial, self.eq.names)
-        velocity = arguments.states("velocity", velocity, self.eq.names)
-        params = arguments.states("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]}))
+        t_end = check_span(t_end)
+        initial = check_mapping("initial", initial, self.eq.names)
+        velocity = check_mapping("velocity", velocity, self.eq.names)
+        params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]}))
         dim = len(self.eq.names) + len(self.eq.inertial)
-        arguments.grid(t_end, points, t_eval, dim)
-        rtol = arguments.positive("rtol", rtol)
-        atol = arguments.absolute_tolerance(atol, dim)
-        max_step = arguments.positive("max_step", max_step, infinite=True)
-        step = arguments.positive("step", step)
-        energy_tol = arguments.energy_tolerance(energy_tol)
-        progress = arguments.progress(progress)
+        check_grid(t_end, points, t_eval, dim)
+        rtol = check_positive("rtol", rtol)
+        atol = check_atol(atol, dim)
+        max_step = check_positive("max_step", max_step, infinite=True)
+        step = check_positive("step", step)
+        energy_tol = check_energy_tol(energy_tol)
+        progress = check_progress(progress)
         if method == "auto":
             numeric = self.numeric(params)
             span = self._span(t_end)
@@ -471,7 +471,7 @@ class Model:
 
     @staticmethod
     def _span(t_end) -> tuple[float, float]:
-        return arguments.span(t_end)
+        return check_span(t_end)
 
     def _linear(self, params) -> bool:
         """Whether the model is linear time-invariant (so ``method="exact"`` may apply)."""
@@ -515,7 +515,7 @@ class Model:
             notes = [*notes, note]
         y0, defaulted = initial_state(self.eq, initial or {}, velocity or {})
         self._check_constraints(numeric, span[0], y0)
-        grid = arguments.grid(span, points, t_eval, len(y0))
+        grid = check_grid(span, points, t_eval, len(y0))
         problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
         given = {"rtol": rtol, "atol": atol, "max_step": max_step, "step": step}
         wanted = {"rtol": 1e-9, "atol": 1e-12, "max_step": np.inf} if integrator.kind == "adaptive" else {"step": None}
