@@ -1,7 +1,8 @@
-"""``python -m lagrangian``: the same as the ``lagrangian`` command."""
+"""``python -m lagrangian``: the same as the ``lagrangian`` command (exit status as :func:`lagrangian.cli.main`)."""
 
 import sys
 
 from .cli import main
 
-sys.exit(main())
+if __name__ == "__main__":
+    sys.exit(main())

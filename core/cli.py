@@ -12,16 +12,206 @@ SPICE netlist (``.cir``, ``.net``, ``.sp``, ``.spice``: its ``.tran`` and
 ``.ic`` are used) or a Python file ``file.py[:name]`` whose ``name`` (default
 ``model``, else ``build``) is a model or a function returning one.  It
 prints the plan and writes the outputs as CSV (``--csv``).
+``lagrangian --version`` prints the installed version.
+
+Errors are one line on standard error, ``lagrangian: error: <message>``,
+naming the option or the input at fault and what would fix it; warnings the
+library raises during a command (:class:`~lagrangian.InitialConditionWarning`,
+``EnergyDriftWarning``, ``StiffnessWarning``, ``NetlistWarning``...) are one
+line each, ``lagrangian: warning: <message>``.  Option values are checked
+before anything runs: counts are whole numbers (``--points`` at least 2,
+``--repeat`` at least 1), times, step sizes and tolerances finite and
+positive (tolerances below 1), method names registered integrators.
+
+Exit status:
+
+- 0: success (also ``--help`` and ``--version``);
+- 1: the command failed while running: an error of the library
+  (:class:`~lagrangian.LagrangianError`: an unknown benchmark or output, a
+  model that cannot be built...), a scene source that cannot be read, an
+  output file or directory that cannot be written;
+- 2: usage error: no command, an unknown option, a bad option value;
+- 130: interrupted (Ctrl-C);
+- 141: standard output was closed early (``lagrangian kinds | head -1``):
+  the rest of the output is dropped without a message, and the status is
+  the one a shell reports for a program ended by ``SIGPIPE`` (128 + 13).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
+import warnings
+from pathlib import Path
 
-from .errors import LagrangianError
+from .errors import LagrangianError, UnknownNameError
 
 __all__ = ["main"]
+
+#: Exit status of a command whose standard output was closed early (128 + SIGPIPE).
+EXIT_BROKEN_PIPE = 141
+EXIT_USAGE = 2
+EXIT_FAILURE = 1
+EXIT_INTERRUPTED = 130
+
+
+def _one_line(text: object) -> str:
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
+def _fail(message: str) -> int:
+    print(f"lagrangian: error: {_one_line(message)}", file=sys.stderr)
+    return EXIT_FAILURE
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` while a command runs: ``lagrangian: warning: <message>``, one line."""
+    stream = file if file is not None else sys.stderr
+    if stream is None:
+        return
+    try:
+        stream.write(f"lagrangian: warning: {_one_line(message)}\n")
+    except OSError:  # stderr gone: nowhere to warn (as warnings.showwarning does)
+        pass
+
+
+# ---------------------------------------------------------------------------
+# Option values: argparse ``type=`` functions, so a bad value is a usage error naming its option
+# ---------------------------------------------------------------------------
+
+
+def _whole(minimum: int, what: str):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum:
+            raise argparse.ArgumentTypeError(f"expected a whole number of at least {minimum} ({what}), got {text!r}")
+        return value
+
+    return parse
+
+
+def _number(text: str, lo: float = 0.0, hi: float = math.inf) -> float | None:
+    """``text`` as a float with ``lo < value < hi`` (finite), else None."""
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if math.isfinite(value) and lo < value < hi else None
+
+
+def _positive(what: str, example: str):
+    def parse(text: str) -> float:
+        value = _number(text)
+        if value is None:
+            raise argparse.ArgumentTypeError(f"expected {what}: a finite number > 0 such as {example}, got {text!r}")
+        return value
+
+    return parse
+
+
+def _tolerance(text: str) -> float:
+    value = _number(text, 0.0, 1.0)
+    if value is None:
+        raise argparse.ArgumentTypeError(f"expected a relative tolerance between 0 and 1 such as 1e-8, got {text!r}")
+    return value
+
+
+def _numbers(what: str, example: str, hi: float = math.inf):
+    def parse(text: str) -> list[float]:
+        items = [item.strip() for item in text.split(",") if item.strip()]
+        if not items:
+            raise argparse.ArgumentTypeError(f"expected comma-separated {what}s such as {example}, got {text!r}")
+        values = []
+        for item in items:
+            value = _number(item, 0.0, hi)
+            if value is None:
+                bound = f"a number between 0 and {hi:g}" if math.isfinite(hi) else "a finite number > 0"
+                raise argparse.ArgumentTypeError(
+                    f"{item!r} is not a valid {what} ({bound}): give comma-separated values such as {example}")
+            values.append(value)
+        return values
+
+    return parse
+
+
+def _pairs(text: str) -> dict[str, float]:
+    """``name=value[,name=value]`` as a dict (``--initial``, ``--velocity``, ``--param``)."""
+    out = {}
+    for pair in text.split(","):
+        if not pair.strip():
+            continue
+        key, sep, value = pair.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise argparse.ArgumentTypeError(f"expected name=value pairs such as x=1,y=0, got {pair.strip()!r}")
+        try:
+            number = float(value)
+        except ValueError:
+            number = math.nan
+        if not math.isfinite(number):
+            raise argparse.ArgumentTypeError(f"the value of {key!r} must be a finite number, got {value.strip()!r}")
+        out[key] = number
+    return out
+
+
+def _methods(extra: tuple[str, ...], single: bool):
+    """Integration method names, checked against the registered integrators (and ``extra``)."""
+
+    def parse(text: str) -> str | list[str]:
+        from .registry import default_registry
+
+        names = [text.strip()] if single else [m.strip() for m in text.split(",") if m.strip()]
+        if not names or not names[0]:
+            raise argparse.ArgumentTypeError(f"expected {'a method name' if single else 'comma-separated method names'} "
+                                             f"(see 'lagrangian integrators'), got {text!r}")
+        known = [*default_registry().integrators, *extra]
+        for name in names:
+            if name not in known:
+                raise argparse.ArgumentTypeError(
+                    f"{UnknownNameError('integration method', name, known)} See 'lagrangian integrators'.")
+        return names[0] if single else names
+
+    return parse
+
+
+# ---------------------------------------------------------------------------
+# Output paths
+# ---------------------------------------------------------------------------
+
+
+def _output_problem(option: str, path: str, *, directory: bool) -> str | None:
+    """Why ``path`` cannot take the output of ``option`` (a file, or a directory made if missing), or None."""
+    target = Path(path).absolute()
+    if directory and target.exists() and not target.is_dir():
+        return f"{option} {path!r} is a file, not a directory: give a directory (it is created if missing)."
+    if not directory and target.is_dir():
+        return f"{option} {path!r} is a directory: give a file name, such as {os.path.join(path, 'out.csv')!r}."
+    folder = target if directory else target.parent
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        return f"{option} {path!r}: {str(existing)!r} is a file, not a directory: give a path inside a directory."
+    if not directory and existing != folder:
+        return f"{option} {path!r}: directory {str(folder)!r} does not exist: create it or give another path."
+    if not os.access(existing, os.W_OK | os.X_OK) or (target.exists() and not os.access(target, os.W_OK)):
+        return f"{option} {path!r}: permission denied: give a path you can write to."
+    return None
+
+
+def _write_failure(option: str, path: str, exc: OSError) -> str:
+    file = f" {str(exc.filename)!r}" if exc.filename and str(exc.filename) != str(path) else ""
+    return f"{option} {path!r}: cannot write{file}: {exc.strerror or exc}. Give a path you can write to."
+
+
+# ---------------------------------------------------------------------------
+# Commands
+# ---------------------------------------------------------------------------
 
 
 def _kinds(registry) -> str:
@@ -53,15 +243,6 @@ def _integrators(registry) -> str:
     return "\n".join(lines)
 
 
-def _floats(text: str | None, what: str) -> list[float] | None:
-    if text is None:
-        return None
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise SystemExit(f"error: --{what} takes comma-separated numbers, got {text!r}") from None
-
-
 def _bench(args, registry) -> int:
     from .bench import run
 
@@ -74,10 +255,16 @@ def _bench(args, registry) -> int:
             print("\nrun: lagrangian bench NAME... [--methods A,B] [--out DIR]  (NAME 'all' runs every available one)",
                   file=sys.stderr)
         return 0
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else None
-    results = run(args.names, methods, out=args.out, tolerances=_floats(args.tolerances, "tolerances"),
-                  steps=_floats(args.steps, "steps"), repeat=args.repeat, registry=registry,
-                  progress=not args.quiet, chart=not args.no_chart)
+    problem = _output_problem("--out", args.out, directory=True)
+    if problem:
+        return _fail(problem)
+    try:
+        results = run(args.names, args.methods, out=args.out, tolerances=args.tolerances, steps=args.steps,
+                      repeat=args.repeat, registry=registry, progress=not args.quiet, chart=not args.no_chart)
+    except BrokenPipeError:
+        raise
+    except OSError as exc:
+        return _fail(_write_failure("--out", args.out, exc))
     for wp, files in results:
         print(wp.table())
         print("written: " + ", ".join(map(str, files)))
@@ -85,26 +272,9 @@ def _bench(args, registry) -> int:
     return 0
 
 
-def _pairs(items: list[str] | None, what: str) -> dict[str, float]:
-    out = {}
-    for item in items or []:
-        for pair in item.split(","):
-            if not pair.strip():
-                continue
-            key, sep, value = pair.partition("=")
-            try:
-                if not sep:
-                    raise ValueError
-                out[key.strip()] = float(value)
-            except ValueError:
-                raise SystemExit(f"error: --{what} takes name=value pairs, got {pair!r}") from None
-    return out
-
-
 def _load_model(source: str):
     """A model (and its netlist's initial state and span, if any) from a netlist or ``file.py[:name]``."""
     import importlib.util
-    from pathlib import Path
 
     from .errors import ModelError
     from .model import Model
@@ -113,17 +283,26 @@ def _load_model(source: str):
     file = Path(path)
     if not file.exists():
         raise ModelError(f"scene source {path!r} does not exist: give a netlist file or a Python file (file.py[:name]).")
-    if file.suffix.lower() in (".cir", ".net", ".sp", ".spice", ".ckt"):
-        from .netlist import read_netlist_file
+    if file.is_dir():
+        raise ModelError(f"scene source {path!r} is a directory: give a netlist file or a Python file (file.py[:name]).")
+    try:
+        if file.suffix.lower() in (".cir", ".net", ".sp", ".spice", ".ckt"):
+            from .netlist import read_netlist_file
 
-        imported = read_netlist_file(file)
-        span = (imported.tran.start, imported.tran.stop) if imported.tran else None
-        return imported.model, imported.initial, imported.velocity, span
-    if file.suffix != ".py":
-        raise ModelError(f"scene source {path!r}: expected a netlist (.cir, .net, .sp, .spice) or a Python file (.py).")
-    spec = importlib.util.spec_from_file_location(f"_lagrangian_scene_{file.stem}", file)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+            imported = read_netlist_file(file)
+            span = (imported.tran.start, imported.tran.stop) if imported.tran else None
+            return imported.model, imported.initial, imported.velocity, span
+        if file.suffix != ".py":
+            raise ModelError(f"scene source {path!r}: expected a netlist (.cir, .net, .sp, .spice) or a Python file (.py).")
+        spec = importlib.util.spec_from_file_location(f"_lagrangian_scene_{file.stem}", file)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    except UnicodeDecodeError as exc:
+        raise ModelError(f"scene source {path!r} is not a text file ({exc.reason}): give a netlist or a Python file.") from exc
+    except SyntaxError as exc:
+        raise ModelError(f"scene source {path!r}, line {exc.lineno}: {exc.msg}: fix the Python file.") from exc
+    except OSError as exc:
+        raise ModelError(f"scene source {path!r} cannot be read: {exc.strerror or exc}.") from exc
     names = [attr] if attr else ["model", "build"]
     for name in names:
         obj = getattr(module, name, None)
@@ -136,6 +315,10 @@ def _load_model(source: str):
     raise ModelError(f"{file} defines none of {', '.join(names)}: name the model with {file}:NAME.")
 
 
+def _merged(dicts: list[dict[str, float]] | None) -> dict[str, float]:
+    return {k: v for d in dicts or [] for k, v in d.items()}
+
+
 def _scene(args) -> int:
     import csv
 
@@ -143,20 +326,27 @@ def _scene(args) -> int:
 
     from .scene import Scene
 
+    if args.csv:
+        problem = _output_problem("--csv", args.csv, directory=False)
+        if problem:
+            return _fail(problem)
     model, initial, velocity, span = _load_model(args.source)
-    initial = {**initial, **_pairs(args.initial, "initial")}
-    velocity = {**velocity, **_pairs(args.velocity, "velocity")}
+    initial = {**initial, **_merged(args.initial)}
+    velocity = {**velocity, **_merged(args.velocity)}
     t_end = args.t_end if args.t_end is not None else (span or 10.0)
     scene = Scene(model, args.output, t_end, tol=args.tol, initial=initial, velocity=velocity,
-                  params=_pairs(args.param, "param"), points=args.points, method=args.method)
+                  params=_merged(args.param), points=args.points, method=args.method)
     print(scene.report())
     res = scene.run()
     if args.csv:
-        with open(args.csv, "w", newline="") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(["t", *res.outputs])
-            for row in np.column_stack([res.t, *[res[o] for o in res.outputs]]):
-                writer.writerow([repr(float(x)) for x in row])
+        try:
+            with open(args.csv, "w", newline="") as fh:
+                writer = csv.writer(fh)
+                writer.writerow(["t", *res.outputs])
+                for row in np.column_stack([res.t, *[res[o] for o in res.outputs]]):
+                    writer.writerow([repr(float(x)) for x in row])
+        except OSError as exc:
+            return _fail(_write_failure("--csv", args.csv, exc))
         print(f"written: {args.csv}")
     else:
         for label in res.outputs:
@@ -165,20 +355,50 @@ def _scene(args) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run the command line ``lagrangian COMMAND``; return the exit status."""
-    parser = argparse.ArgumentParser(prog="lagrangian", description=__doc__.splitlines()[0])
-    sub = parser.add_subparsers(dest="command", required=True)
+# ---------------------------------------------------------------------------
+# The parser and main
+# ---------------------------------------------------------------------------
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors, ``lagrangian: error: <message>``, and exit status 2."""
+
+    def error(self, message: str):
+        hint = "" if message.startswith("argument ") else f" (see '{self.prog} --help')"
+        if message.endswith("expected one argument"):  # a value that argparse took for an option: -1e-3
+            hint = " (write a value that starts with '-' as --option=VALUE)"
+        self.exit(EXIT_USAGE, f"lagrangian: error: {_one_line(message)}{hint}\n")
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("lagrangian")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree that is not installed
+        from . import __version__
+
+        return __version__
+
+
+def _parser() -> _Parser:
+    parser = _Parser(prog="lagrangian", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"lagrangian {_version()}")
+    sub = parser.add_subparsers(dest="command")
     sub.add_parser("plugins", help="list installed plugins and the component kinds each provides")
     sub.add_parser("kinds", help="list component kinds with their parameters")
     sub.add_parser("integrators", help="list integration methods with their kind, order, flags and options")
     bench = sub.add_parser("bench", help="work–precision benchmarks: error against wall time, CSV and chart")
     bench.add_argument("names", nargs="*", help="benchmarks to run ('all': every available one)")
-    bench.add_argument("--methods", help="comma-separated methods (default: the benchmark's, or all registered)")
-    bench.add_argument("--tolerances", help="comma-separated rtol values for adaptive methods")
-    bench.add_argument("--steps", help="comma-separated step sizes for fixed-step methods")
-    bench.add_argument("--repeat", type=int, default=1, help="time each run this many times, keep the best (default 1)")
-    bench.add_argument("--out", default=".", help="directory for <name>.csv and <name>.png (default: .)")
+    bench.add_argument("--methods", type=_methods(("auto",), single=False),
+                       help="comma-separated methods (default: the benchmark's, or all registered)")
+    bench.add_argument("--tolerances", type=_numbers("relative tolerance", "1e-4,1e-8", hi=1.0),
+                       help="comma-separated rtol values (between 0 and 1) for adaptive methods")
+    bench.add_argument("--steps", type=_numbers("step size", "0.1,0.01"),
+                       help="comma-separated step sizes (> 0) for fixed-step methods")
+    bench.add_argument("--repeat", type=_whole(1, "timings per run, the best is kept"), default=1,
+                       help="time each run this many times, keep the best (default 1)")
+    bench.add_argument("--out", default=".", help="directory for <name>.csv and <name>.png, made if missing (default: .)")
     bench.add_argument("--list", action="store_true", help="list the benchmarks and exit")
     bench.add_argument("--no-chart", action="store_true", help="write CSV only")
     bench.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -186,16 +406,32 @@ def main(argv: list[str] | None = None) -> int:
     scene.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name] defining a model")
     scene.add_argument("--output", "-o", action="append", required=True,
                        help="an output: coordinate, rate (x'), T/V/D/E/L, T[component], [component]; repeat for more")
-    scene.add_argument("--t-end", type=float, help="end time (default: the netlist's .tran stop, else 10)")
-    scene.add_argument("--tol", type=float, default=1e-8, help="relative tolerance (default 1e-8)")
-    scene.add_argument("--initial", action="append", help="initial coordinates name=value[,name=value]")
-    scene.add_argument("--velocity", action="append", help="initial velocities name=value[,name=value]")
-    scene.add_argument("--param", action="append", help="parameter values name=value[,name=value]")
-    scene.add_argument("--points", type=int, default=1001, help="output times (default 1001)")
-    scene.add_argument("--method", default="DOP853", help="integrator for nonlinear parts (default DOP853)")
+    scene.add_argument("--t-end", type=_positive("an end time", "10"),
+                       help="end time, > 0 (default: the netlist's .tran stop, else 10)")
+    scene.add_argument("--tol", type=_tolerance, default=1e-8, help="relative tolerance, between 0 and 1 (default 1e-8)")
+    scene.add_argument("--initial", action="append", type=_pairs, help="initial coordinates name=value[,name=value]")
+    scene.add_argument("--velocity", action="append", type=_pairs, help="initial velocities name=value[,name=value]")
+    scene.add_argument("--param", action="append", type=_pairs, help="parameter values name=value[,name=value]")
+    scene.add_argument("--points", type=_whole(2, "output times from the start to the end time"), default=1001,
+                       help="output times, at least 2 (default 1001)")
+    scene.add_argument("--method", type=_methods(("auto", "exact"), single=True), default="DOP853",
+                       help="integrator for nonlinear parts (default DOP853; see 'lagrangian integrators')")
     scene.add_argument("--csv", help="write the outputs to this CSV file")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _run(argv: list[str] | None) -> int:
+    parser = _parser()
     try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help, --version, or a usage error already reported
+            return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_USAGE)
+        if args.command is None:
+            parser.print_usage(sys.stderr)
+            print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene "
+                  "(see 'lagrangian --help')", file=sys.stderr)
+            return EXIT_USAGE
         from .registry import default_registry
 
         registry = default_registry()
@@ -203,12 +439,49 @@ def main(argv: list[str] | None = None) -> int:
             return _bench(args, registry)
         if args.command == "scene":
             return _scene(args)
+        text = {"plugins": registry.describe, "kinds": lambda: _kinds(registry),
+                "integrators": lambda: _integrators(registry)}
+        print(text[args.command]())
+        return 0
     except LagrangianError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    text = {"plugins": registry.describe, "kinds": lambda: _kinds(registry), "integrators": lambda: _integrators(registry)}
-    print(text[args.command]())
-    return 0
+        return _fail(str(exc))
+    except Warning as exc:  # a warning turned into an error (python -W error)
+        return _fail(f"{type(exc).__name__}: {exc}")
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
+
+
+def _discard_stdout() -> None:
+    """Point standard output at the null device, so that flushing it at exit cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, sys.stdout.fileno())
+        finally:
+            os.close(devnull)
+    except (OSError, ValueError, AttributeError):  # no file descriptor behind sys.stdout (output captured in-process)
+        pass
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``lagrangian COMMAND`` (``argv``, default ``sys.argv[1:]``); return the exit status.
+
+    Errors are reported on standard error and turned into the status (see the
+    module's documentation): 2 for usage errors, 1 for failures while
+    running, 141 when standard output was closed early; ``SystemExit`` is
+    never raised.  Warnings raised while the command runs are printed as
+    ``lagrangian: warning: <message>``; the warning display and filters are
+    restored on return.
+    """
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning
+        try:
+            status = _run(argv)
+            sys.stdout.flush()
+        except BrokenPipeError:
+            _discard_stdout()
+            return EXIT_BROKEN_PIPE
+    return status
 
 
 if __name__ == "__main__":  # pragma: no cover
