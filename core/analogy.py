@@ -20,82 +20,22 @@ symbolically).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass
+from typing import Any
 
 import networkx as nx
 import sympy as sp
 
 from .component import GROUND, Component, _CallableSignal, t
+from .contracts import AnalogueBuilder, Analogy, Element, Ports
 from .errors import ModelError, UnknownNameError
-
-if TYPE_CHECKING:
-    from .model import Model
+from .model import Model
 
 __all__ = ["Analogy", "Element", "Ports", "Mapped", "AnalogyError", "map_model", "dual_branches"]
 
 
 class AnalogyError(ModelError):
     """A model cannot be mapped through the requested analogy."""
-
-
-@dataclass(frozen=True)
-class Analogy:
-    """An analogy between two domains (see the module docstring)."""
-
-    name: str
-    source: str
-    target: str
-    dual: bool
-    options: Mapping[str, Any] = field(default_factory=dict)
-    inverse_options: Mapping[str, Any] = field(default_factory=dict)
-    doc: str = ""
-
-
-@dataclass(frozen=True)
-class Element:
-    """One component of the analogue model: ``Model.add(kind, name, nodes, **params)``.
-
-    ``branch`` is the index of the source component's branch this element
-    stands for (its branch quantity is identified with ``sign`` times that
-    branch's), ``None`` for elements that stand for no branch (sources), or,
-    for an element with several branches (a two-port), a sequence of
-    ``(element branch, source branch)`` pairs.
-    """
-
-    kind: str
-    name: str
-    nodes: Any
-    params: Mapping[str, Any]
-    branch: int | None | tuple[tuple[int, int], ...] = 0
-    sign: int = 1
-
-    def pairs(self) -> list[tuple[int, int]]:
-        """``(element branch, source branch)`` identifications."""
-        if self.branch is None:
-            return []
-        if isinstance(self.branch, int):
-            return [(0, self.branch)]
-        return [tuple(p) for p in self.branch]
-
-
-AnalogueBuilder = Callable[[Component, "Ports"], list[Element]]
-
-
-@dataclass
-class Ports:
-    """Target nodes standing for a component's branches, handed to analogue builders."""
-
-    component: Component
-    branches: dict[str, tuple[str, str]]
-    ground: str = GROUND
-    model: Any = None
-
-    def branch(self, index: int = 0, component: Component | None = None) -> tuple[str, str]:
-        """Target ``(a, b)`` for branch ``index`` of ``component`` (this one by default)."""
-        comp = component or self.component
-        key = comp.name if index == 0 else f"{comp.name}#{index}"
-        return self.branches[key]
 
 
 @dataclass
@@ -237,7 +177,6 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
     >>> circuit.coordinates
     {lambda_p(t): x_p(t)}
     """
-    from .model import Model
 
     registry = model.registry
     if analogy not in registry.analogies:

@@ -30,64 +30,20 @@ import math
 import sys
 import time
 import warnings
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .contracts import DEFAULT_TOLERANCES, Benchmark
 from .errors import LagrangianError, ModelError, UnknownNameError
+from .integrate import EnergyDriftWarning
+from .registry import default_registry
+from .simulation import InitialConditionWarning
 
-__all__ = ["Benchmark", "Row", "WorkPrecision", "benchmarks", "work_precision", "run", "stability_limit", "ProgressBar"]
-
-DEFAULT_TOLERANCES = (1e-3, 1e-5, 1e-7, 1e-9, 1e-11)
-
-
-@dataclass(frozen=True)
-class Benchmark:
-    """A work–precision problem.
-
-    ``build()`` returns the model; ``initial``, ``velocity``, ``params`` and
-    ``t_end`` are the arguments of ``Model.simulate``; errors are measured
-    on ``points`` evenly spaced times.  The truth is ``exact(times)``
-    (coordinates by name) when given, otherwise a run with ``reference``
-    (keyword arguments of ``simulate``: a method and tight tolerances, or
-    ``{"method": "exact"}``).  ``measure`` is ``"state"`` (the largest
-    error of any coordinate, relative to the largest coordinate value of
-    the truth) or ``"energy"`` (the largest relative departure of ``T + V``
-    from its initial value — no truth needed).  ``tolerances`` are the
-    ``rtol`` of adaptive methods (``atol = rtol · atol_factor``), ``steps``
-    the step sizes of fixed-step ones; ``methods`` the default methods
-    (empty: every registered one); ``options`` extra options per method;
-    ``requires`` the component kinds it needs.
-    """
-
-    name: str
-    description: str
-    build: Callable[[], Any]
-    t_end: float
-    initial: Mapping[str, float] = field(default_factory=dict)
-    velocity: Mapping[str, float] = field(default_factory=dict)
-    params: Mapping[str, float] = field(default_factory=dict)
-    points: int = 201
-    exact: Callable[[np.ndarray], Mapping[str, np.ndarray]] | None = None
-    reference: Mapping[str, Any] = field(default_factory=lambda: {"method": "DOP853", "rtol": 1e-13, "atol": 1e-15})
-    measure: str = "state"
-    tolerances: Sequence[float] = DEFAULT_TOLERANCES
-    atol_factor: float = 1e-3
-    steps: Sequence[float] = ()
-    methods: Sequence[str] = ()
-    options: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
-    requires: Sequence[str] = ()
-
-    def unavailable(self, registry) -> str | None:
-        """Why this benchmark cannot run with ``registry``'s plugins, or None."""
-        missing = [k for k in self.requires if k not in registry.kinds]
-        if missing:
-            return f"needs component kind(s) {', '.join(missing)}, which no installed plugin provides"
-        return None
-
+__all__ = ["Benchmark", "DEFAULT_TOLERANCES", "Row", "WorkPrecision", "benchmarks", "work_precision", "run", "stability_limit", "ProgressBar"]
 
 @dataclass
 class Row:
@@ -175,7 +131,6 @@ class WorkPrecision:
 
 def benchmarks(registry=None) -> dict[str, Benchmark]:
     """The registered benchmarks by name (of the installed plugins by default)."""
-    from .registry import default_registry
 
     return dict((registry or default_registry()).benchmarks)
 
@@ -213,9 +168,6 @@ _AUTO = _Auto()
 
 
 def _quiet(fn, *args, **kwargs):
-    from .integrate import EnergyDriftWarning
-    from .simulation import InitialConditionWarning
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", InitialConditionWarning)
         warnings.simplefilter("ignore", EnergyDriftWarning)
@@ -254,7 +206,6 @@ def work_precision(
     ``"refused"`` or ``"failed"`` and its message; the others go on.
     ``progress=True`` shows a progress bar on standard error.
     """
-    from .registry import default_registry
 
     registry = registry or default_registry()
     if isinstance(benchmark, str):
@@ -334,7 +285,6 @@ def run(
     chart: bool = True,
 ) -> list[tuple[WorkPrecision, list[Path]]]:
     """Run benchmarks by name (``"all"``: every available one); write ``<out>/<name>.csv`` and ``.png``."""
-    from .registry import default_registry
 
     registry = registry or default_registry()
     known = registry.benchmarks
@@ -347,7 +297,7 @@ def run(
     total = 0
     for b in selected:
         ms = list(methods or b.methods or registry.integrators)
-        total += sum(len(b.tolerances if tolerances is None else tolerances) if registry.integrator(m).kind == "adaptive"
+        total += sum(len(b.tolerances if tolerances is None else tolerances) if m == "auto" or registry.integrator(m).kind == "adaptive"
                      else len(b.steps if steps is None else steps) for m in ms)
     bar = ProgressBar(total) if progress else None
     out = Path(out)

@@ -44,9 +44,15 @@ import math
 import os
 import sys
 import warnings
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from .errors import LagrangianError, UnknownNameError
+from .bench import run as run_benchmarks
+from .errors import LagrangianError, ModelError, UnknownNameError
+from .model import Model
+from .netlist import read_netlist_file
+from .registry import default_registry
+from .scene import Scene
 
 __all__ = ["main"]
 
@@ -163,8 +169,6 @@ def _methods(extra: tuple[str, ...], single: bool):
     """Integration method names, checked against the registered integrators (and ``extra``)."""
 
     def parse(text: str) -> str | list[str]:
-        from .registry import default_registry
-
         names = [text.strip()] if single else [m.strip() for m in text.split(",") if m.strip()]
         if not names or not names[0]:
             raise argparse.ArgumentTypeError(f"expected {'a method name' if single else 'comma-separated method names'} "
@@ -244,8 +248,6 @@ def _integrators(registry) -> str:
 
 
 def _bench(args, registry) -> int:
-    from .bench import run
-
     if args.list or not args.names:
         for name, b in registry.benchmarks.items():
             why = b.unavailable(registry)
@@ -259,7 +261,7 @@ def _bench(args, registry) -> int:
     if problem:
         return _fail(problem)
     try:
-        results = run(args.names, args.methods, out=args.out, tolerances=args.tolerances, steps=args.steps,
+        results = run_benchmarks(args.names, args.methods, out=args.out, tolerances=args.tolerances, steps=args.steps,
                       repeat=args.repeat, registry=registry, progress=not args.quiet, chart=not args.no_chart)
     except BrokenPipeError:
         raise
@@ -276,9 +278,6 @@ def _load_model(source: str):
     """A model (and its netlist's initial state and span, if any) from a netlist or ``file.py[:name]``."""
     import importlib.util
 
-    from .errors import ModelError
-    from .model import Model
-
     path, _, attr = source.partition(":") if not Path(source).exists() else (source, "", "")
     file = Path(path)
     if not file.exists():
@@ -287,8 +286,6 @@ def _load_model(source: str):
         raise ModelError(f"scene source {path!r} is a directory: give a netlist file or a Python file (file.py[:name]).")
     try:
         if file.suffix.lower() in (".cir", ".net", ".sp", ".spice", ".ckt"):
-            from .netlist import read_netlist_file
-
             imported = read_netlist_file(file)
             span = (imported.tran.start, imported.tran.stop) if imported.tran else None
             return imported.model, imported.initial, imported.velocity, span
@@ -323,8 +320,6 @@ def _scene(args) -> int:
     import csv
 
     import numpy as np
-
-    from .scene import Scene
 
     if args.csv:
         problem = _output_problem("--csv", args.csv, directory=False)
@@ -371,14 +366,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
     try:
         return version("lagrangian")
     except PackageNotFoundError:  # pragma: no cover - running from a source tree that is not installed
-        from . import __version__
-
-        return __version__
+        return "(not installed)"
 
 
 def _parser() -> _Parser:
@@ -432,8 +423,6 @@ def _run(argv: list[str] | None) -> int:
             print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene "
                   "(see 'lagrangian --help')", file=sys.stderr)
             return EXIT_USAGE
-        from .registry import default_registry
-
         registry = default_registry()
         if args.command == "bench":
             return _bench(args, registry)

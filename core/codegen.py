@@ -22,9 +22,9 @@ factorization with partial pivoting (``M⁻¹`` is never formed symbolically),
 so that one call gives the derivative of the state ``(q, q̇_inertial)``; and
 the runtime library holds stepping loops in C — an adaptive Dormand–Prince
 5(4) pair with dense output, classical Runge–Kutta and Störmer–Verlet —
-which the integrators ``dopri5_c``, ``rk4_c`` and ``verlet_c`` (registered
-by the built-in integrators plugin) run without returning to Python per
-step.
+which the integrators ``dopri5_c``, ``rk4_c`` and ``verlet_c``
+(:mod:`lagrangian.compiled_loops`, registered by the built-in integrators
+plugin) run without returning to Python per step.
 
 The system C compiler (``cc``, ``gcc`` or ``clang``; :func:`set_compiler`
 or the environment variable ``LAGRANGIAN_CC`` choose another) builds shared
@@ -88,11 +88,9 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from .component import t as time_symbol
 from .errors import ModelError, NumericalError, SingularMassMatrixError
-from .integrate import FixedStepIntegrator, Integrator, Solution, _grid
 from .tape import OPS, Program, TapeError, record
 
 __all__ = [
@@ -107,8 +105,6 @@ __all__ = [
     "compiler",
     "set_compiler",
     "FLAGS",
-    "CompiledDormandPrince",
-    "CompiledFixedStep",
 ]
 
 _log = logging.getLogger("lagrangian")
@@ -1140,127 +1136,3 @@ class CompiledModel:
                                    Y.ctypes.data, counts.ctypes.data, fail.ctypes.data)
         message = self._run(status, fail, method) if status else ""
         return Y.T, int(counts[0]), message
-
-
-# ---------------------------------------------------------------------------
-# Integrators whose stepping loop is C
-# ---------------------------------------------------------------------------
-
-
-def _compiled_or_note(problem, name: str, sibling) -> tuple[CompiledModel | None, str | None]:
-    compiled = problem.numeric.compile()
-    if compiled is None:
-        note = (f"{name}: {problem.numeric.compile_note}; ran its Python sibling "
-                f"{getattr(sibling, 'name', sibling)!r} instead")
-        _log.info(note)
-        return None, note
-    return compiled, None
-
-
-#: Evaluations beyond which a run on the tape says that native code would be worth its compilation.
-LONG_RUN = 500_000
-
-
-def _long_run_hint(compiled: CompiledModel, nfev: int) -> list[str]:
-    if compiled.kind != "tape" or nfev < LONG_RUN:
-        return []
-    return [f"a long run ({nfev} evaluations): compiled=True builds native code for this model, about twice as fast "
-            f"per evaluation as the tape, compiled once (0.1–0.5 s) and then kept in the cache for every later run"]
-
-
-class CompiledDormandPrince(Integrator):
-    """Dormand–Prince 5(4) (scipy's ``RK45``) with its whole stepping loop in C.
-
-    The same pair, error norm, step-size control and initial step as
-    :class:`scipy.integrate.RK45`, and its quartic dense output at the
-    output times, so it agrees with ``RK45`` to within the tolerance; no
-    Python runs per step.  Needs a C compiler: without one (or for a model
-    with Python-callable signals) it runs ``fallback`` (``RK45``) and says
-    so in ``Result.notes``.
-    """
-
-    kind = "adaptive"
-    order = 5
-    needs_compiled = True
-    symplectic = implicit = stiff = False
-    first_order = True
-    options = {"first_step": "initial step size (default: chosen as scipy does)"}
-
-    def __init__(self, fallback: Integrator, name: str = "dopri5_c"):
-        self.name, self.fallback = name, fallback
-        self.description = "Dormand–Prince 5(4) (as RK45) with the stepping loop compiled to C; explicit, adaptive"
-
-    def solve(self, problem, t_span, y0, t_eval, *, rtol=1e-9, atol=1e-12, max_step=np.inf, first_step=None):
-        """Integrate in C (see the class documentation)."""
-        compiled, note = _compiled_or_note(problem, self.name, self.fallback)
-        if compiled is None:
-            sol = self.fallback.solve(problem, t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step)
-            sol.notes.insert(0, note)
-            return sol
-        if not (rtol > 0 and atol >= 0):
-            raise ModelError(f"{self.name}: rtol must be positive and atol non-negative, got rtol={rtol!r}, atol={atol!r}.")
-        if not (max_step > 0):
-            raise ModelError(f"{self.name}: max_step must be positive, got {max_step!r}.")
-        if first_step is not None and not (0 < first_step <= t_span[1] - t_span[0]):
-            raise ModelError(f"{self.name}: first_step must be positive and within the time span, got {first_step!r}.")
-        Y, nfev, nstep, message = compiled.dopri5(t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step,
-                                                  first_step=first_step)
-        problem.nfev += nfev
-        problem.report(float(t_span[1]))
-        done = np.all(np.isfinite(Y), axis=0)
-        count = int(np.argmin(done)) if not done.all() else t_eval.size
-        notes = [f"{self.name}: {nstep} steps in compiled code, the model evaluated by {compiled.describe()}",
-                 *_long_run_hint(compiled, nfev)]
-        return Solution(np.asarray(t_eval)[:count], Y[:, :count], nfev, -1 if message else 0, message, notes)
-
-
-class CompiledFixedStep(FixedStepIntegrator):
-    """A fixed-step method whose stepping loop is C: ``rk4`` (classical Runge–Kutta) or ``verlet`` (Störmer–Verlet).
-
-    The same steps as the Python sibling ``fallback`` (uniform ``h`` from
-    ``step``, outputs on the steps or by cubic Hermite interpolation between
-    them), the same refusals (``fallback.check``: Störmer–Verlet refuses
-    models that are not separable).  Without a C compiler it runs
-    ``fallback`` and says so in ``Result.notes``.  Linear models are not
-    advanced by powers of the one-step map: every step is taken.
-    """
-
-    def __init__(self, method: str, fallback: FixedStepIntegrator):
-        if method not in ("rk4", "verlet"):
-            raise ModelError(f"CompiledFixedStep: method must be 'rk4' or 'verlet', got {method!r}.")
-        self.method, self.fallback, self.name = method, fallback, f"{method}_c"
-        self.needs_compiled = True
-        for attr in ("order", "symplectic", "implicit", "stiff", "first_order"):
-            setattr(self, attr, getattr(fallback, attr))
-        self.options = {}
-        self.description = f"{fallback.description}; stepping loop compiled to C"
-
-    def check(self, problem):
-        """The sibling's refusals, under this method's name."""
-        try:
-            self.fallback.check(problem)
-        except ModelError as exc:
-            raise ModelError(str(exc).replace(f"{self.fallback.name} (", f"{self.name} (", 1)) from None
-
-    def solve(self, problem, t_span, y0, t_eval, *, step=None, fast_linear=True, **options):
-        """Integrate in C with uniform steps of at most ``step`` (``fast_linear`` is accepted and ignored)."""
-        compiled, note = _compiled_or_note(problem, self.name, self.fallback)
-        if compiled is None:
-            sol = self.fallback.solve(problem, t_span, y0, t_eval, step=step, fast_linear=fast_linear, **options)
-            sol.notes.insert(0, note)
-            return sol
-        t0, t1 = map(float, t_span)
-        t_eval = np.asarray(t_eval, dtype=float)
-        h, N, notes = _grid(self.name, problem, t0, t1, t_eval, step, np.asarray(y0, dtype=float))
-        Y, nfev, message = compiled.fixed(self.method, t0, h, N, y0, t_eval)
-        problem.nfev += nfev
-        problem.report(t1)
-        done = np.all(np.isfinite(Y), axis=0)
-        count = int(np.argmin(done)) if not done.all() else t_eval.size
-        k = (t_eval - t0) / h
-        between = int(np.sum(np.abs(k - np.rint(k)) >= 1e-7))
-        if between:
-            notes.append(f"{between} output time(s) fall between steps: cubic Hermite interpolation (error O(h⁴))")
-        notes.append(f"{self.name}: {N} steps in compiled code, the model evaluated by {compiled.describe()}")
-        notes += _long_run_hint(compiled, nfev)
-        return Solution(t_eval[:count], Y[:, :count], nfev, -1 if message else 0, message, notes, h)

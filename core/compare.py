@@ -16,15 +16,15 @@ import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import sympy as sp
 
 from .errors import ModelError
-
-if TYPE_CHECKING:
-    from .model import Model
+from .analogy import map_model
+from .model import Model
+from .spice import netlist, run_transient
 
 __all__ = ["QuantityError", "Comparison", "compare_with_ngspice"]
 
@@ -158,8 +158,6 @@ def compare_with_ngspice(
     wrong for circuits, whose charges are often 1e-8 C or less: 1e-13 would
     be a relative error of 1e-5 there.
     """
-    from .analogy import map_model
-    from .spice import netlist, run_transient
 
     initial, velocity = dict(initial or {}), dict(velocity or {})
     domains = {d for c in model.components.values() for d in c.domains}

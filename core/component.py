@@ -15,7 +15,7 @@ from typing import Any, ClassVar
 
 import sympy as sp
 
-from .errors import ExpressionError, ParameterError
+from .errors import closest, ExpressionError, ParameterError
 from .text import parse_expression
 
 __all__ = ["t", "GROUND", "Parameter", "Load", "Contribution", "Example", "Component", "dot"]
@@ -344,8 +344,6 @@ class Component:
         self.nodes = nodes
         unknown = set(params) - set(self.parameters)
         if unknown:
-            from .errors import closest
-
             bad = sorted(unknown)[0]
             raise ParameterError(
                 name,

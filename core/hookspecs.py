@@ -24,16 +24,11 @@ than its specification, so specifications can grow without breaking plugins.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
-
 import pluggy
 
-if TYPE_CHECKING:
-    from .analogy import Analogy, AnalogueBuilder
-    from .component import Component
-    from .bench import Benchmark
-    from .domain import Domain
-    from .integrate import Integrator
+from .component import Component
+from .contracts import AnalogueBuilder, Analogy, Benchmark, Integrator
+from .domain import Domain
 
 __all__ = [
     "hookspec",

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import functools
 import math
-import re
 import sys
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -46,7 +45,8 @@ import numpy as np
 import sympy as sp
 
 from .component import t as time_symbol
-from .errors import IntegrationError, LagrangianError, ModelError, SingularMassMatrixError, UnknownNameError, closest
+from .errors import IntegrationError, LagrangianError, ModelError, SingularMassMatrixError, closest
+from .contracts import KINDS, RESERVED, Integrator, Solution, integrator_problem, resolve
 from .identity import depends_on, is_zero
 from .simulation import NumericModel, Result, _lambdify
 
@@ -68,10 +68,6 @@ __all__ = [
     "RESERVED",
 ]
 
-#: The two kinds of integrator and the options the driver passes to each.
-KINDS = {"adaptive": ("rtol", "atol", "max_step"), "fixed-step": ("step",)}
-#: ``method=`` names that are not integrators.
-RESERVED = ("auto", "exact")
 #: ``method="auto"`` calls a model stiff when its fastest linearized rate exceeds its slowest (or ``1/span``) this much.
 STIFFNESS_RATIO = 1e3
 #: ... and a conservative run long when it spans this many periods of its fastest mode: RK45's energy error
@@ -87,8 +83,6 @@ MAX_STEPS = 100_000_000
 _DIVERGED = 1e30
 #: Central differences: the step (relative to max(1, |y_j|)) that balances truncation and round-off, eps^(1/3).
 _CENTRAL_STEP = float(np.finfo(float).eps ** (1 / 3))
-_FLAGS = ("symplectic", "implicit", "stiff", "first_order")
-_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_.-]*$")
 
 
 class EnergyDriftWarning(UserWarning):
@@ -114,139 +108,6 @@ EXPLODED = 1.0
 # ---------------------------------------------------------------------------
 # The contract
 # ---------------------------------------------------------------------------
-
-
-@dataclass
-class Solution:
-    """What :meth:`Integrator.solve` returns.
-
-    ``t``: the output times (normally ``t_eval``); ``y``: the state
-    ``(q, q̇_inertial)`` at those times, one column each; ``nfev``: how many
-    times the model's functions were evaluated; ``status``: 0 on success,
-    negative on failure (then ``message`` says what happened and ``t``/``y``
-    hold what was computed); ``notes``: remarks for ``Result.notes``;
-    ``step``: the step size used by a fixed-step method.
-    """
-
-    t: np.ndarray
-    y: np.ndarray
-    nfev: int = 0
-    status: int = 0
-    message: str = ""
-    notes: list[str] = field(default_factory=list)
-    step: float | None = None
-
-
-class Integrator:
-    """Base class of integrators, and the contract a plugin's integrator fulfils.
-
-    An integrator is registered by a plugin (``register_integrators``) and
-    picked with ``Model.simulate(method=name)``.  Subclass this class or
-    provide any object with the same attributes:
-
-    1. ``name`` — the ``method=`` name: letters, digits, ``_``, ``-``, ``.``;
-       unique across plugins; ``"auto"`` and ``"exact"`` are reserved.
-    2. ``kind`` — ``"adaptive"`` (error-controlled: ``solve`` receives
-       ``rtol``, ``atol`` and ``max_step``) or ``"fixed-step"`` (``solve``
-       receives ``step``, the largest step size; the user must give it).
-    3. Flags, all booleans: ``symplectic`` (preserves the symplectic
-       structure of conservative models, so the energy error stays bounded
-       over long runs), ``implicit`` (solves equations every step),
-       ``stiff`` (suited to stiff models: A-stable, or switching to a stiff
-       method by itself), ``first_order`` (handles coordinates without
-       inertia, ``problem.first_order``).  ``order`` is the order of accuracy
-       (an int, or None) and ``description`` one line for listings.
-    4. ``options`` — ``{name: description}`` of the further keyword options
-       ``solve`` accepts.  ``Model.simulate(..., name=value)`` passes them
-       on; the driver refuses an option that is neither one of the kind's
-       nor listed here before anything is integrated.
-    5. ``check(problem)`` — raise :class:`~lagrangian.ModelError` when the
-       method cannot integrate the problem, saying why (from
-       ``problem.structure``) and which methods can.  The driver calls it
-       before ``solve``; it also refuses problems with first-order
-       coordinates by itself when ``first_order`` is False.
-    6. ``solve(problem, t_span, y0, t_eval, **options) -> Solution`` —
-       integrate ``y' = problem.rhs(t, y)`` from ``y0`` at ``t_span[0]`` to
-       ``t_span[1]`` and return the state at the times ``t_eval`` (sorted,
-       inside the span).  ``nfev`` counts evaluations of the model
-       (``problem.nfev`` counts them for you).  Report failure with a
-       negative status and a message, or raise
-       :class:`~lagrangian.IntegrationError` (a
-       :class:`~lagrangian.NumericalError`) naming the time and what to
-       change — a Newton iteration that does not converge, say.  Errors the
-       problem's functions raise (a singular mass matrix) propagate.
-    7. Use the problem's functions only — ``rhs`` and ``jacobian`` on the
-       state; ``pieces`` (``∂L/∂q``, ``∂L/∂q̇``, ``M``, non-conservative
-       forces), ``momentum``, ``velocity`` (its inverse), ``mass``,
-       ``forces``, ``canonical_rhs`` with ``to_canonical`` and
-       ``from_canonical`` on ``(q, p)``, ``acceleration`` for separable
-       models — and read ``structure``: they are the model's, with its
-       parameter values, and they count evaluations.  Call
-       ``problem.report(t)`` now and then so that progress can be shown
-       (``rhs`` does it by itself).
-    8. Keep no state of a run on the integrator: one instance serves every
-       run.
-    """
-
-    name: str = ""
-    kind: str = "adaptive"
-    order: int | None = None
-    symplectic: bool = False
-    implicit: bool = False
-    stiff: bool = False
-    first_order: bool = True
-    description: str = ""
-    options: Mapping[str, str] = {}
-
-    def check(self, problem: Problem) -> None:
-        """Raise :class:`~lagrangian.ModelError` if this method cannot integrate ``problem``; the default accepts all."""
-
-    def solve(self, problem: Problem, t_span: tuple[float, float], y0: np.ndarray, t_eval: np.ndarray, **options: Any) -> Solution:
-        """Integrate ``problem`` over ``t_span`` from ``y0``; the state at ``t_eval`` (see the class's contract)."""
-        raise NotImplementedError
-
-    def __repr__(self) -> str:
-        return f"<{type(self).__name__} {self.name!r} ({self.kind})>"
-
-
-def integrator_problem(obj: Any) -> str | None:
-    """What is wrong with ``obj`` as an integrator, or None (used by the registry and for ``method=obj``)."""
-    name = getattr(obj, "name", None)
-    if not isinstance(name, str) or not _NAME.match(name):
-        return f"its name {name!r} is not a string of letters, digits, '_', '-' or '.' starting with a letter"
-    if name in RESERVED:
-        return f"its name {name!r} is reserved (method={name!r} means something else)"
-    kind = getattr(obj, "kind", None)
-    if kind not in KINDS:
-        return f"its kind {kind!r} is not one of {', '.join(map(repr, KINDS))}"
-    for flag in _FLAGS:
-        if not isinstance(getattr(obj, flag, None), bool):
-            return f"its flag {flag!r} must be True or False, not {getattr(obj, flag, None)!r}"
-    order = getattr(obj, "order", None)
-    if order is not None and (not isinstance(order, int) or order < 1):
-        return f"its order must be a positive int or None, not {order!r}"
-    if not callable(getattr(obj, "solve", None)):
-        return "it has no solve(problem, t_span, y0, t_eval, **options) method"
-    options = getattr(obj, "options", {})
-    if not isinstance(options, Mapping) or not all(isinstance(k, str) for k in options):
-        return "its options must be a mapping of option names to descriptions"
-    clash = set(options) & {"t_span", "y0", "t_eval", "problem"}
-    if clash:
-        return f"its options may not be named {', '.join(sorted(clash))}"
-    return None
-
-
-def resolve(method: Any, integrators: Mapping[str, Any]) -> Any:
-    """The integrator that ``method`` names (or ``method`` itself, an integrator object)."""
-    if isinstance(method, str):
-        try:
-            return integrators[method]
-        except KeyError:
-            raise UnknownNameError("integration method", method, [*integrators, *RESERVED]) from None
-    problem = integrator_problem(method)
-    if problem:
-        raise ModelError(f"method={method!r} is neither a registered method name nor a valid integrator: {problem}.")
-    return method
 
 
 # ---------------------------------------------------------------------------
@@ -623,7 +484,6 @@ class Problem:
     @functools.cached_property
     def _affine(self):
         """``(f₀, C)`` with ``f = f₀(q, t) − C(q, t) q̇`` as expressions, or None when ``f`` is not affine in ``q̇``."""
-        from .identity import depends_on
 
         s = self._sym
         v = s["v"]

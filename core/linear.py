@@ -61,7 +61,6 @@ import numpy as np
 import sympy as sp
 from scipy.linalg import expm
 from sympy.core.function import AppliedUndef
-from sympy.core.relational import Relational
 
 from .arguments import check_grid, check_mapping, check_span
 from .component import t

@@ -28,6 +28,8 @@ from .errors import ModelError, ParameterError, UnknownNameError
 from .graph import ComponentGraph
 from .registry import Registry, default_registry
 from .simulation import NumericModel, Result, initial_state
+from .integrate import choose, integrate, Problem, resolve
+from .linear import simulate_exact, state_space
 
 __all__ = ["Model"]
 
@@ -415,7 +417,6 @@ class Model:
         >>> m.simulate(1, initial={"x_p": 0}, velocity={"x_p": 0}, method="auto").method
         'exact'
         """
-        from .integrate import Problem, choose, resolve
 
         t_end = check_span(t_end)
         initial = check_mapping("initial", initial, self.eq.names)
@@ -459,7 +460,6 @@ class Model:
         if method == "exact":
             if options or step is not None:
                 raise ModelError(f"method='exact' takes no step or method options (got {', '.join([*options, *(['step'] if step is not None else [])])}).")
-            from .linear import simulate_exact
 
             return simulate_exact(
                 self, t_end, initial=initial, velocity=velocity, params=params,
@@ -475,7 +475,6 @@ class Model:
 
     def _linear(self, params) -> bool:
         """Whether the model is linear time-invariant (so ``method="exact"`` may apply)."""
-        from .linear import state_space
 
         try:
             state_space(self, params)
@@ -504,8 +503,6 @@ class Model:
 
     def _integrate(self, t_end, initial, velocity, params, points, t_eval, method, rtol, atol, max_step, step,
                    energy_tol, progress, options, notes, compiled="auto") -> Result:
-        from .integrate import Problem, integrate, resolve
-
         integrator = resolve(method, self.registry.integrators)
         span = self._span(t_end)
         numeric = self.numeric(params)

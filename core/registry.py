@@ -20,8 +20,9 @@ from typing import Any
 
 import pluggy
 
-from . import hookspecs
+import lagrangian.hookspecs as hookspecs
 from .component import Component, Example, Parameter
+from .contracts import Analogy, Benchmark, integrator_problem, resolve
 from .domain import Domain, Option
 from .errors import PluginError, UnknownKindError, closest
 
@@ -158,8 +159,6 @@ class Registry:
         self.info[plugin].domains.append(domain.name)
 
     def _add_analogy(self, plugin: str, analogy: Any) -> None:
-        from .analogy import Analogy
-
         if not isinstance(analogy, Analogy):
             raise PluginError(plugin, f"registered {analogy!r}, which is not a lagrangian.analogy.Analogy.")
         if analogy.name in self.analogies:
@@ -174,8 +173,6 @@ class Registry:
         self.analogues[kind, analogy] = (plugin, build)
 
     def _add_integrator(self, plugin: str, integrator: Any) -> None:
-        from .integrate import integrator_problem
-
         if isinstance(integrator, type):
             try:
                 integrator = integrator()
@@ -197,8 +194,6 @@ class Registry:
         self.info[plugin].integrators.append(name)
 
     def _add_benchmark(self, plugin: str, benchmark: Any) -> None:
-        from .bench import Benchmark
-
         if not isinstance(benchmark, Benchmark) or not isinstance(benchmark.name, str) or not benchmark.name:
             raise PluginError(plugin, f"registered {benchmark!r}, which is not a lagrangian.bench.Benchmark with a name.")
         if benchmark.name in self.benchmarks:
@@ -215,8 +210,6 @@ class Registry:
         ...
         lagrangian.errors.UnknownNameError: unknown integration method 'RK54'. Did you mean 'RK45'? ...
         """
-        from .integrate import resolve
-
         return resolve(name, self.integrators)
 
     def component_type(self, kind: str) -> type[Component]:

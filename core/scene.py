@@ -51,6 +51,7 @@ True
 from __future__ import annotations
 
 import re
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -62,8 +63,10 @@ from .component import t
 from .derived import DerivedModel
 from .equations import Equations, _is_zero
 from .errors import ModelError, ReductionError, UnknownNameError
+from .impulse import simulate_with_impacts
 from .model import Model
-from .simulation import Result, _lambdify
+from .routh import _depends, _drop, ignorable, reduce
+from .simulation import InitialConditionWarning, Result, _lambdify
 from .tape import size
 
 __all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
@@ -289,7 +292,6 @@ class Scene:
             else:
                 choices = names + [f"{n}'" for n in names] + list(_ENERGIES) + ["T[<component>]", "[<component>]"]
                 raise UnknownNameError("scene output", label, choices)
-        from .routh import _depends, _drop
 
         expr = sp.sympify(expr)
         q, v = eq.sym.q, eq.sym.v
@@ -482,9 +484,7 @@ class Scene:
             return Part(names, names, [], [], "hybrid", f"impacts at {', '.join(c.name for c in contacts)}: integrated "
                         f"at rtol {self.tol:g} between impacts located in time to {self.tol * 1e-3:g}", sub, _ops(sub.eq))
         try:
-            from . import routh
-
-            cyclic = routh.ignorable(sub) if not len(sub.eq.constraints) else []
+            cyclic = ignorable(sub) if not len(sub.eq.constraints) else []
         except ModelError:  # pragma: no cover - defensive: a model the analysis cannot read
             cyclic = []
         if cyclic and len(cyclic) == len(names) and not _is_zero(sub.eq.L) and not sub.eq.L.has(t):
@@ -492,7 +492,7 @@ class Scene:
                         "constant velocities, q = q₀ + q̇₀ (t − t₀)", sub, 0)
         if cyclic and len(cyclic) < len(names):
             try:
-                red = routh.reduce(sub, cyclic)
+                red = reduce(sub, cyclic)
                 eliminated = list(cyclic)
                 reconstructed = [c for c in cyclic if c in requested_q]
                 part_model = red.reconstructing(reconstructed) if reconstructed else red
@@ -521,8 +521,6 @@ class Scene:
         rows = sorted(idx)
 
         def build() -> Equations:
-            from .routh import _drop
-
             dropped = out_q + out_v
             less = minus or {}
             T, V, G, D = (_drop(e - less.get(p, 0), dropped) for p, e in (("T", eq.T), ("V", eq.V), ("G", eq.G), ("D", eq.D)))
@@ -597,8 +595,6 @@ class Scene:
             return model.simulate(self.span, initial=initial, velocity=velocity, params=params, t_eval=self.grid,
                                   rtol=rtol, atol=rtol * 1e-3)
 
-        import warnings
-
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             a, b = run(with_it, needed), run(without, reach)
@@ -618,16 +614,10 @@ class Scene:
         values, rates = self._needs(part)
         missing = [n for n in values if n not in initial] + [f"{n}'" for n in rates if n not in velocity]
         if missing:
-            import warnings
-
-            from .simulation import InitialConditionWarning
-
             warnings.warn(f"initial conditions not given, set to zero: {', '.join(missing)}", InitialConditionWarning, stacklevel=3)
             initial = {n: initial.get(n, 0.0) for n in part.coordinates}
             velocity = {n: velocity.get(n, 0.0) for n in part.coordinates if n in self._inertial()}
         if part.method == "hybrid":
-            from .impulse import simulate_with_impacts
-
             idx = {self.model.eq.names.index(n) for n in part.coordinates}
             contacts = [c for c, touched in self._events.items() if touched & idx]
             params = self._params_for(part.model)

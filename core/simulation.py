@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from .codegen import compile_model
 from .component import t
 from .equations import Equations
 from .errors import ModelError, SingularMassMatrixError, UnknownNameError
@@ -140,8 +141,6 @@ class NumericModel:
         if kind == "auto" and self._builds.get("native") is not None:
             return self._builds["native"]
         if kind not in self._builds:
-            from .codegen import compile_model
-
             built, note = compile_model(self, kind)
             self._builds[kind] = built
             if built is not None:

@@ -24,7 +24,7 @@ import threading
 import time as _time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -32,9 +32,8 @@ import sympy as sp
 from .component import GROUND, t
 from .domain import Context
 from .errors import LagrangianError, ModelError, NumericalError
-
-if TYPE_CHECKING:
-    from .model import Model
+from .model import Model
+from .simulation import initial_state
 
 __all__ = [
     "SpiceElement",
@@ -359,7 +358,6 @@ def netlist(
     .tran 5e-06 0.005 0 5e-07 uic
     .end
     """
-    from .simulation import initial_state
 
     values = model._values(params or {})
     subs = {s: sp.Float(v) for s, v in values.items()}

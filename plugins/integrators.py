@@ -63,7 +63,7 @@ import sympy as sp
 
 from lagrangian import Component, Contribution, Example, IntegrationError, ModelError, Parameter, dot, hookimpl
 from lagrangian.bench import Benchmark
-from lagrangian.codegen import CompiledDormandPrince, CompiledFixedStep
+from lagrangian.compiled_loops import CompiledDormandPrince, CompiledFixedStep
 from lagrangian.integrate import FixedStepIntegrator, Integrator, Solution, Stepper
 
 __all__ = ["ScipyMethod", "ExplicitRungeKutta", "StormerVerlet", "GaussLegendre", "Variational", "INTEGRATORS"]

@@ -137,7 +137,7 @@ def test_cli_bench_list_and_errors(capsys):
     assert "kepler:" in out and "rlc_ladder:" in out
     assert main(["bench", "keplr"]) == 1
     assert "unknown benchmark 'keplr'. Did you mean 'kepler'?" in capsys.readouterr().err
-    assert main(["bench", "oscillator", "--methods", "RK54", "--quiet"]) == 1
+    assert main(["bench", "oscillator", "--methods", "RK54", "--quiet"]) == 2  # a usage error
     assert "Did you mean 'RK45'?" in capsys.readouterr().err
     assert main(["integrators"]) == 0
     out = capsys.readouterr().out
@@ -204,3 +204,13 @@ def test_auto_in_a_work_precision_run_keeps_the_energy_of_a_long_conservative_ru
     assert rows["auto"].error < 1e-3
     assert rows["auto"].error < rows["RK45"].error
     assert "ok (picked" in wp.table()
+
+
+def test_cli_bench_runs_auto_among_its_methods(tmp_path, capsys):
+    from lagrangian.cli import main
+
+    assert main(["bench", "oscillator", "--methods", "auto,RK45", "--tolerances", "1e-4,1e-8", "--quiet", "--no-chart",
+                 "--out", str(tmp_path)]) == 0
+    rows = (tmp_path / "oscillator.csv").read_text().splitlines()
+    methods = [r.split(",")[1] for r in rows[1:]]
+    assert methods.count("auto") == 2 and methods.count("RK45") == 2

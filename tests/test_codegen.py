@@ -17,7 +17,7 @@ import pytest
 import sympy as sp
 
 import lagrangian as lg
-from lagrangian import codegen
+from lagrangian import codegen, compiled_loops
 from lagrangian.errors import NumericalError, SingularMassMatrixError
 from lagrangian.simulation import NumericModel
 
@@ -209,7 +209,7 @@ def test_the_tape_compiles_nothing_per_model_and_the_runtime_is_built_once(tmp_p
 
 
 def test_a_long_run_on_the_tape_says_native_code_would_pay(monkeypatch):
-    monkeypatch.setattr(codegen, "LONG_RUN", 1000)
+    monkeypatch.setattr(compiled_loops, "LONG_RUN", 1000)
     kw = dict(initial={"x_p": 1.0}, velocity={"x_p": 0.0}, points=5, method="dopri5_c", rtol=1e-10, atol=1e-12)
     model = oscillator(7.0)
     on_tape = model.simulate(20.0, compiled="tape", **kw)

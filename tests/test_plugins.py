@@ -375,7 +375,7 @@ def test_cli_reports_a_broken_plugin(broken_dist):
         [sys.executable, "-m", "lagrangian", "plugins"], capture_output=True, text=True, env=env, timeout=120
     )
     assert proc.returncode == 1
-    assert proc.stderr.startswith("error: plugin 'broken'")
+    assert proc.stderr.startswith("lagrangian: error: plugin 'broken'")
     assert "Traceback" not in proc.stderr
     assert proc.stdout == ""
 
