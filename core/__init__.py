@@ -12,17 +12,65 @@ Lagrangian, from which equations of motion are derived and simulated.
 ['q_L1']
 """
 
-from .component import GROUND, Component, Contribution, Example, Load, Parameter, dot, t
-from .domain import Context, Coordinate, Domain, DomainView, Network, Option
+import importlib as _importlib
+import importlib.abc as _importlib_abc
+import importlib.util as _importlib_util
+import sys as _sys
+
+from .base.component import GROUND, Component, Contribution, Example, Load, Parameter, dot, t
+from .base.domain import Context, Coordinate, Domain, DomainView, Network, Option
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
-from .hookspecs import hookimpl
-from .integrate import EnergyDriftWarning, StiffnessWarning
+from .plugin.hookspecs import hookimpl
+from .numerics.integrate import EnergyDriftWarning, StiffnessWarning
 from .model import Model
-from .registry import Registry, default_registry
-from .simulation import InitialConditionWarning, Result
+from .plugin.registry import Registry, default_registry
+from .numerics.simulation import InitialConditionWarning, Result
 
 __version__ = "0.1.0"
+
+#: Every module keeps the name it had before the package was layered (``lagrangian.integrate``,
+#: ``lagrangian.routh``, ...): ``import lagrangian.routh`` gives the same module object as
+#: ``lagrangian.analysis.routh``, imported when first asked for.
+MODULES = {
+    "base": ("component", "domain", "graph", "network", "text", "identity", "arguments", "switching", "budget"),
+    "plugin": ("contracts", "hookspecs", "registry"),
+    "derivation": ("assembly", "derive", "equations"),
+    "numerics": ("tape", "codegen", "simulation", "integrate", "compiled_loops", "linear", "bench"),
+    "analysis": ("routh", "impulse", "scene", "derived"),
+    "circuits": ("analogy", "spice", "netlist", "compare"),
+}
+_WHERE = {name: f"{__name__}.{layer}.{name}" for layer, names in MODULES.items() for name in names}
+
+
+class _Alias(_importlib_abc.MetaPathFinder, _importlib_abc.Loader):
+    """``lagrangian.<module>`` → the module in its layer (the same object, under both names)."""
+
+    def find_spec(self, fullname, path=None, target=None):
+        package, _, name = fullname.rpartition(".")
+        if package != __name__ or name not in _WHERE:
+            return None
+        return _importlib_util.spec_from_loader(fullname, self)
+
+    def create_module(self, spec):
+        module = _importlib.import_module(_WHERE[spec.name.rpartition(".")[2]])
+        self._specs[module.__name__] = module.__spec__
+        return module
+
+    def exec_module(self, module):
+        module.__spec__ = self._specs[module.__name__]  # its own spec again, not the alias's
+
+
+_Alias._specs = {}
+
+
+_sys.meta_path.append(_Alias())
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        return _importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "Model",

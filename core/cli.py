@@ -47,12 +47,12 @@ import warnings
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from .bench import run as run_benchmarks
+from .numerics.bench import run as run_benchmarks
 from .errors import LagrangianError, ModelError, UnknownNameError
 from .model import Model
-from .netlist import read_netlist_file
-from .registry import default_registry
-from .scene import Scene
+from .circuits.netlist import read_netlist_file
+from .plugin.registry import default_registry
+from .analysis.scene import Scene
 
 __all__ = ["main"]
 

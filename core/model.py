@@ -19,17 +19,17 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .arguments import check_atol, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
-from .assembly import Assembly, assemble
-from .component import Component, check_value, t
-from .domain import Coordinate
-from .equations import Equations
+from .base.arguments import check_atol, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
+from .derivation.assembly import Assembly, assemble
+from .base.component import Component, check_value, t
+from .base.domain import Coordinate
+from .derivation.equations import Equations
 from .errors import ModelError, ParameterError, UnknownNameError
-from .graph import ComponentGraph
-from .registry import Registry, default_registry
-from .simulation import NumericModel, Result, initial_state
-from .integrate import choose, integrate, Problem, resolve
-from .linear import simulate_exact, state_space
+from .base.graph import ComponentGraph
+from .plugin.registry import Registry, default_registry
+from .numerics.simulation import NumericModel, Result, initial_state
+from .numerics.integrate import choose, integrate, Problem, resolve
+from .numerics.linear import simulate_exact, state_space
 
 __all__ = ["Model"]
 

@@ -37,10 +37,10 @@ from typing import Any
 
 import numpy as np
 
-from .contracts import DEFAULT_TOLERANCES, Benchmark
-from .errors import LagrangianError, ModelError, UnknownNameError
+from ..plugin.contracts import DEFAULT_TOLERANCES, Benchmark
+from ..errors import LagrangianError, ModelError, UnknownNameError
 from .integrate import EnergyDriftWarning
-from .registry import default_registry
+from ..plugin.registry import default_registry
 from .simulation import InitialConditionWarning
 
 __all__ = ["Benchmark", "DEFAULT_TOLERANCES", "Row", "WorkPrecision", "benchmarks", "work_precision", "run", "stability_limit", "ProgressBar"]

@@ -15,7 +15,7 @@ from typing import Any, ClassVar
 
 import sympy as sp
 
-from .errors import closest, ExpressionError, ParameterError
+from ..errors import closest, ExpressionError, ParameterError
 from .text import parse_expression
 
 __all__ = ["t", "GROUND", "Parameter", "Load", "Contribution", "Example", "Component", "dot"]

@@ -44,10 +44,10 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .component import t as time_symbol
-from .errors import IntegrationError, LagrangianError, ModelError, SingularMassMatrixError, closest
-from .contracts import KINDS, RESERVED, Integrator, Solution, integrator_problem, resolve
-from .identity import depends_on, is_zero
+from ..base.component import t as time_symbol
+from ..errors import IntegrationError, LagrangianError, ModelError, SingularMassMatrixError, closest
+from ..plugin.contracts import KINDS, RESERVED, Integrator, Solution, integrator_problem, resolve
+from ..base.identity import depends_on, is_zero
 from .simulation import NumericModel, Result, _lambdify
 
 __all__ = [

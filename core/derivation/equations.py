@@ -36,11 +36,11 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 from .assembly import Assembly
-from .component import t
+from ..base.component import t
 from .derive import Derivation, Rewriter
-from .errors import ModelError
-from .identity import is_zero
-from .switching import SWITCHES
+from ..errors import ModelError
+from ..base.identity import is_zero
+from ..base.switching import SWITCHES
 
 __all__ = ["Equations"]
 

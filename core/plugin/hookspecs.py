@@ -26,9 +26,9 @@ from __future__ import annotations
 from collections.abc import Callable
 import pluggy
 
-from .component import Component
+from ..base.component import Component
 from .contracts import AnalogueBuilder, Analogy, Benchmark, Integrator
-from .domain import Domain
+from ..base.domain import Domain
 
 __all__ = [
     "hookspec",

@@ -59,15 +59,15 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .component import t
+from ..base.component import t
 from .derived import DerivedModel
-from .equations import Equations, _is_zero
-from .errors import ModelError, ReductionError, UnknownNameError
+from ..derivation.equations import Equations, _is_zero
+from ..errors import ModelError, ReductionError, UnknownNameError
 from .impulse import simulate_with_impacts
-from .model import Model
+from ..model import Model
 from .routh import _depends, _drop, ignorable, reduce
-from .simulation import InitialConditionWarning, Result, _lambdify
-from .tape import size
+from ..numerics.simulation import InitialConditionWarning, Result, _lambdify
+from ..numerics.tape import size
 
 __all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
 

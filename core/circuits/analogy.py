@@ -26,10 +26,10 @@ from typing import Any
 import networkx as nx
 import sympy as sp
 
-from .component import GROUND, Component, _CallableSignal, t
-from .contracts import AnalogueBuilder, Analogy, Element, Ports
-from .errors import ModelError, UnknownNameError
-from .model import Model
+from ..base.component import GROUND, Component, _CallableSignal, t
+from ..plugin.contracts import AnalogueBuilder, Analogy, Element, Ports
+from ..errors import ModelError, UnknownNameError
+from ..model import Model
 
 __all__ = ["Analogy", "Element", "Ports", "Mapped", "AnalogyError", "map_model", "dual_branches"]
 

@@ -14,7 +14,7 @@ import logging
 import numpy as np
 
 from .codegen import CompiledModel
-from .errors import ModelError
+from ..errors import ModelError
 from .integrate import FixedStepIntegrator, Integrator, Solution, _grid
 
 _log = logging.getLogger("lagrangian")

@@ -29,11 +29,11 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .component import GROUND, t
-from .domain import Context
-from .errors import LagrangianError, ModelError, NumericalError
-from .model import Model
-from .simulation import initial_state
+from ..base.component import GROUND, t
+from ..base.domain import Context
+from ..errors import LagrangianError, ModelError, NumericalError
+from ..model import Model
+from ..numerics.simulation import initial_state
 
 __all__ = [
     "SpiceElement",

@@ -19,7 +19,7 @@ interrupts the call in this process, elsewhere it runs in a child as
 >>> within(time.sleep, 5, seconds=0.2)
 Traceback (most recent call last):
 ...
-lagrangian.budget.BudgetExceeded: the call did not finish within its budget of 0.2 s
+lagrangian.base.budget.BudgetExceeded: the call did not finish within its budget of 0.2 s
 """
 
 from __future__ import annotations

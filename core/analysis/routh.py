@@ -54,15 +54,15 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .budget import DEFAULT_SECONDS, BudgetExceeded, interruptible, within
-from .component import t
+from ..base.budget import DEFAULT_SECONDS, BudgetExceeded, interruptible, within
+from ..base.component import t
 from .derived import DerivedModel
-from .equations import Equations
-from .errors import ReductionError, UnknownNameError
-from .identity import depends_on, equal, is_zero
-from .model import Model
-from .text import as_expr
-from .simulation import Result
+from ..derivation.equations import Equations
+from ..errors import ReductionError, UnknownNameError
+from ..base.identity import depends_on, equal, is_zero
+from ..model import Model
+from ..base.text import as_expr
+from ..numerics.simulation import Result
 
 __all__ = [
     "Ignorability",

@@ -109,12 +109,12 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .component import t
-from .domain import Context
-from .errors import LagrangianError, ModelError, ParameterError
-from .model import Model
-from .registry import Registry
-from .simulation import Result
+from ..base.component import t
+from ..base.domain import Context
+from ..errors import LagrangianError, ModelError, ParameterError
+from ..model import Model
+from ..plugin.registry import Registry
+from ..numerics.simulation import Result
 
 __all__ = ["ImportedNetlist", "Transient", "NetlistWarning", "read_netlist", "read_netlist_file", "parse_number", "SUPPORTED"]
 

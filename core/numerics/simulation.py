@@ -20,11 +20,11 @@ import numpy as np
 import sympy as sp
 
 from .codegen import compile_model
-from .component import t
-from .equations import Equations
-from .errors import ModelError, SingularMassMatrixError, UnknownNameError
-from .switching import switching_times
-from .text import as_expr, parse_expression
+from ..base.component import t
+from ..derivation.equations import Equations
+from ..errors import ModelError, SingularMassMatrixError, UnknownNameError
+from ..base.switching import switching_times
+from ..base.text import as_expr, parse_expression
 
 __all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state"]
 

@@ -62,14 +62,14 @@ import sympy as sp
 from scipy.linalg import expm
 from sympy.core.function import AppliedUndef
 
-from .arguments import check_grid, check_mapping, check_span
-from .component import t
-from .errors import IntegrationError, ModelError, SingularMassMatrixError
-from .identity import depends_on, is_zero
+from ..base.arguments import check_grid, check_mapping, check_span
+from ..base.component import t
+from ..errors import IntegrationError, ModelError, SingularMassMatrixError
+from ..base.identity import depends_on, is_zero
 from .simulation import Result, initial_state
-from .switching import SWITCHES as _SWITCHES
-from .switching import resolve as _resolve
-from .switching import switching_times as _switching_times
+from ..base.switching import SWITCHES as _SWITCHES
+from ..base.switching import resolve as _resolve
+from ..base.switching import switching_times as _switching_times
 
 __all__ = ["StateSpace", "state_space", "simulate_exact"]
 

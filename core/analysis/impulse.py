@@ -77,12 +77,12 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .component import t
-from .errors import ModelError, NumericalError, SingularMassMatrixError, UnknownNameError, IntegrationError, closest
-from .errors import ExpressionError
-from .simulation import Result, initial_state
-from .model import Model
-from .text import as_expr
+from ..base.component import t
+from ..errors import ModelError, NumericalError, SingularMassMatrixError, UnknownNameError, IntegrationError, closest
+from ..errors import ExpressionError
+from ..numerics.simulation import Result, initial_state
+from ..model import Model
+from ..base.text import as_expr
 
 __all__ = [
     "Impulse",

@@ -24,9 +24,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from .equations import Equations
-from .errors import ModelError
-from .model import Model
+from ..derivation.equations import Equations
+from ..errors import ModelError
+from ..model import Model
 
 __all__ = ["DerivedModel"]
 

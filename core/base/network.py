@@ -11,7 +11,7 @@ from collections.abc import Callable, Hashable
 
 import networkx as nx
 
-from .errors import FloatingNetworkError, TopologyError
+from ..errors import FloatingNetworkError, TopologyError
 
 __all__ = ["check_topology", "normal_tree", "fundamental_loops", "tree_potentials"]
 

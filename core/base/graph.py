@@ -13,7 +13,7 @@ from typing import Any
 import networkx as nx
 
 from .component import GROUND, GROUND_ALIASES, Component
-from .errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, UnknownNodeError
+from ..errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, UnknownNodeError
 
 __all__ = ["ComponentGraph"]
 

@@ -89,8 +89,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .component import t as time_symbol
-from .errors import ModelError, NumericalError, SingularMassMatrixError
+from ..base.component import t as time_symbol
+from ..errors import ModelError, NumericalError, SingularMassMatrixError
 from .tape import OPS, Program, TapeError, record
 
 __all__ = [

@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .errors import ModelError
+from ..errors import ModelError
 from .analogy import map_model
-from .model import Model
+from ..model import Model
 from .spice import netlist, run_transient
 
 __all__ = ["QuantityError", "Comparison", "compare_with_ngspice"]

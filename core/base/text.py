@@ -30,7 +30,7 @@ from typing import Any
 
 import sympy as sp
 
-from .errors import ExpressionError
+from ..errors import ExpressionError
 
 __all__ = ["parse_expression", "as_expr", "FUNCTIONS", "MAX_LENGTH"]
 

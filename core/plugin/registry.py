@@ -20,11 +20,11 @@ from typing import Any
 
 import pluggy
 
-import lagrangian.hookspecs as hookspecs
-from .component import Component, Example, Parameter
+from . import hookspecs
+from ..base.component import Component, Example, Parameter
 from .contracts import Analogy, Benchmark, integrator_problem, resolve
-from .domain import Domain, Option
-from .errors import PluginError, UnknownKindError, closest
+from ..base.domain import Domain, Option
+from ..errors import PluginError, UnknownKindError, closest
 
 __all__ = ["Registry", "PluginInfo", "default_registry", "ENTRY_POINT_GROUP"]
 

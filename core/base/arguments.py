@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ModelError
+from ..errors import ModelError
 
 #: a run's outputs may take at most this share of the machine's memory
 MEMORY_SHARE = 0.5

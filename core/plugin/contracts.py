@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from .component import GROUND, Component
-from .errors import ModelError, UnknownNameError
+from ..base.component import GROUND, Component
+from ..errors import ModelError, UnknownNameError
 
 __all__ = ["Solution", "Integrator", "integrator_problem", "resolve", "KINDS", "RESERVED", "Analogy", "Element",
            "Ports", "Benchmark", "DEFAULT_TOLERANCES"]

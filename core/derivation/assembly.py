@@ -15,12 +15,12 @@ from typing import Any
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from .component import GROUND, Component, Contribution, Load, t
-from .domain import Context, Coordinate, DomainView, Network
-from .errors import DomainError, LagrangianError, ModelError
-from .graph import ComponentGraph
-from .network import check_topology
-from .registry import Registry
+from ..base.component import GROUND, Component, Contribution, Load, t
+from ..base.domain import Context, Coordinate, DomainView, Network
+from ..errors import DomainError, LagrangianError, ModelError
+from ..base.graph import ComponentGraph
+from ..base.network import check_topology
+from ..plugin.registry import Registry
 
 __all__ = ["Assembly", "assemble"]
 
