@@ -110,7 +110,7 @@ def interruptible(fn: Callable[..., Any], *args: Any, seconds: float, **kwargs: 
     >>> interruptible(time.sleep, 5, seconds=0.2)
     Traceback (most recent call last):
     ...
-    lagrangian.budget.BudgetExceeded: the call did not finish within its budget of 0.2 s
+    lagrangian.base.budget.BudgetExceeded: the call did not finish within its budget of 0.2 s
     """
     if (threading.current_thread() is not threading.main_thread() or not hasattr(signal, "setitimer")
             or signal.getitimer(signal.ITIMER_REAL)[0] > 0):
