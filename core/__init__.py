@@ -22,6 +22,7 @@ from .base.domain import Context, Coordinate, Domain, DomainView, Network, Optio
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
 from .plugin.hookspecs import hookimpl
+from .numerics.events import Event, Occurrence
 from .numerics.integrate import EnergyDriftWarning, StiffnessWarning
 from .model import Model
 from .plugin.registry import Registry, default_registry
@@ -36,7 +37,7 @@ MODULES = {
     "base": ("component", "domain", "graph", "network", "text", "identity", "arguments", "switching", "budget"),
     "plugin": ("contracts", "hookspecs", "registry"),
     "derivation": ("assembly", "derive", "equations"),
-    "numerics": ("tape", "codegen", "simulation", "integrate", "compiled_loops", "linear", "bench"),
+    "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench"),
     "analysis": ("routh", "impulse", "scene", "derived"),
     "circuits": ("analogy", "spice", "netlist", "compare"),
 }
@@ -95,5 +96,7 @@ __all__ = [
     "InitialConditionWarning",
     "EnergyDriftWarning",
     "StiffnessWarning",
+    "Event",
+    "Occurrence",
     *_errors,
 ]

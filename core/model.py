@@ -29,6 +29,8 @@ from .base.graph import ComponentGraph
 from .plugin.registry import Registry, default_registry
 from .numerics.simulation import NumericModel, Result, initial_state
 from .numerics.integrate import choose, integrate, Problem, resolve
+from .numerics.events import Event
+from .numerics.events import check as check_events
 from .numerics.linear import simulate_exact, state_space
 
 __all__ = ["Model"]
@@ -346,6 +348,7 @@ class Model:
         energy_tol: float | bool | None = None,
         progress: bool | Callable[[float, float], None] = False,
         compiled: bool | str = "auto",
+        events: Sequence[Event] = (),
         **options: Any,
     ) -> Result:
         """Integrate the equations of motion with a registered method, or solve them exactly.
@@ -380,6 +383,14 @@ class Model:
         input that is not a sum of products of polynomials, exponentials,
         sines and cosines of ``t`` (piecewise ones included), is refused with
         a :class:`ModelError` naming the term.
+
+        ``events`` are :class:`~lagrangian.Event` objects: zero-crossings of a
+        function of time and state, located to 1e-14 relative, that end the
+        run (``terminal``) or change its state (``action``) — a ball that
+        stops at the floor, a velocity reversed at a wall; they are listed
+        in ``Result.events`` (see :mod:`lagrangian.numerics.events`).  Every
+        adaptive and fixed-step method takes them; ``method="exact"`` does
+        not.
 
         ``method="auto"`` picks one from the model's properties — exact for
         a linear time-invariant model, an implicit method for a stiff one
@@ -430,13 +441,17 @@ class Model:
         step = check_positive("step", step)
         energy_tol = check_energy_tol(energy_tol)
         progress = check_progress(progress)
+        events = check_events(events)
+        if events and method == "exact":
+            raise ModelError("method='exact' solves the whole span at once and takes no events: use an adaptive "
+                             "method (DOP853, RK45, Radau) or method='auto'.")
         if method == "auto":
             numeric = self.numeric(params)
             span = self._span(t_end)
             y0, _ = initial_state(self.eq, initial or {}, velocity or {}, warn=False)
             problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
             lti = self._linear(params)
-            choice = choose(problem, span, y0, rtol=1e-9 if rtol is None else rtol, linear_exact=lti,
+            choice = choose(problem, span, y0, rtol=1e-9 if rtol is None else rtol, linear_exact=lti and not events,
                             integrators=self.registry.integrators)
             if choice.method == "exact":
                 try:
@@ -454,9 +469,9 @@ class Model:
             extra = {k: v for k, v in choice.options.items() if k != "step"} | options
             if picked.kind == "adaptive":  # the tolerances were asked of auto; a step was not
                 return self._integrate(t_end, initial, velocity, params, points, t_eval, picked, rtol, atol, max_step,
-                                       None, energy_tol, progress, extra, choice.notes, compiled)
+                                       None, energy_tol, progress, extra, choice.notes, compiled, events)
             return self._integrate(t_end, initial, velocity, params, points, t_eval, picked, None, None, None,
-                                   choice.options["step"], energy_tol, progress, extra, choice.notes, compiled)
+                                   choice.options["step"], energy_tol, progress, extra, choice.notes, compiled, events)
         if method == "exact":
             if options or step is not None:
                 raise ModelError(f"method='exact' takes no step or method options (got {', '.join([*options, *(['step'] if step is not None else [])])}).")
@@ -467,7 +482,7 @@ class Model:
             )
         resolve(method, self.registry.integrators)  # an unknown name fails before any derivation
         return self._integrate(t_end, initial, velocity, params, points, t_eval, method, rtol, atol, max_step, step,
-                               energy_tol, progress, options, [], compiled)
+                               energy_tol, progress, options, [], compiled, events)
 
     @staticmethod
     def _span(t_end) -> tuple[float, float]:
@@ -502,7 +517,7 @@ class Model:
             )
 
     def _integrate(self, t_end, initial, velocity, params, points, t_eval, method, rtol, atol, max_step, step,
-                   energy_tol, progress, options, notes, compiled="auto") -> Result:
+                   energy_tol, progress, options, notes, compiled="auto", events=()) -> Result:
         integrator = resolve(method, self.registry.integrators)
         span = self._span(t_end)
         numeric = self.numeric(params)
@@ -531,4 +546,5 @@ class Model:
             problem, integrator, span, y0,
             t_eval=grid, options={**run_options, **options}, model=self.name, defaulted=defaulted,
             integrators=self.registry.integrators, notes=notes, energy_tol=energy_tol, progress=progress,
+            events=events,
         )

@@ -95,6 +95,14 @@ class ScipyMethod(Integrator):
                         max_step=max_step, **extra)
         return Solution(sol.t, sol.y, sol.nfev, sol.status, sol.message)
 
+    def start(self, problem, t0, y0, t_bound, *, rtol=1e-9, atol=1e-12, max_step=np.inf, first_step=None):
+        """SciPy's solver object from ``(t0, y0)`` towards ``t_bound``, stepped by the driver (events)."""
+        import scipy.integrate
+
+        extra = {} if first_step is None else {"first_step": first_step}
+        return getattr(scipy.integrate, self.name)(problem.rhs, t0, y0, t_bound, rtol=rtol, atol=atol,
+                                                   max_step=max_step, **extra)
+
 
 # ---------------------------------------------------------------------------
 # Explicit Runge–Kutta with a fixed step: a tableau

@@ -48,6 +48,7 @@ from ..base.component import t as time_symbol
 from ..errors import IntegrationError, LagrangianError, ModelError, SingularMassMatrixError, closest
 from ..plugin.contracts import KINDS, RESERVED, Integrator, Solution, integrator_problem, resolve
 from ..base.identity import depends_on, is_zero
+from .events import solve as solve_with_events
 from .simulation import NumericModel, Result, _lambdify
 
 __all__ = [
@@ -768,6 +769,7 @@ def integrate(
     notes: Sequence[str] = (),
     energy_tol: float | bool | None = None,
     progress: bool | Callable[[float, float], None] = False,
+    events: Sequence[Any] = (),
 ) -> Result:
     """Integrate ``problem`` with ``integrator`` into a :class:`~lagrangian.Result`.
 
@@ -820,11 +822,14 @@ def integrate(
         warnings.warn(stiff_note, StiffnessWarning, stacklevel=4)
     problem.nfev = 0
     problem._report = _reporter(t_span, model, progress) if progress else None
-    cuts, cut_note = _cuts(problem, integrator, t_span)
+    cuts, cut_note = _cuts(problem, integrator, t_span) if not events else ([], None)
     if cut_note:
         notes = [*notes, cut_note]
+    occurrences: list = []
     try:
-        if cuts:
+        if events:
+            sol, occurrences = solve_with_events(integrator, problem, t_span, y0, t_eval, options, events)
+        elif cuts:
             sol = _solve_pieces(integrator, problem, t_span, y0, t_eval, options, cuts)
         else:
             sol = integrator.solve(problem, t_span, y0, t_eval, **options)
@@ -846,7 +851,7 @@ def integrate(
             else _fixed_step_advice(problem, integrator, t_span[0], y0, sol.step)
         )
         raise IntegrationError(f"{name} failed on model {model!r} at t={end:g}: {sol.message}. {advice}")
-    if sol_t.size != t_eval.size or not np.all(np.isfinite(sol_y)):
+    if (sol_t.size != t_eval.size and not (occurrences and sol.status == 0)) or not np.all(np.isfinite(sol_y)):
         bad = int(np.argmax(~np.all(np.isfinite(sol_y), axis=0))) if sol_y.size else 0
         at = sol_t[bad] if sol_t.size else t_span[0]
         raise IntegrationError(f"the solution of model {model!r} by {name} became non-finite at t={at:g}.")
@@ -856,9 +861,12 @@ def integrate(
     q = sol_y[:n]
     T, V, D = numeric.energies(sol_t, q, v)
     all_notes = [*notes, *sol.notes]
-    if problem._conservative[0] and sol_t.size > 1:
+    acted = any(getattr(e, "action", None) is not None for e in events) and bool(occurrences)
+    if acted:  # an action changed the state: the energy of the model alone need not be kept
+        all_notes.append("energy not checked: event actions changed the state")
+    if problem._conservative[0] and sol_t.size > 1 and not acted:
         _explosion_check(problem, integrator, sol_t, q, v, T, V, model)
-    if problem._conservative[0] and sol_t.size > 1 and energy_tol is not False:
+    if problem._conservative[0] and sol_t.size > 1 and energy_tol is not False and not acted:
         all_notes.append(_energy_check(problem, integrator, sol_t, q, v, T, V, options, energy_tol, model))
     return Result(
         evaluator=numeric.evaluate,
@@ -874,6 +882,7 @@ def integrate(
         method=name,
         notes=all_notes,
         step=sol.step,
+        events=occurrences,
     )
 
 

@@ -364,7 +364,9 @@ class Result:
     ``method="auto"``), ``nfev`` how many times it evaluated the model,
     ``step`` the step size of a fixed-step method, and ``notes`` what the
     run wants known: why ``auto`` picked its method, step adjustments, how
-    well a conservative model kept its energy.
+    well a conservative model kept its energy.  ``events`` lists the events
+    that occurred (:class:`~lagrangian.numerics.events.Occurrence`: name,
+    time, state), when the run was given any.
     ``res["x_cart"]`` is the same as ``res.q["x_cart"]``.
     """
 
@@ -381,6 +383,7 @@ class Result:
     evaluator: Callable[[Any, "Result"], np.ndarray] | None = field(default=None, repr=False)
     notes: list[str] = field(default_factory=list)
     step: float | None = None
+    events: list = field(default_factory=list)
 
     @property
     def E(self) -> np.ndarray:

@@ -108,6 +108,13 @@ class Integrator:
        (``rhs`` does it by itself).
     8. Keep no state of a run on the integrator: one instance serves every
        run.
+    9. Optional, for events (:mod:`lagrangian.numerics.events`): adaptive
+       methods give ``start(problem, t0, y0, t_bound, **options)``, an
+       object stepped one step at a time with the interface of SciPy's
+       ``OdeSolver`` (``step()``, ``t``, ``y``, ``t_old``, ``status``,
+       ``dense_output()``); fixed-step methods give ``stepper(problem, h)``
+       (:class:`~lagrangian.integrate.FixedStepIntegrator`).  A method with
+       neither refuses events with a clear error.
     """
 
     name: str = ""
