@@ -13,13 +13,14 @@
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
-from .base.arguments import check_atol, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
+from .base.arguments import RunOptions, check_atol, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
 from .derivation.assembly import Assembly, assemble
 from .base.component import Component, check_value, t
 from .base.domain import Coordinate
@@ -429,60 +430,65 @@ class Model:
         'exact'
         """
 
-        t_end = check_span(t_end)
-        initial = check_mapping("initial", initial, self.eq.names)
-        velocity = check_mapping("velocity", velocity, self.eq.names)
-        params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]}))
-        dim = len(self.eq.names) + len(self.eq.inertial)
-        check_grid(t_end, points, t_eval, dim)
-        rtol = check_positive("rtol", rtol)
-        atol = check_atol(atol, dim)
-        max_step = check_positive("max_step", max_step, infinite=True)
-        step = check_positive("step", step)
-        energy_tol = check_energy_tol(energy_tol)
-        progress = check_progress(progress)
-        events = check_events(events)
-        if events and method == "exact":
+        names = self.eq.names
+        dim = len(names) + len(self.eq.inertial)
+        run = RunOptions(
+            span=check_span(t_end),
+            initial=check_mapping("initial", initial, names),
+            velocity=check_mapping("velocity", velocity, names),
+            params=check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]})),
+            points=points,
+            t_eval=t_eval,
+            method=method,
+            rtol=check_positive("rtol", rtol),
+            atol=check_atol(atol, dim),
+            max_step=check_positive("max_step", max_step, infinite=True),
+            step=check_positive("step", step),
+            energy_tol=check_energy_tol(energy_tol),
+            progress=check_progress(progress),
+            compiled=compiled,
+            events=check_events(events),
+            options=dict(options),
+        )
+        check_grid(run.span, points, t_eval, dim)
+        if run.events and method == "exact":
             raise ModelError("method='exact' solves the whole span at once and takes no events: use an adaptive "
                              "method (DOP853, RK45, Radau) or method='auto'.")
         if method == "auto":
-            numeric = self.numeric(params)
-            span = self._span(t_end)
-            y0, _ = initial_state(self.eq, initial or {}, velocity or {}, warn=False)
-            problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
-            lti = self._linear(params)
-            choice = choose(problem, span, y0, rtol=1e-9 if rtol is None else rtol, linear_exact=lti and not events,
-                            integrators=self.registry.integrators)
-            if choice.method == "exact":
-                try:
-                    res = self.simulate(t_end, initial=initial, velocity=velocity, params=params, points=points,
-                                        t_eval=t_eval, method="exact", progress=progress)
-                    res.notes[:0] = choice.notes
-                    return res
-                except ModelError as exc:
-                    choice = choose(problem, span, y0, rtol=1e-9 if rtol is None else rtol,
-                                    integrators=self.registry.integrators)
-                    choice.notes.insert(0, f"auto: not solved exactly: {exc}")
-            for note in choice.notes:
-                _log.info("%s: %s", self.name, note)
-            picked = self.registry.integrators[choice.method]
-            extra = {k: v for k, v in choice.options.items() if k != "step"} | options
-            if picked.kind == "adaptive":  # the tolerances were asked of auto; a step was not
-                return self._integrate(t_end, initial, velocity, params, points, t_eval, picked, rtol, atol, max_step,
-                                       None, energy_tol, progress, extra, choice.notes, compiled, events)
-            return self._integrate(t_end, initial, velocity, params, points, t_eval, picked, None, None, None,
-                                   choice.options["step"], energy_tol, progress, extra, choice.notes, compiled, events)
+            return self._auto(run)
         if method == "exact":
             if options or step is not None:
                 raise ModelError(f"method='exact' takes no step or method options (got {', '.join([*options, *(['step'] if step is not None else [])])}).")
-
-            return simulate_exact(
-                self, t_end, initial=initial, velocity=velocity, params=params,
-                points=points, t_eval=t_eval, progress=progress,
-            )
+            return simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,
+                                  points=points, t_eval=t_eval, progress=run.progress)
         resolve(method, self.registry.integrators)  # an unknown name fails before any derivation
-        return self._integrate(t_end, initial, velocity, params, points, t_eval, method, rtol, atol, max_step, step,
-                               energy_tol, progress, options, [], compiled, events)
+        return self._integrate(run)
+
+    def _auto(self, run: RunOptions) -> Result:
+        """``method="auto"``: the method :func:`~lagrangian.integrate.choose` picks, with its notes."""
+        numeric = self.numeric(run.params)
+        y0, _ = initial_state(self.eq, run.initial, run.velocity, warn=False)
+        problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
+        rtol = 1e-9 if run.rtol is None else run.rtol
+        lti = not run.events and self._linear(run.params)
+        choice = choose(problem, run.span, y0, rtol=rtol, linear_exact=lti, integrators=self.registry.integrators)
+        if choice.method == "exact":
+            try:
+                res = simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,
+                                     points=run.points, t_eval=run.t_eval, progress=run.progress)
+                res.notes[:0] = choice.notes
+                return res
+            except ModelError as exc:
+                choice = choose(problem, run.span, y0, rtol=rtol, integrators=self.registry.integrators)
+                choice.notes.insert(0, f"auto: not solved exactly: {exc}")
+        for note in choice.notes:
+            _log.info("%s: %s", self.name, note)
+        picked = self.registry.integrators[choice.method]
+        extra = {k: v for k, v in choice.options.items() if k != "step"} | dict(run.options)
+        if picked.kind == "adaptive":  # the tolerances were asked of auto; a step was not
+            return self._integrate(replace(run, method=picked, step=None, options=extra, notes=tuple(choice.notes)))
+        return self._integrate(replace(run, method=picked, rtol=None, atol=None, max_step=None,
+                                       step=choice.options["step"], options=extra, notes=tuple(choice.notes)))
 
     @staticmethod
     def _span(t_end) -> tuple[float, float]:
@@ -516,20 +522,19 @@ class Model:
                 f"lagrangian.plugins.multibody.consistent_initial(model, initial, velocity)."
             )
 
-    def _integrate(self, t_end, initial, velocity, params, points, t_eval, method, rtol, atol, max_step, step,
-                   energy_tol, progress, options, notes, compiled="auto", events=()) -> Result:
-        integrator = resolve(method, self.registry.integrators)
-        span = self._span(t_end)
-        numeric = self.numeric(params)
-        note = numeric.use_compiled(compiled)
+    def _integrate(self, run: RunOptions) -> Result:
+        integrator = resolve(run.method, self.registry.integrators)
+        numeric = self.numeric(run.params)
+        notes = list(run.notes)
+        note = numeric.use_compiled(run.compiled)
         if note and not getattr(integrator, "needs_compiled", False):  # compiled code asked for, not usable (a
             # method with a compiled loop says so itself)
-            notes = [*notes, note]
-        y0, defaulted = initial_state(self.eq, initial or {}, velocity or {})
-        self._check_constraints(numeric, span[0], y0)
-        grid = check_grid(span, points, t_eval, len(y0))
+            notes.append(note)
+        y0, defaulted = initial_state(self.eq, run.initial, run.velocity)
+        self._check_constraints(numeric, run.span[0], y0)
+        grid = check_grid(run.span, run.points, run.t_eval, len(y0))
         problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
-        given = {"rtol": rtol, "atol": atol, "max_step": max_step, "step": step}
+        given = {"rtol": run.rtol, "atol": run.atol, "max_step": run.max_step, "step": run.step}
         wanted = {"rtol": 1e-9, "atol": 1e-12, "max_step": np.inf} if integrator.kind == "adaptive" else {"step": None}
         for key, value in given.items():
             if value is not None and key not in wanted:
@@ -543,8 +548,8 @@ class Model:
         if integrator.kind == "fixed-step" and run_options["step"] is None:
             run_options.pop("step")
         return integrate(
-            problem, integrator, span, y0,
-            t_eval=grid, options={**run_options, **options}, model=self.name, defaulted=defaulted,
-            integrators=self.registry.integrators, notes=notes, energy_tol=energy_tol, progress=progress,
-            events=events,
+            problem, integrator, run.span, y0,
+            t_eval=grid, options={**run_options, **run.options}, model=self.name, defaulted=defaulted,
+            integrators=self.registry.integrators, notes=notes, energy_tol=run.energy_tol, progress=run.progress,
+            events=run.events,
         )

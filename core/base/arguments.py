@@ -19,6 +19,7 @@ import math
 import numbers
 import os
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -164,6 +165,35 @@ def check_mapping(name: str, value: Any, names: Sequence[str]) -> dict[str, Any]
     hint = f", e.g. dict(zip({list(names)!r}, values))" if isinstance(value, (np.ndarray, list, tuple)) and names else ""
     raise ModelError(f"{name} must map names to numbers ({example}), got one of type {_kind(value)}{hint}. "
                      f"Names: {', '.join(names) or '(none)'}.")
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What one run is asked, checked once by the functions of this module and passed down whole.
+
+    ``span`` is ``(t0, t1)``; ``initial``, ``velocity`` and ``params`` map names to values; the output grid is
+    ``t_eval`` when given, else ``points`` evenly spaced times; ``method`` names an integrator (or is one),
+    ``"auto"`` or ``"exact"``; ``rtol``, ``atol``, ``max_step`` (adaptive) and ``step`` (fixed-step) are ``None``
+    when not given; ``options`` are the method's own keyword options; ``notes`` go to ``Result.notes`` first.
+    """
+
+    span: tuple[float, float]
+    initial: Mapping[str, Any]
+    velocity: Mapping[str, Any]
+    params: Mapping[str, Any]
+    points: int = 1001
+    t_eval: Any = None
+    method: Any = "DOP853"
+    rtol: float | None = None
+    atol: Any = None
+    max_step: float | None = None
+    step: float | None = None
+    energy_tol: float | bool | None = None
+    progress: bool | Callable[[float, float], None] = False
+    compiled: bool | str = "auto"
+    events: tuple = ()
+    options: Mapping[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
 
 def check_progress(value: Any) -> bool | Callable[[float, float], None]:
