@@ -15,7 +15,8 @@ import numpy as np
 
 from .codegen import CompiledModel
 from ..errors import ModelError
-from .integrate import FixedStepIntegrator, Integrator, Solution, _grid
+from ..plugin.contracts import Integrator, Solution
+from .fixed_step import FixedStepIntegrator, _grid
 
 _log = logging.getLogger("lagrangian")
 
