@@ -345,8 +345,8 @@ def test_netlist_times_given_as_text_are_a_model_error(option):
 
 
 @pytest.mark.xfail(strict=True, raises=OverflowError, reason="method='auto' on a solenoid with a mass of 1e-300: "
-                                                             "Problem.spectrum raises scale ** (k - 1) past a float "
-                                                             "(integrate.py) instead of a NumericalError")
+                                                             "Problem.spectrum raises scale ** (k - 1) past a float"
+                                                             " instead of a NumericalError")
 def test_auto_on_a_nearly_massless_transducer_is_a_project_error():
     model = lg.Model("solenoid")
     model.add("capacitor", "C", ("n1", "0"), C=32.3)
