@@ -208,14 +208,12 @@ def code(marker) -> str:
 # -- text that runs ---------------------------------------------------------------------------------
 
 
-@pytest.mark.xfail(strict=True, reason="spice.netlist(options={name: text}) runs the text: spice._number sympifies it")
 def test_netlist_options_given_as_text_never_run(tmp_path):
     marker = tmp_path / "ran"
     correct(lambda: fuzz.lib("spice").netlist(rc(), options={"abstol": f"{code(marker)} or 1e-12"}))
     assert not marker.exists()
 
 
-@pytest.mark.xfail(strict=True, reason="Mapped.to_source(text) runs the text: analogy.Mapped.to_source sympifies it")
 def test_text_given_to_an_analogue_never_runs(tmp_path):
     marker = tmp_path / "ran"
     mapped = fuzz.lib("analogy").map_model(oscillator(), "force-current")
@@ -224,9 +222,6 @@ def test_text_given_to_an_analogue_never_runs(tmp_path):
 
 
 @pytest.mark.parametrize("shape", ["dict", "tuple"])
-@pytest.mark.xfail(strict=True, reason="text inside a dict or tuple given for a scalar parameter runs: "
-                                       "Parameter._scalar calls sympify(value, strict=True), which evaluates the "
-                                       "strings inside containers")
 def test_text_inside_a_container_given_for_a_parameter_never_runs(tmp_path, shape):
     marker = tmp_path / "ran"
     value = {code(marker): 1} if shape == "dict" else (code(marker),)
@@ -235,9 +230,6 @@ def test_text_inside_a_container_given_for_a_parameter_never_runs(tmp_path, shap
 
 
 @pytest.mark.parametrize("shape", ["dict", "tuple"])
-@pytest.mark.xfail(strict=True, reason="text inside a dict or tuple given to Result.quantity runs: text.as_expr "
-                                       "calls sympify(value, strict=True), which evaluates the strings inside "
-                                       "containers")
 def test_text_inside_a_container_given_for_a_quantity_never_runs(tmp_path, shape):
     marker = tmp_path / "ran"
     res = oscillator().simulate(0.1, points=3, initial={"x_p": 0.1}, velocity={"x_p": 0.0})
@@ -330,8 +322,6 @@ def test_a_huge_integer_inside_a_signal_runs_on_numpy():
     correct(lambda: model.simulate(0.1, points=3, compiled=False))
 
 
-@pytest.mark.xfail(strict=True, reason="spice.netlist(options={'abstol': '1e'}): SympifyError from spice._number "
-                                       "(the same sympify of text that runs it)")
 def test_netlist_options_that_are_not_numbers_are_a_model_error():
     correct(lambda: fuzz.lib("spice").netlist(rc(), options={"abstol": "1e"}))
 
@@ -377,9 +367,6 @@ def test_bdf_on_numpy_with_a_singular_mass_matrix_is_a_numerical_error():
     correct(lambda: model.simulate(0.0697, method="BDF", compiled=False, initial={"q_S": 552.0}))
 
 
-@pytest.mark.xfail(strict=True, reason="a node name of 520 characters inside a behavioural source's v(...) smashes "
-                                       "ngspice's stack (the process aborts): spice.netlist writes node names of "
-                                       "any length")
 def test_a_long_node_name_does_not_crash_ngspice():
     script = (
         "import sys; sys.path.insert(0, 'benchmarks'); import fuzz, lagrangian as lg\n"

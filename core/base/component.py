@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 import sympy as sp
 
 from ..errors import closest, ExpressionError, ParameterError
-from .text import parse_expression
+from .text import as_expr
 
 __all__ = ["t", "GROUND", "Parameter", "Load", "Contribution", "Example", "Component", "dot"]
 
@@ -139,7 +139,7 @@ class Parameter:
         if isinstance(value, bool):
             raise ParameterError(component, name, f"expected a number or a SymPy expression, got {value!r}.")
         try:
-            expr = parse_expression(value, "the text") if isinstance(value, str) else sp.sympify(value, strict=True)
+            expr = as_expr(value, "the value")
         except ExpressionError as exc:
             raise ParameterError(component, name, f"expected a number or a SymPy expression; {exc}") from None
         except (sp.SympifyError, SyntaxError, TypeError, ValueError) as exc:

@@ -28,6 +28,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
 import sympy as sp
 
 from ..errors import ExpressionError
@@ -93,6 +94,10 @@ def as_expr(value: Any, what: str, *, names: Mapping[str, sp.Basic] | None = Non
         return parse_expression(value, what, names=names)
     if isinstance(value, bool) or value is None:
         raise ExpressionError(f"{what}: expected a number or an expression, got {value!r}.")
+    if isinstance(value, (Mapping, list, tuple, set, frozenset, bytes, bytearray, sp.MatrixBase)) or (
+            isinstance(value, np.ndarray) and value.ndim > 0):
+        # SymPy would read text inside a container as code: containers are never read
+        raise ExpressionError(f"{what}: expected a scalar number or expression, got {_short(repr(value))}.")
     try:
         expr = sp.sympify(value, strict=True)
     except (sp.SympifyError, TypeError, ValueError):

@@ -27,6 +27,7 @@ import networkx as nx
 import sympy as sp
 
 from ..base.component import GROUND, Component, _CallableSignal, t
+from ..base.text import as_expr
 from ..plugin.contracts import AnalogueBuilder, Analogy, Element, Ports
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -58,7 +59,11 @@ class Mapped:
 
     def to_source(self, expr: Any) -> sp.Expr:
         """Rewrite an expression in the analogue's coordinates in terms of the source model's."""
-        return sp.sympify(expr).subs(self.coordinates).doit()
+        return as_expr(expr, "the expression to rewrite", names=self._names()).subs(self.coordinates).doit()
+
+    def _names(self) -> dict[str, sp.Basic]:
+        """The analogue's coordinates (and t) by name, for text given to :meth:`to_source`."""
+        return {c.name: c.function for c in self.model.coordinates} | {"t": t}
 
     def initial(self, initial: Mapping[str, float], velocity: Mapping[str, float], params=None) -> tuple[dict, dict]:
         """Initial coordinates and velocities of the analogue from those of the source model."""

@@ -18,6 +18,7 @@ serialized with a lock, and every run removes its circuit and plots.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import logging
 import re
 import threading
@@ -31,6 +32,7 @@ import sympy as sp
 
 from ..base.component import GROUND, t
 from ..base.domain import Context
+from ..base.text import as_expr
 from ..errors import LagrangianError, ModelError, NumericalError
 from ..model import Model
 from ..numerics.simulation import initial_state
@@ -282,7 +284,7 @@ class _NodeNames(dict):
             self[node]  # noqa: B018 - name the model's nodes first, in order
 
     def __missing__(self, node: str) -> str:
-        base = re.sub(r"[^a-z0-9_]", "_", str(node).lower().lstrip("~")) or "n"
+        base = _bounded(re.sub(r"[^a-z0-9_]", "_", str(node).lower().lstrip("~")) or "n", str(node))
         if base in {"time", "0", "gnd"} or not base[0].isalpha():
             base = f"n_{base}"
         name, i = base, 1
@@ -306,8 +308,25 @@ def spice_title(text: str) -> str:
     return safe or "model"
 
 
+#: the longest name written into a deck: ngspice copies names into fixed buffers (a 520-character node name in a
+#: behavioural source overflows one and aborts the process)
+MAX_NAME = 48
+
+
+def _bounded(name: str, original: str) -> str:
+    """``name`` cut to :data:`MAX_NAME` characters, with a digest of ``original`` so that cut names stay distinct.
+
+    >>> len(_bounded("n" * 500, "n" * 500)) <= MAX_NAME
+    True
+    """
+    if len(name) <= MAX_NAME:
+        return name
+    digest = hashlib.blake2s(original.encode("utf-8", "surrogatepass"), digest_size=5).hexdigest()
+    return f"{name[:MAX_NAME - 11]}_{digest}"
+
+
 def _element_name(prefix: str, component: str, used: set[str]) -> str:
-    base = re.sub(r"[^a-z0-9_]", "_", component.lower())
+    base = _bounded(re.sub(r"[^a-z0-9_]", "_", component.lower()), component)
     name = base if base.startswith(prefix.lower()) else f"{prefix.lower()}_{base}"
     out, i = name, 1
     while out in used:
@@ -318,7 +337,7 @@ def _element_name(prefix: str, component: str, used: set[str]) -> str:
 
 
 def _number(value: Any, subs: Mapping, component: str) -> str:
-    value = sp.sympify(value).xreplace(subs)
+    value = as_expr(value, f"component {component!r}: its SPICE value").xreplace(subs)
     if not value.is_number:
         raise ModelError(f"component {component!r}: its SPICE value {value} is not a number; give parameter values (params=...).")
     return _fmt(value)
