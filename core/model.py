@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .base.arguments import RunOptions, check_atol, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
+from .base.arguments import RunOptions, check_atol, check_max_step, check_state, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
 from .derivation.assembly import Assembly, assemble
 from .base.component import Component, check_value, t
 from .base.domain import Coordinate
@@ -434,15 +434,15 @@ class Model:
         dim = len(names) + len(self.eq.inertial)
         run = RunOptions(
             span=check_span(t_end),
-            initial=check_mapping("initial", initial, names),
-            velocity=check_mapping("velocity", velocity, names),
+            initial=check_state("initial", check_mapping("initial", initial, names)),
+            velocity=check_state("velocity", check_mapping("velocity", velocity, names)),
             params=check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]})),
             points=points,
             t_eval=t_eval,
             method=method,
             rtol=check_positive("rtol", rtol),
             atol=check_atol(atol, dim),
-            max_step=check_positive("max_step", max_step, infinite=True),
+            max_step=check_max_step(max_step, check_span(t_end)),
             step=check_positive("step", step),
             energy_tol=check_energy_tol(energy_tol),
             progress=check_progress(progress),

@@ -122,3 +122,28 @@ def test_the_memory_estimate_follows_the_state_size():
     arguments._fits(times, 2, "points")
     with pytest.raises(lg.ModelError, match="more than 50%"):
         arguments._fits(times, 2000, "points")
+
+
+@pytest.mark.parametrize("given,message", [
+    ({"initial": {"x_p": -1e150}}, r"within ±1e\+100"),
+    ({"velocity": {"x_p": 1e183}}, r"within ±1e\+100"),
+    ({"initial": {"x_p": 10**400}}, r"within ±1e\+100"),
+    ({"initial": {"x_p": math.inf}}, "not a finite number"),
+    ({"initial": {"x_p": "0.1"}}, "must be a number, got '0.1'"),
+    ({"velocity": {"x_p": [0.1]}}, "must be a number"),
+])
+def test_an_initial_state_that_is_no_physical_state_is_refused(osc, given, message):
+    """From 1e149 on, LSODA never returns on an oscillator: states are bounded before any run."""
+    with pytest.raises(lg.ModelError, match=message):
+        osc.simulate(0.03, points=5, method="LSODA", **{"initial": {"x_p": 0.1}, **given})
+
+
+def test_an_initial_state_of_ordinary_size_in_large_units_still_runs(osc):
+    res = osc.simulate(0.03, points=5, method="LSODA", initial={"x_p": -1e100}, velocity={"x_p": 0.0})
+    assert np.allclose(res["x_p"], -1e100 * np.cos(math.sqrt(7 / 0.3) * res.t), rtol=1e-6)
+
+
+@pytest.mark.parametrize("method", ["RK45", "DOP853", "dopri5_c", "Radau"])
+def test_a_step_cap_that_would_never_end_is_refused(osc, method):
+    with pytest.raises(lg.ModelError, match="caps the run at more than 100,000,000 steps"):
+        osc.simulate(1e-3, points=3, method=method, max_step=1e-20, initial={"x_p": 0.1})

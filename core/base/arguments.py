@@ -28,6 +28,10 @@ from ..errors import ModelError
 
 #: a run's outputs may take at most this share of the machine's memory
 MEMORY_SHARE = 0.5
+#: initial values beyond this are refused (squares of states must stay far from overflow)
+STATE_LARGEST = 1e100
+#: a run that would take more steps than this is refused before it starts (it would not end)
+MAX_STEPS = 100_000_000
 
 
 def _number(value: Any) -> bool:
@@ -165,6 +169,34 @@ def check_mapping(name: str, value: Any, names: Sequence[str]) -> dict[str, Any]
     hint = f", e.g. dict(zip({list(names)!r}, values))" if isinstance(value, (np.ndarray, list, tuple)) and names else ""
     raise ModelError(f"{name} must map names to numbers ({example}), got one of type {_kind(value)}{hint}. "
                      f"Names: {', '.join(names) or '(none)'}.")
+
+
+def check_state(name: str, given: Mapping[str, Any]) -> Mapping[str, Any]:
+    """Initial values (``initial`` / ``velocity``): numbers within ±:data:`STATE_LARGEST`.
+
+    Energies square the state and methods' error norms square it again: from 1e149 on, LSODA never returns on
+    an oscillator (measured: 1e140 takes 0.06 s).  Text, lists and the like are refused here too.
+    """
+    for key, value in given.items():
+        if not _number(value):
+            raise ModelError(f"{name}[{key!r}] must be a number, got {value!r:.60} of type {_kind(value)}.")
+        try:
+            x = float(value)
+        except OverflowError:
+            x = math.inf
+        if not math.isfinite(x) or abs(x) > STATE_LARGEST:
+            raise ModelError(f"{name}[{key!r}] = {value!r:.30} is not a finite number within ±{STATE_LARGEST:g}: give the "
+                             f"state in units that keep it finite.")
+    return given
+
+
+def check_max_step(max_step: float | None, bounds: tuple[float, float]) -> float | None:
+    """``max_step``: positive, and not so small that the run would take more than :data:`MAX_STEPS` steps."""
+    max_step = check_positive("max_step", max_step, infinite=True)
+    if max_step is not None and (bounds[1] - bounds[0]) / max_step > MAX_STEPS:
+        raise ModelError(f"max_step={max_step:g} over a span of {bounds[1] - bounds[0]:g} caps the run at more than "
+                         f"{MAX_STEPS:,} steps, which would not end: give a larger max_step, or none.")
+    return max_step
 
 
 @dataclass(frozen=True)
