@@ -18,6 +18,7 @@ import sympy as sp
 
 import lagrangian as lg
 from lagrangian import codegen, compiled_loops
+from lagrangian.numerics import c_build
 from lagrangian.errors import NumericalError, SingularMassMatrixError
 from lagrangian.simulation import NumericModel
 
@@ -193,7 +194,7 @@ def test_every_choice_of_compiled_matches_numpy_and_auto_runs_the_tape_until_nat
 
 
 def test_the_tape_compiles_nothing_per_model_and_the_runtime_is_built_once(tmp_path, monkeypatch):
-    monkeypatch.setattr(codegen, "_settings", {"cache_dir": str(tmp_path), "compiler": None})
+    monkeypatch.setattr(c_build, "_settings", {"cache_dir": str(tmp_path), "compiler": None})
     path = codegen.runtime()
     assert path.exists() and path.parent == tmp_path and path.name.startswith("runtime-")
     assert codegen.runtime() == path  # from the cache the second time
@@ -258,7 +259,7 @@ def test_second_build_of_the_same_model_comes_from_the_cache(built, cache):
 
 def test_cache_directory_is_configurable_and_safe_to_delete(tmp_path, monkeypatch):
     model = oscillator()
-    monkeypatch.setattr(codegen, "_settings", {"cache_dir": None, "compiler": None})
+    monkeypatch.setattr(c_build, "_settings", {"cache_dir": None, "compiler": None})
     monkeypatch.setenv("LAGRANGIAN_CACHE_DIR", str(tmp_path / "env-cache"))
     assert codegen.cache_dir() == tmp_path / "env-cache"
     monkeypatch.delenv("LAGRANGIAN_CACHE_DIR")
@@ -276,7 +277,7 @@ def test_cache_directory_is_configurable_and_safe_to_delete(tmp_path, monkeypatc
 
 
 def test_a_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch):
-    monkeypatch.setattr(codegen, "_settings", {"cache_dir": str(tmp_path), "compiler": None})
+    monkeypatch.setattr(c_build, "_settings", {"cache_dir": str(tmp_path), "compiler": None})
     model = oscillator(k=9.0)
     compiled, _ = codegen.compile_model(model.numeric())
     compiled.path.unlink()  # (never overwrite a loaded library in place: its pages are mapped)
@@ -293,7 +294,7 @@ def test_a_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch):
 
 
 def test_without_a_compiler_simulate_falls_back_to_numpy_with_a_note(monkeypatch, caplog):
-    monkeypatch.setattr(codegen, "_settings", {"cache_dir": codegen._settings["cache_dir"], "compiler": None})
+    monkeypatch.setattr(c_build, "_settings", {"cache_dir": c_build._settings["cache_dir"], "compiler": None})
     monkeypatch.setenv("LAGRANGIAN_CC", "/nonexistent/lagrangian-test-cc")
     assert codegen.compiler() is None
     model = oscillator()

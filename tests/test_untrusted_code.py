@@ -18,6 +18,7 @@ import pytest
 
 import lagrangian as lg
 from lagrangian import codegen
+from lagrangian.numerics import c_build
 from lagrangian.simulation import NumericModel
 
 pytestmark = pytest.mark.skipif(codegen.compiler() is None, reason="no C compiler on this machine")
@@ -25,7 +26,7 @@ pytestmark = pytest.mark.skipif(codegen.compiler() is None, reason="no C compile
 
 @pytest.fixture(autouse=True)
 def private_cache(tmp_path, monkeypatch):
-    monkeypatch.setattr(codegen, "_settings", {"cache_dir": str(tmp_path / "cache"), "compiler": None})
+    monkeypatch.setattr(c_build, "_settings", {"cache_dir": str(tmp_path / "cache"), "compiler": None})
     yield tmp_path / "cache"
 
 

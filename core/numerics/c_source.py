@@ -1,0 +1,554 @@
+"""C source of compiled models: the tapes of a model (:func:`programs`) printed as straight-line C
+(:func:`generate_source`), and the runtime library's C — the tape interpreter, the dense LU solve and the stepping
+loops — that is the same for every model.  Names enter the C only through :func:`c_comment`.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import sympy as sp
+
+from ..base.component import t as time_symbol
+from .tape import OPS, Program, TapeError, record
+
+#: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
+CODEGEN_VERSION = "2"
+
+
+class _Unavailable(Exception):
+    """The model cannot be compiled here; the message says why (turned into a note, never raised to the user)."""
+
+
+def _arrays(numeric) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
+    """The entries of ``A`` and ``b``, and ``T, V, D, L`` and the momenta ``p = ∂L/∂q̇`` (for the Jacobi integral
+    ``h = p·q̇ − L``), generic: every parameter with a value (given as a number or by ``params=``) a symbol."""
+    return _arrays_of(numeric.eq)
+
+
+def _arrays_of(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
+    g = eq.generic()
+    energies = [g["T"], g["V"], g["D"], g["L"], *g["p"]]
+    return list(g["A"]), list(g["b"]), energies
+
+
+def c_comment(text: str) -> str:
+    """``text`` as one C comment line: the only way user text (coordinate names) enters generated C.
+
+    Characters other than letters, digits, space and ``_ , . ; : ( ) - + =``
+    become ``?``, so nothing in the text can end the comment (``*/``),
+    splice lines (a backslash before a newline), start a preprocessor line
+    or a trigraph.
+
+    >>> c_comment("coordinates x_p, y*/ system(1); /*" + chr(92))
+    '/* coordinates x_p, y?? system(1); ??? */'
+    """
+    safe = "".join(ch if (ch.isascii() and ch.isalnum()) or ch in " _,.;:()-+=" else "?" for ch in text)
+    return f"/* {safe} */"
+
+
+def programs(numeric) -> tuple[Program, Program]:
+    """The two tapes (:mod:`lagrangian.tape`) of ``numeric``: ``A`` and ``b`` from ``(t, q, q̇_inertial)``, and
+    ``T, V, D, L, p`` from ``(t, q, q̇)``, with ``numeric``'s parameter values in their constant registers.
+
+    The tapes are recorded once per model (kept on its equations), with the
+    parameters as registers whose values are put in for each set of values
+    (:meth:`lagrangian.tape.Program.with_values`): new values record
+    nothing again, and the tape interpreter runs them at once.
+
+    Raises an internal error (turned into a note by :func:`compile_model`)
+    when the model cannot be compiled: time signals given as Python
+    callables, or functions the tape does not know.
+    """
+    found = getattr(numeric, "_tapes", None)
+    if found is not None:
+        return found
+    generic = _generic_programs(numeric.eq, tuple(sorted(numeric.values, key=sp.default_sort_key)))
+    try:
+        numeric._tapes = tuple(p.with_values(numeric.values) for p in generic)
+    except TapeError as exc:  # pragma: no cover - every parameter has a value by Model._values
+        raise _Unavailable(str(exc)) from None
+    return numeric._tapes
+
+
+def _generic_programs(eq, parameters: tuple) -> tuple[Program, Program]:
+    """The tapes of ``eq`` with ``parameters`` as run-time constants, recorded once per set of parameter symbols."""
+    cache = eq.__dict__.setdefault("_generic_tapes", {})
+    if parameters in cache:
+        return cache[parameters]
+    a_entries, b_entries, energies = _arrays_of(eq)
+    scan = eq.scan()
+    callables = scan["callables"]
+    if callables or scan["derivatives"]:
+        raise _Unavailable(
+            f"the model uses time signal(s) given as Python callables ({', '.join(callables) or 'derivatives'}), "
+            f"which compiled code cannot call; give them as SymPy expressions of t to compile"
+        )
+    q, v = list(eq.sym.q), list(eq.sym.v)
+    try:
+        matrix = record([*a_entries, *b_entries], [time_symbol, *q, *(v[i] for i in eq.inertial)], parameters)
+        energy = record(energies, [time_symbol, *q, *v], parameters)
+    except TapeError as exc:
+        raise _Unavailable(str(exc)) from None
+    cache[parameters] = (matrix, energy)
+    return cache[parameters]
+
+
+def generate_source(numeric) -> str:
+    """The C source of ``numeric``'s native library (a :class:`~lagrangian.simulation.NumericModel`):
+    its tapes (:func:`programs`) printed as straight-line C — ``lg_matrix`` (the entries of ``A`` and ``b``),
+    ``lg_rhs`` (that and the LU solve: the state derivative) and ``lg_energies`` (``T``, ``V``, ``D``,
+    Jacobi integral); the stepping loops are in the runtime library, shared by every model.
+    """
+    eq = numeric.eq
+    matrix, energy = programs(numeric)
+    n, nI = numeric.n, numeric.nI
+    first = list(eq.first_order)
+    m = int(math.isqrt(len(numeric.eq.generic()["A"])))
+    inputs_m = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + j: f"vI[{j}]" for j in range(nI)}}
+    inputs_e = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + i: f"v[{i}]" for i in range(n)}}
+    body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(m * m)] + [f"b[{k}]" for k in range(m)], "    ")
+    body_e = energy.c_lines(inputs_e, [f"o[{k}]" for k in range(4 + n)], "    ")
+
+    def table(values):
+        return "{" + ", ".join(map(str, values or [0])) + "}"
+
+    return "\n".join([
+        c_comment(f"Generated by lagrangian.codegen {CODEGEN_VERSION}; coordinates {', '.join(numeric.eq.names)}; "
+                  f"do not edit."),
+        _HEADER,
+        f"#define NQ {n}",
+        f"#define NI {nI}",
+        f"#define NF {len(first)}",
+        f"#define NM {m}",
+        f"static const int INERTIAL[] = {table(eq.inertial)};",
+        f"static const int FIRST[] = {table(first)};",
+        _SOLVE,
+        "int lg_dims(int *out) { out[0] = NQ; out[1] = NI; out[2] = NM; out[3] = NF; return 0; }",
+        "",
+        "/* The entries of A (row-major, NM x NM) and b of the solve A u = b, u = (accelerations, first-order rates, multipliers). */",
+        "int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
+        *body_m,
+        "    return 0;",
+        "}",
+        "",
+        "/* T, V, D, L and the momenta p at (t, q, v), v: the rates of all coordinates. */",
+        "static void energy_terms(double t, const double *q, const double *v, double *o) {",
+        *body_e,
+        "}",
+        _NATIVE,
+    ]) + "\n"
+
+
+_HEADER = """#include <math.h>
+#include <float.h>
+#include <stdlib.h>
+#include <string.h>
+/* Scratch arrays: on the stack up to LG_SCRATCH doubles, on the heap beyond (a model of 10^4 coordinates needs
+   more than any thread's stack); NULL when the heap has none. RELEASE frees what SCRATCH took from the heap. */
+#define LG_SCRATCH 2048
+#define SCRATCH(name, count) double name##_stack[LG_SCRATCH]; \
+    double *name = (count) <= LG_SCRATCH ? name##_stack : malloc((size_t)(count) * sizeof(double))
+#define RELEASE(name) do { if (name != name##_stack) free(name); } while (0)
+"""
+
+# The solve and the state derivative: one text, in the runtime library (sizes as arguments) and in every native
+# library (sizes as constants, which the C compiler folds into the loops).
+_SOLVE = r"""
+/* LU with partial pivoting, in place; b becomes the solution. 0: solved, 1: singular, 2: not finite. */
+static int lu_solve(int nm, double *A, double *b) {
+    double amax = 0.0;
+    for (int i = 0; i < nm * nm; i++) {
+        double a = fabs(A[i]);
+        if (!(a <= DBL_MAX)) return 2;
+        if (a > amax) amax = a;
+    }
+    const double tiny = nm * DBL_EPSILON * amax;
+    if (nm && !(amax > 0.0)) return 1;
+    for (int k = 0; k < nm; k++) {
+        int p = k;
+        double best = fabs(A[k * nm + k]);
+        for (int i = k + 1; i < nm; i++) {
+            double a = fabs(A[i * nm + k]);
+            if (a > best) { best = a; p = i; }
+        }
+        if (!(best > tiny)) return best == best ? 1 : 2;
+        if (p != k) {
+            for (int j = k; j < nm; j++) { double s = A[k * nm + j]; A[k * nm + j] = A[p * nm + j]; A[p * nm + j] = s; }
+            double s = b[k]; b[k] = b[p]; b[p] = s;
+        }
+        const double inv = 1.0 / A[k * nm + k];
+        for (int i = k + 1; i < nm; i++) {
+            const double f = A[i * nm + k] * inv;
+            if (f != 0.0) {
+                for (int j = k + 1; j < nm; j++) A[i * nm + j] -= f * A[k * nm + j];
+                b[i] -= f * b[k];
+            }
+        }
+    }
+    for (int k = nm - 1; k >= 0; k--) {
+        double s = b[k];
+        for (int j = k + 1; j < nm; j++) s -= A[k * nm + j] * b[j];
+        b[k] = s / A[k * nm + k];
+    }
+    return 0;
+}
+
+/* dy/dt from the solution u = b of A u = b at y = (q, q'_inertial). 0: fine, 2: not finite. */
+static int state_rate(int nq, int ni, int nf, const int *inertial, const int *first, const double *y, const double *b,
+                      double *dy) {
+    for (int j = 0; j < ni; j++) { dy[inertial[j]] = y[nq + j]; dy[nq + j] = b[j]; }
+    for (int j = 0; j < nf; j++) dy[first[j]] = b[ni + j];
+    for (int i = 0; i < nq + ni; i++) if (!isfinite(dy[i])) return 2;
+    return 0;
+}
+
+/* T, V, D and the Jacobi integral h = p.v - L into out[0..3], from o = (T, V, D, L, p). */
+static void energy_out(int nq, const double *v, const double *o, double *out) {
+    double h = -o[3];
+    for (int i = 0; i < nq; i++) h += v[i] * o[4 + i];
+    out[0] = o[0]; out[1] = o[1]; out[2] = o[2]; out[3] = h;
+}
+"""
+
+# The native library's entry points (its sizes are constants; ctx is unused: the functions are the model).
+_NATIVE = r"""
+int lg_rhs(const void *ctx, double t, const double *y, double *dy) {
+    SCRATCH(A, NM * NM + NM + 1);
+    if (!A) return 2;
+    double *b = A + NM * NM;
+    lg_matrix(ctx, t, y, y + NQ, A, b);
+    int rc = lu_solve(NM, A, b);
+    if (!rc) rc = state_rate(NQ, NI, NF, INERTIAL, FIRST, y, b, dy);
+    RELEASE(A);
+    return rc;
+}
+
+void lg_energies(const void *ctx, long N, const double *t, const double *q, const double *v, double *out) {
+    SCRATCH(o, 4 + NQ);
+    for (long k = 0; k < N; k++) {
+        if (!o) { for (int i = 0; i < 4; i++) out[4 * k + i] = NAN; continue; }
+        energy_terms(t[k], q + k * NQ, v + k * NQ, o);
+        energy_out(NQ, v + k * NQ, o, out + 4 * k);
+    }
+    RELEASE(o);
+}
+"""
+
+
+def _interpreter() -> str:
+    """The C interpreter of tapes: one ``case`` per operation of :data:`lagrangian.tape.OPS`."""
+    cases = "\n".join(f"        case {k}: r[c[1]] = {template}; break;" for k, (_, template) in enumerate(OPS.values()))
+    return r"""
+/* A tape (lagrangian.tape.Program): registers = inputs, constants, temporaries; rows (op, dst, x, y, z). */
+typedef struct { int nin, nconst, ninstr, nout; const double *consts; const int *code; const int *out; } lg_prog;
+/* A model as two tapes: A and b from (t, q, q'_inertial); T, V, D, L, p from (t, q, q'). */
+typedef struct { int nq, ni, nf, nm; const int *inertial, *first; lg_prog matrix, energy; } lg_tape;
+
+static void run(const lg_prog *p, double *r) {
+    memcpy(r + p->nin, p->consts, p->nconst * sizeof(double));
+    for (const int *c = p->code, *end = p->code + 5 * p->ninstr; c < end; c += 5) {
+        const double x = r[c[2]], y = r[c[3]], z = r[c[4]];
+        (void)y; (void)z;
+        switch (c[0]) {
+""" + cases + r"""
+        }
+    }
+}
+
+#define ON_STACK 4096
+/* Run p on the inputs (t, a[na], b[nb]); its outputs into out. 0: done, 2: out of memory. */
+static int run_on(const lg_prog *p, double t, const double *a, int na, const double *b, int nb, double *out) {
+    double stack[ON_STACK];
+    const int nreg = p->nin + p->nconst + p->ninstr + 1;
+    double *r = nreg <= ON_STACK ? stack : malloc(nreg * sizeof(double));
+    if (!r) return 2;
+    r[0] = t;
+    memcpy(r + 1, a, na * sizeof(double));
+    if (nb) memcpy(r + 1 + na, b, nb * sizeof(double));
+    run(p, r);
+    for (int k = 0; k < p->nout; k++) out[k] = r[p->out[k]];
+    if (r != stack) free(r);
+    return 0;
+}
+
+/* Run p on inputs in[nin]: its outputs into out (N sets of inputs, rows). 0: done, 2: out of memory. */
+int lg_prog_eval(const lg_prog *p, long N, const double *in, double *out) {
+    for (long k = 0; k < N; k++) {
+        const double *row = in + k * p->nin;
+        if (run_on(p, p->nin ? row[0] : 0.0, row + 1, p->nin ? p->nin - 1 : 0, row, 0, out + k * p->nout)) return 2;
+    }
+    return 0;
+}
+
+int lg_tape_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {
+    const lg_tape *m = ctx;
+    SCRATCH(o, (long)m->nm * m->nm + m->nm + 1);
+    if (!o) return 2;
+    int rc = run_on(&m->matrix, t, q, m->nq, vI, m->ni, o);
+    memcpy(A, o, (size_t)m->nm * m->nm * sizeof(double));
+    memcpy(b, o + (long)m->nm * m->nm, m->nm * sizeof(double));
+    RELEASE(o);
+    return rc;
+}
+
+int lg_tape_rhs(const void *ctx, double t, const double *y, double *dy) {
+    const lg_tape *m = ctx;
+    const long nm = m->nm;
+    SCRATCH(o, nm * nm + nm + 1);
+    if (!o) return 2;
+    int rc = run_on(&m->matrix, t, y, m->nq, y + m->nq, m->ni, o);
+    if (!rc) rc = lu_solve(nm, o, o + nm * nm);
+    if (!rc) rc = state_rate(m->nq, m->ni, m->nf, m->inertial, m->first, y, o + nm * nm, dy);
+    RELEASE(o);
+    return rc;
+}
+
+void lg_tape_energies(const void *ctx, long N, const double *t, const double *q, const double *v, double *out) {
+    const lg_tape *m = ctx;
+    const int nq = m->nq;
+    SCRATCH(o, 4 + nq);
+    for (long k = 0; k < N; k++) {
+        if (!o || run_on(&m->energy, t[k], q + k * nq, nq, v + k * nq, nq, o)) { for (int i = 0; i < 4; i++) out[4 * k + i] = NAN; continue; }
+        energy_out(nq, v + k * nq, o, out + 4 * k);
+    }
+    RELEASE(o);
+}
+"""
+
+
+# The stepping loops, the same for every model: they call the model's right-hand side through f(ctx, ...).
+_LOOPS = r"""
+typedef int (*rhs_fn)(const void *ctx, double t, const double *y, double *dy);
+
+/* All rates v (length nq) at many states (rows of Y, N x dim). Returns -1 or the index of the first failure. */
+long lg_velocities(rhs_fn f, const void *ctx, int nq, int dim, long N, const double *t, const double *Y, double *V) {
+    SCRATCH(dy, dim);
+    long failed = dy ? -1 : 0;
+    for (long k = 0; k < N && failed < 0; k++) {
+        if (f(ctx, t[k], Y + k * dim, dy)) failed = k;
+        else memcpy(V + k * nq, dy, nq * sizeof(double));
+    }
+    RELEASE(dy);
+    return failed;
+}
+
+static int bounded(int dim, const double *y, double limit) {
+    for (int i = 0; i < dim; i++) if (!(fabs(y[i]) < limit)) return 0;
+    return 1;
+}
+
+static double rms_scaled(int dim, const double *x, const double *scale) {
+    double s = 0.0;
+    for (int i = 0; i < dim; i++) { double r = x[i] / scale[i]; s += r * r; }
+    return dim ? sqrt(s / dim) : 0.0;
+}
+
+static void fail_at(int dim, double *fail, double t, const double *y) { fail[0] = t; memcpy(fail + 1, y, dim * sizeof(double)); }
+
+/* Dormand-Prince 5(4) with error control (as scipy's RK45) and its quartic dense output on tout.
+   Status: 0 done; 1 singular matrix, 2 not finite, 3 step size too small, 4 diverged (state at fail). */
+static int dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
+                  double max_step, double first_step, double *Y, long *counts, double *fail, double *work) {
+    static const double C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
+    static const double A[7][6] = {
+        {0}, {1.0 / 5}, {3.0 / 40, 9.0 / 40}, {44.0 / 45, -56.0 / 15, 32.0 / 9},
+        {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
+        {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656},
+        {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
+    static const double E[7] = {-71.0 / 57600, 0.0, 71.0 / 16695, -71.0 / 1920, 17253.0 / 339200, -22.0 / 525, 1.0 / 40};
+    static const double P[7][4] = {
+        {1.0, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
+        {0.0, 0.0, 0.0, 0.0},
+        {0.0, 131558114200.0 / 32700410799, -68118460800.0 / 10900136933, 87487479700.0 / 32700410799},
+        {0.0, -1754552775.0 / 470086768, 14199869525.0 / 1410260304, -10690763975.0 / 1880347072},
+        {0.0, 127303824393.0 / 49829197408, -318862633887.0 / 49829197408, 701980252875.0 / 199316789632},
+        {0.0, -282668133.0 / 205662961, 2019193451.0 / 616988883, -1453857185.0 / 822651844},
+        {0.0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
+    const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
+    double *y = work, *ynew = y + dim, *ys = ynew + dim, *err = ys + dim, *scale = err + dim, *f1 = scale + dim, *K[7];
+    const size_t row = dim * sizeof(double);
+    for (int s = 0; s < 7; s++) K[s] = f1 + (s + 1) * dim;
+    long nfev = 0, nstep = 0, nrej = 0, o = 0;
+    int rc;
+    double t = t0, limit = 1.0;
+    memcpy(y, y0, row);
+    for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
+    limit *= 1e30;
+    rc = f(ctx, t, y, K[0]); nfev++;
+    if (rc) { fail_at(dim, fail, t, y); counts[0] = nfev; return rc; }
+    while (o < nout && tout[o] <= t0) { memcpy(Y + o * dim, y, row); o++; }
+    double h = first_step;
+    if (!(h > 0.0)) {  /* scipy's select_initial_step, error order 4 */
+        for (int i = 0; i < dim; i++) scale[i] = atol + fabs(y[i]) * rtol;
+        double d0 = rms_scaled(dim, y, scale), d1 = rms_scaled(dim, K[0], scale), h0;
+        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+        if (h0 > t1 - t0) h0 = t1 - t0;
+        for (int i = 0; i < dim; i++) ys[i] = y[i] + h0 * K[0][i];
+        rc = f(ctx, t + h0, ys, f1); nfev++;
+        double d2 = 0.0;
+        if (!rc) { for (int i = 0; i < dim; i++) err[i] = f1[i] - K[0][i]; d2 = rms_scaled(dim, err, scale) / h0; }
+        double dm = d1 > d2 ? d1 : d2, h1;
+        h1 = (dm <= 1e-15) ? fmax(1e-6, h0 * 1e-3) : pow(0.01 / dm, 1.0 / 5.0);
+        h = fmin(100 * h0, h1);
+        if (h > t1 - t0) h = t1 - t0;
+    }
+    while (t < t1) {
+        double min_step = 10.0 * fabs(nextafter(t, INFINITY) - t);
+        if (h > max_step) h = max_step;
+        if (h < min_step) h = min_step;
+        int rejected = 0;
+        double tnew, hstep;
+        for (;;) {
+            if (h < min_step) { fail_at(dim, fail, t, y); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 3; }
+            tnew = t + h;
+            if (tnew > t1) tnew = t1;
+            hstep = tnew - t;
+            int bad = 0;
+            for (int s = 1; s < 7 && !bad; s++) {
+                double *target = (s == 6) ? ynew : ys;
+                for (int i = 0; i < dim; i++) {
+                    double acc = 0.0;
+                    for (int j = 0; j < s; j++) acc += A[s][j] * K[j][i];
+                    target[i] = y[i] + hstep * acc;
+                }
+                rc = f(ctx, s == 6 ? tnew : t + C[s] * hstep, target, K[s]); nfev++;
+                if (rc == 1) { fail_at(dim, fail, t + C[s] * hstep, target); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 1; }
+                if (rc) bad = 1;
+            }
+            double norm;
+            if (bad) norm = INFINITY;
+            else {
+                for (int i = 0; i < dim; i++) {
+                    double acc = 0.0;
+                    for (int j = 0; j < 7; j++) acc += E[j] * K[j][i];
+                    err[i] = hstep * acc;
+                    scale[i] = atol + fmax(fabs(y[i]), fabs(ynew[i])) * rtol;
+                }
+                norm = rms_scaled(dim, err, scale);
+                if (!(norm == norm)) norm = INFINITY;
+            }
+            if (norm < 1.0) {
+                double factor = norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(norm, -0.2));
+                if (rejected && factor > 1.0) factor = 1.0;
+                h = hstep * factor;
+                break;
+            }
+            h = hstep * fmax(MIN_FACTOR, norm == INFINITY ? MIN_FACTOR : SAFETY * pow(norm, -0.2));
+            rejected = 1;
+            nrej++;
+        }
+        /* dense output on (t, tnew] */
+        while (o < nout && tout[o] <= tnew) {
+            if (tout[o] == tnew) memcpy(Y + o * dim, ynew, row);
+            else {
+                double x = (tout[o] - t) / hstep, w[4] = {x, x * x, x * x * x, x * x * x * x};
+                for (int i = 0; i < dim; i++) {
+                    double acc = 0.0;
+                    for (int j = 0; j < 7; j++) {
+                        if (j == 1) continue;
+                        acc += K[j][i] * (P[j][0] * w[0] + P[j][1] * w[1] + P[j][2] * w[2] + P[j][3] * w[3]);
+                    }
+                    Y[o * dim + i] = y[i] + hstep * acc;
+                }
+            }
+            o++;
+        }
+        t = tnew;
+        memcpy(y, ynew, row);
+        memcpy(K[0], K[6], row);
+        nstep++;
+        if (!bounded(dim, y, limit)) { fail_at(dim, fail, t, y); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 4; }
+    }
+    counts[0] = nfev; counts[1] = nstep; counts[2] = nrej;
+    return 0;
+}
+
+int lg_dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
+              double max_step, double first_step, double *Y, long *counts, double *fail) {
+    double *work = malloc((size_t)13 * (dim > 0 ? dim : 1) * sizeof(double));
+    if (!work) { fail_at(dim, fail, t0, y0); return 5; }
+    int rc = dopri5(f, ctx, dim, t0, t1, y0, nout, tout, rtol, atol, max_step, first_step, Y, counts, fail, work);
+    free(work);
+    return rc;
+}
+
+/* Fixed steps t_k = t0 + k h, k = 1..N: method 0 classical Runge-Kutta, 1 Stormer-Verlet (kick-drift-kick;
+   separable models only: A constant, b independent of the velocities). Outputs tout: a step's state when
+   within 1e-7 h of it, else cubic Hermite interpolation between the neighbouring steps.
+   Status as lg_dopri5 (4: diverged). */
+static int fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,
+                 long *counts, double *fail, double *work) {
+    double *y = work, *ynew = y + dim, *fv = ynew + dim, *fnew = fv + dim, *k2 = fnew + dim, *k3 = k2 + dim, *k4 = k3 + dim, *ys = k4 + dim;
+    const size_t row = dim * sizeof(double);
+    long nfev = 0, o = 0;
+    int rc;
+    double limit = 1.0;
+    memcpy(y, y0, row);
+    for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
+    limit *= 1e30;
+    rc = f(ctx, t0, y, fv); nfev++;
+    if (rc) { fail_at(dim, fail, t0, y); counts[0] = nfev; return rc; }
+    while (o < nout && (tout[o] - t0) / h < 1e-7) { memcpy(Y + o * dim, y, row); o++; }
+    for (long k = 1; k <= N && o < nout; k++) {
+        const double t = t0 + (k - 1) * h, tn = t0 + k * h;
+        if (method == 0) {
+            for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * fv[i];
+            if ((rc = f(ctx, t + 0.5 * h, ys, k2))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
+            for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * k2[i];
+            if ((rc = f(ctx, t + 0.5 * h, ys, k3))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
+            for (int i = 0; i < dim; i++) ys[i] = y[i] + h * k3[i];
+            if ((rc = f(ctx, tn, ys, k4))) { fail_at(dim, fail, tn, ys); break; }
+            for (int i = 0; i < dim; i++) ynew[i] = y[i] + h / 6.0 * (fv[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+            nfev += 3;
+            if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
+            nfev++;
+        } else {  /* y = (q, v), f = (v, a): v += h/2 a; q += h v; a = a(q); v += h/2 a */
+            for (int i = 0; i < nq; i++) { ynew[nq + i] = y[nq + i] + 0.5 * h * fv[nq + i]; ynew[i] = y[i] + h * ynew[nq + i]; }
+            if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
+            nfev++;
+            for (int i = 0; i < nq; i++) { ynew[nq + i] += 0.5 * h * fnew[nq + i]; fnew[i] = ynew[nq + i]; }
+        }
+        while (o < nout && (tout[o] - t0) / h <= k + 1e-7) {
+            double kf = (tout[o] - t0) / h;
+            if (fabs(kf - k) < 1e-7) memcpy(Y + o * dim, ynew, row);
+            else {
+                double s = (tout[o] - t) / h, s2 = s * s, s3 = s2 * s;
+                double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
+                for (int i = 0; i < dim; i++)
+                    Y[o * dim + i] = h00 * y[i] + h10 * h * fv[i] + h01 * ynew[i] + h11 * h * fnew[i];
+            }
+            o++;
+        }
+        memcpy(y, ynew, row);
+        memcpy(fv, fnew, row);
+        if (!bounded(dim, y, limit)) { fail_at(dim, fail, tn, y); rc = 4; break; }
+    }
+    counts[0] = nfev; counts[1] = o;
+    return rc;
+}
+
+int lg_fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,
+             long *counts, double *fail) {
+    double *work = malloc((size_t)8 * (dim > 0 ? dim : 1) * sizeof(double));
+    if (!work) { fail_at(dim, fail, t0, y0); return 5; }
+    int rc = fixed(f, ctx, nq, dim, method, t0, h, N, y0, nout, tout, Y, counts, fail, work);
+    free(work);
+    return rc;
+}
+"""
+
+
+
+@functools.lru_cache(maxsize=1)
+def _runtime_source() -> str:
+    """The runtime library: the tape interpreter and the stepping loops (model-independent: compiled once per
+    compiler and kept in the cache)."""
+    return "\n".join([f"/* lagrangian.codegen {CODEGEN_VERSION}: runtime (tape interpreter, stepping loops); do not edit. */",
+                      _HEADER, _SOLVE, _interpreter(), _LOOPS])
+
+
+# ---------------------------------------------------------------------------
+# Build, cache, load
+# ---------------------------------------------------------------------------
