@@ -13,17 +13,21 @@
 from __future__ import annotations
 
 import logging
+import re
 from dataclasses import replace
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
+from sympy.printing.conventions import split_super_sub
+from sympy.printing.latex import LatexPrinter, translate
 
 from .base.arguments import RunOptions, check_atol, check_max_step, check_state, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
 from .derivation.assembly import Assembly, assemble
 from .base.component import Component, check_value, t
-from .base.domain import Coordinate
+from .base.domain import Coordinate, check_name
 from .derivation.equations import Equations
 from .errors import ModelError, ParameterError, UnknownNameError
 from .base.graph import ComponentGraph
@@ -37,6 +41,47 @@ from .numerics.linear import simulate_exact, state_space
 __all__ = ["Model"]
 
 _log = logging.getLogger("lagrangian")
+
+#: Characters that LaTeX reads as commands, in the names of coordinates and symbols (``_`` and ``^`` keep
+#: SymPy's meaning: subscript and superscript).
+_LATEX_SPECIAL = {"\\": r"\backslash{}", "{": r"\{", "}": r"\}", "$": r"\$", "&": r"\&", "#": r"\#", "%": r"\%",
+                  "~": r"\sim{}"}
+_LATEX_RE = re.compile("|".join(map(re.escape, _LATEX_SPECIAL)))
+
+
+def _latex_escape(text: str) -> str:
+    """``text`` with every LaTeX special character escaped (``%`` → ``\\%``)."""
+    return _LATEX_RE.sub(lambda m: _LATEX_SPECIAL[m.group()], text)
+
+
+class _LatexPrinter(LatexPrinter):
+    """SymPy's LaTeX printer, with the names of symbols and coordinate functions escaped for LaTeX: node and
+    component names become part of those names, and may hold ``%``, ``{``, ``\\`` or ``#`` (the one place names
+    are escaped for LaTeX).  Names without such characters print exactly as ``sympy.latex`` prints them."""
+
+    def _split_super_sub(self, name: str) -> tuple[str, list[str], list[str]]:
+        if name is None:
+            return super()._split_super_sub(name)
+        base, supers, subs = split_super_sub(name)
+        return (translate(_latex_escape(base)), [translate(_latex_escape(x)) for x in supers],
+                [translate(_latex_escape(x)) for x in subs])
+
+    def _print_Function(self, expr, exp=None) -> str:
+        if not isinstance(expr, AppliedUndef):
+            return super()._print_Function(expr, exp)
+        # SymPy formats the name with % (name % args): built here by concatenation, so a % in a name is text
+        name = self._hprint_Function(expr.func.__name__)
+        if exp is not None:
+            name = self.parenthesize_super(name) + "^{" + exp + "}"
+        args = ",".join(str(self._print(a)) for a in expr.args)
+        if self._settings["fold_func_brackets"] and len(expr.args) == 1 \
+                and not self._needs_function_brackets(expr.args[0]):
+            return name + args
+        return name + r"{\left(" + args + r" \right)}"
+
+
+def _latex(expr) -> str:
+    return _LatexPrinter().doprint(expr)
 
 
 class Model:
@@ -98,7 +143,20 @@ class Model:
             name = f"{kind}{i}"
         if not isinstance(name, str) or not name:
             raise ModelError(f"component names must be non-empty strings, got {name!r}.")
-        node_list = (nodes,) if isinstance(nodes, (str, int)) else tuple(nodes)
+        check_name(name, "component name")
+        if isinstance(nodes, (str, int)) and not isinstance(nodes, bool):
+            node_list = (nodes,)
+        elif isinstance(nodes, Sequence) and not isinstance(nodes, (str, bytes, bytearray)):
+            node_list = tuple(nodes)
+        else:
+            want = (f"a {kind} takes {', '.join(cls.terminals)}" if cls.terminals
+                    else f"a {kind} takes none: leave nodes out")
+            raise ModelError(
+                f"{kind} {name!r}: nodes are a node name or a tuple of node names ({want}), got {nodes!r:.80}."
+            )
+        for n in node_list:
+            if isinstance(n, str):
+                check_name(n, f"{kind} {name!r}: node name")
         if len(node_list) != len(cls.terminals):
             want = ", ".join(cls.terminals) or "no nodes"
             raise ModelError(
@@ -217,12 +275,12 @@ class Model:
 
     def latex(self) -> str:
         """The Lagrangian, Rayleigh function and equations of motion as LaTeX."""
-        lines = [rf"L = {sp.latex(self.lagrangian)}"]
+        lines = [rf"L = {_latex(self.lagrangian)}"]
         if self.eq.D != 0:
-            lines.append(rf"D = {sp.latex(self.rayleigh)}")
+            lines.append(rf"D = {_latex(self.rayleigh)}")
         lines.append(
-            rf"{sp.latex(self.mass_matrix)} \ddot{{q}} = {sp.latex(self.forcing)},\quad "
-            rf"q = {sp.latex(sp.Matrix([c.function for c in self.coordinates]))}"
+            rf"{_latex(self.mass_matrix)} \ddot{{q}} = {_latex(self.forcing)},\quad "
+            rf"q = {_latex(sp.Matrix([c.function for c in self.coordinates]))}"
         )
         return "\n".join(lines)
 
@@ -290,7 +348,10 @@ class Model:
             try:
                 value = float(params[k])
             except (TypeError, ValueError):
-                raise ModelError(f"parameter {k!r} must be a number, got {params[k]!r}.") from None
+                raise ModelError(f"parameter {k!r} must be a number, got {params[k]!r:.80}.") from None
+            except OverflowError:  # an integer (or fraction) beyond a float
+                raise ModelError(f"parameter {k!r} must be a finite number within the range of a float (±1.8e308), "
+                                 f"got {params[k]!r:.40}: give it in units that keep it finite.") from None
             values.update(dict.fromkeys(needed.get(k, []) + valued.get(k, []), value))
         self._check_overrides({s: values[s] for k in params for s in valued.get(k, [])})
         subs = {s: sp.Float(v) for s, v in values.items()}

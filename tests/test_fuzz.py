@@ -8,10 +8,10 @@ success or a ``LagrangianError`` (warnings allowed), and the marker file
 every payload tries to create must never appear.  Native compilation and
 ngspice runs are left to the benchmark (``heavy=False``).
 
-Inputs the fuzzer found that the library still answers with a foreign
-exception, or lets run, are pinned below one by one as strict xfails, each
+Inputs the fuzzer found are pinned below one by one.  One the library
+still answers with a foreign exception, or lets run, is a strict xfail
 naming the bug; a fix turns its test into an XPASS failure, and its marker
-is then removed.
+is then removed (so every test below passes once its bug is fixed).
 """
 
 import itertools
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import pytest
 import sympy as sp
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import lagrangian as lg
@@ -39,8 +39,6 @@ codegen = fuzz.lib("codegen")
 
 PROPERTY = settings(max_examples=60, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
-#: For a property expected to fail until the library is fixed: no shrinking (minutes of replays for an xfail).
-UNSHRUNK = settings(PROPERTY, phases=[Phase.explicit, Phase.reuse, Phase.generate])
 LIMIT = 20.0
 _counter = itertools.count()
 
@@ -74,12 +72,7 @@ def _judge(case: dict) -> None:
 # ---------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.xfail(strict=False, reason="known library bugs reachable from these inputs, each pinned below: "
-                                        "nodes=None, NUL or '%' in a node name, integers beyond a float, quantities "
-                                        "that are not finite reals, map_model of a lone inductor, Mapped.initial "
-                                        "and Mapped.to_source of text, text in containers, netlist(options=) text, "
-                                        "LSODA and adaptive step caps that never return")
-@UNSHRUNK
+@PROPERTY
 @given(rng=st.randoms(use_true_random=False))
 def test_models_built_from_untrusted_input_end_in_success_or_a_project_error(rng, workdir):
     _judge(fuzz.draw_model(rng, _marker(workdir), heavy=False))
@@ -241,81 +234,46 @@ def test_text_inside_a_container_given_for_a_quantity_never_runs(tmp_path, shape
 
 
 @pytest.mark.parametrize("nodes", [None, 1.5])
-@pytest.mark.xfail(strict=True, raises=TypeError, reason="Model.add(kind, name, nodes) with nodes None or a float: "
-                                                         "tuple(nodes) in Model.add instead of the ModelError for a "
-                                                         "bad node")
 def test_nodes_that_are_not_names_are_a_model_error(nodes):
     correct(lambda: lg.Model().add("gravity", "g", nodes))
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="a NUL in a node name reaches sympy.Function in "
-                                                          "Coordinate.named ('type name must not contain null "
-                                                          "characters')")
 def test_a_nul_in_a_node_name_is_a_model_error():
     correct(lambda: oscillator("\x00").equations)
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="a '%' in a node name breaks Model.latex: SymPy's LaTeX "
-                                                          "printer formats the coordinate's function name with %")
 def test_a_percent_in_a_node_name_prints_as_latex():
     correct(lambda: oscillator("%").latex())
 
 
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason="an initial value beyond a float (10**400): "
-                                                             "initial_state catches TypeError/ValueError of float() "
-                                                             "but not OverflowError")
 def test_an_initial_value_beyond_a_float_is_a_model_error():
     correct(lambda: oscillator().simulate(0.1, points=3, initial={"x_p": 10**400}))
 
 
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason="a params= value beyond a float (10**400): "
-                                                             "Model._values catches TypeError/ValueError of float() "
-                                                             "but not OverflowError")
 def test_a_parameter_value_beyond_a_float_is_a_model_error():
     correct(lambda: oscillator().simulate(0.1, points=3, params={"k_k": 10**400}))
 
 
-def _quantity_bug(error, why):
-    return pytest.mark.xfail(strict=True, raises=error, reason=f"Result.quantity: {why} instead of an ExpressionError")
-
-
-@pytest.mark.parametrize("text", [
-    pytest.param("1/0", marks=_quantity_bug(KeyError, "zoo reaches lambdify (KeyError 'ComplexInfinity')"), id="zoo"),
-    pytest.param("sqrt(-1)", marks=_quantity_bug(TypeError, "a complex value reaches float() in the evaluator"),
-                 id="complex"),
-    pytest.param("1" * 400, marks=_quantity_bug(OverflowError, "an integer beyond a float reaches float() in the "
-                                                               "evaluator"), id="huge-integer"),
-    pytest.param("erfc(-t)", marks=_quantity_bug(TypeError, "erf/erfc (known functions) lambdify to a scalar "
-                                                            "function and fail on the time array"), id="erfc"),
-])
+@pytest.mark.parametrize("text", [pytest.param("1/0", id="zoo"), pytest.param("sqrt(-1)", id="complex"),
+                                  pytest.param("1" * 400, id="huge-integer"), pytest.param("erfc(-t)", id="erfc")])
 def test_a_quantity_is_evaluated_or_is_a_project_error(text):
     res = oscillator().simulate(0.1, points=3, initial={"x_p": 0.1}, velocity={"x_p": 0.0})
     correct(lambda: res.quantity(text))
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="map_model of a lone inductor (no loop) through "
-                                                          "force-voltage: sympy.linsolve is called with no unknowns")
 def test_mapping_a_lone_inductor_is_a_model_error():
     model = lg.Model("lone")
     model.add("inductor", "L", ("a", "0"), L=1.0)
     correct(lambda: fuzz.lib("analogy").map_model(model, "force-voltage"))
 
 
-def _initial_bug(error):
-    return pytest.mark.xfail(strict=True, raises=error, reason="Mapped.initial (and so compare_with_ngspice(..., "
-                                                              "analogy=..., initial=...)) calls float() unchecked")
-
-
-@pytest.mark.parametrize("given", [pytest.param("abc", marks=_initial_bug(ValueError), id="text"),
-                                   pytest.param([1.0], marks=_initial_bug(TypeError), id="list"),
-                                   pytest.param(sp.Heaviside(lg.t), marks=_initial_bug(TypeError), id="expression")])
+@pytest.mark.parametrize("given", [pytest.param("abc", id="text"), pytest.param([1.0], id="list"),
+                                   pytest.param(sp.Heaviside(lg.t), id="expression")])
 def test_a_bad_initial_value_of_an_analogue_is_a_model_error(given):
     mapped = fuzz.lib("analogy").map_model(oscillator(), "force-current")
     correct(lambda: mapped.initial({"x_p": given}, {}))
 
 
-@pytest.mark.xfail(strict=True, raises=TypeError, reason="cot(10**30) as a force: the Python int reaches NumPy's tan "
-                                                         "(compiled=False, NumericModel's lambdified solve)")
 def test_a_huge_integer_inside_a_signal_runs_on_numpy():
     model = oscillator()
     model.add("force", "F", "p", F="cot(10**30)")
@@ -327,16 +285,10 @@ def test_netlist_options_that_are_not_numbers_are_a_model_error():
 
 
 @pytest.mark.parametrize("option", ["t_end", "step"])
-@pytest.mark.xfail(strict=True, raises=TypeError, reason="spice.netlist(t_end='1') or (step='1'): the text is "
-                                                         "divided unchecked (step = t_end / 1000, max_step = step / "
-                                                         "10)")
 def test_netlist_times_given_as_text_are_a_model_error(option):
     correct(lambda: fuzz.lib("spice").netlist(rc(), **{option: "1"}))
 
 
-@pytest.mark.xfail(strict=True, raises=OverflowError, reason="method='auto' on a solenoid with a mass of 1e-300: "
-                                                             "Problem.spectrum raises scale ** (k - 1) past a float"
-                                                             " instead of a NumericalError")
 def test_auto_on_a_nearly_massless_transducer_is_a_project_error():
     model = lg.Model("solenoid")
     model.add("capacitor", "C", ("n1", "0"), C=32.3)
@@ -346,19 +298,12 @@ def test_auto_on_a_nearly_massless_transducer_is_a_project_error():
     correct(lambda: model.simulate(0.03, method="auto"))
 
 
-@pytest.mark.xfail(strict=True, raises=ZeroDivisionError, reason="a force 1/t run on NumPy (compiled=False): "
-                                                                 "0.0**-1 in the lambdified solve raises "
-                                                                 "ZeroDivisionError (the tape gives a NumericalError)")
 def test_a_singular_signal_on_numpy_is_a_numerical_error():
     model = oscillator()
     model.add("force", "F", "p", F="1/t")
     correct(lambda: model.simulate(0.5, points=3, compiled=False))
 
 
-@pytest.mark.xfail(strict=True, raises=ValueError, reason="BDF on NumPy (compiled=False) with a singular mass matrix "
-                                                          "(a solenoid with L0 = 4.53e-141): scipy's 'array must not "
-                                                          "contain infs or NaNs' escapes ScipyMethod.solve (the tape "
-                                                          "gives a SingularMassMatrixError)")
 def test_bdf_on_numpy_with_a_singular_mass_matrix_is_a_numerical_error():
     model = lg.Model("solenoid")
     model.add("capacitor", "C", ("a", "0"), C=1)
@@ -410,23 +355,14 @@ def within(seconds, run):
         signal.signal(signal.SIGALRM, previous)
 
 
-@pytest.mark.xfail(strict=True, raises=_Late, reason="LSODA from an initial value of -1e150 does not return "
-                                                     "(scipy's LSODA through ScipyMethod.solve): initial values are "
-                                                     "not bounded as parameters are (1e150), and no step budget")
 def test_lsoda_from_a_huge_initial_value_returns():
     within(3.0, lambda: oscillator().simulate(0.03, points=5, method="LSODA", initial={"x_p": -1e150}))
 
 
-@pytest.mark.xfail(strict=True, raises=_Late, reason="max_step=1e-20 over 1 ms is 1e17 steps: refused for "
-                                                     "fixed-step methods (MAX_STEPS) but run for adaptive ones (and "
-                                                     "dopri5_c then loops in C, beyond any signal)")
 def test_an_adaptive_step_cap_that_takes_forever_is_refused():
     within(3.0, lambda: oscillator().simulate(1e-3, points=3, method="RK45", max_step=1e-20))
 
 
-@pytest.mark.xfail(strict=True, raises=_Late, reason="method='auto' with a force sin(sin(...sin(t))) ten deep: "
-                                                     "the linearity check expands it in linear._exp_terms without a "
-                                                     "budget")
 def test_auto_with_a_deeply_nested_signal_returns():
     model = oscillator()
     model.add("force", "F", "p", F="sin(" * 10 + "t" + ")" * 10)

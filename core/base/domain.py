@@ -9,6 +9,7 @@ charges, branch flux linkages, ...).  Core code never looks inside a view.
 
 from __future__ import annotations
 
+import unicodedata
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -16,9 +17,27 @@ from typing import Any, ClassVar
 import networkx as nx
 import sympy as sp
 
+from ..errors import ModelError
 from .component import GROUND, Component, t
 
-__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context"]
+__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context", "check_name"]
+
+
+def check_name(name: str, what: str) -> None:
+    r"""Refuse a name with a control character (NUL, ESC, DEL, a lone surrogate, ...): node and component names
+    become the names of coordinates (SymPy functions, which cannot hold a NUL), C comments and SPICE decks, and
+    no such character is text.  Tabs and line breaks are left to the writers, which keep them inert.
+
+    >>> check_name("cart", "node name")
+    >>> check_name("a\x00b", "node name")
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.ModelError: node name 'a\x00b' contains the control character '\x00': names are printable text; remove it.
+    """
+    bad = [c for c in name if c not in "\t\n\r" and unicodedata.category(c) in ("Cc", "Cs")]
+    if bad:
+        raise ModelError(f"{what} {name!r} contains the control character {bad[0]!r}: names are printable text; "
+                         f"remove it.")
 
 
 @dataclass(frozen=True)
@@ -36,6 +55,7 @@ class Coordinate:
 
     @classmethod
     def named(cls, name: str, description: str = "") -> "Coordinate":
+        check_name(name, "coordinate name")  # a domain may build names from other text than Model.add checked
         return cls(name, sp.Function(name, real=True)(t), description)
 
 

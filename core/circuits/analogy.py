@@ -19,6 +19,7 @@ symbolically).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -26,6 +27,7 @@ from typing import Any
 import networkx as nx
 import sympy as sp
 
+from ..base.arguments import check_mapping
 from ..base.component import GROUND, Component, _CallableSignal, t
 from ..base.text import as_expr
 from ..plugin.contracts import AnalogueBuilder, Analogy, Element, Ports
@@ -69,11 +71,17 @@ class Mapped:
         """Initial coordinates and velocities of the analogue from those of the source model."""
         src = self.source
         funcs = {c.name: c.function for c in src.coordinates}
+        initial = check_mapping("initial", initial, list(funcs))
+        velocity = check_mapping("velocity", velocity, list(funcs))
+        for given in (initial, velocity):
+            for name in given:
+                if name not in funcs:
+                    raise UnknownNameError(f"coordinate of model {src.name!r}", name, funcs)
         at0: dict[Any, float] = {t: 0.0}
         for name, f in funcs.items():
-            at0[f.diff(t)] = float(velocity.get(name, 0.0))
+            at0[f.diff(t)] = _number(velocity, name, "velocity")
         for name, f in funcs.items():
-            at0[f] = float(initial.get(name, 0.0))
+            at0[f] = _number(initial, name, "value")
         values = {s: v for s, v in src._values(params or {}).items()}
         first = set(self.model.first_order)
         q0, v0 = {}, {}
@@ -83,6 +91,23 @@ class Mapped:
             if c.name not in first:
                 v0[c.name] = float(expr.diff(t).subs(at0))
         return q0, v0
+
+
+def _number(given: Mapping[str, Any], name: str, what: str) -> float:
+    """The initial ``what`` of coordinate ``name`` (0 when not given) as a finite float."""
+    value = given.get(name, 0.0)
+    try:
+        if isinstance(value, (str, bytes, bool)) or value is None:
+            raise TypeError
+        out = float(value)
+    except (TypeError, ValueError):  # text, a list, an expression of t, ...
+        raise ModelError(f"initial {what} of {name!r} must be a number, got {value!r:.60} of type "
+                         f"{type(value).__name__}.") from None
+    except OverflowError:
+        out = math.inf
+    if not math.isfinite(out):
+        raise ModelError(f"initial {what} of {name!r} must be a finite number, got {value!r:.40}.")
+    return out
 
 
 def _planar_dual(graph: nx.MultiGraph, ground_faces: Callable[[list[set[str]]], int]) -> tuple[dict[str, tuple[str, str]], list]:
@@ -260,6 +285,15 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
         _branch_value(target_model, el).xreplace(plain) - sign * _branch_value(model, src)
         for el, src, sign in identities
     ]
+    if not unknowns:  # nothing to solve for (and sympy.linsolve needs unknowns)
+        have = [c.name for c in model.coordinates]
+        has = (f"while the model has {', '.join(have)}" if have else
+               "and neither has the model: no branch lies on a loop or meets a free node, as with a lone inductor")
+        raise AnalogyError(
+            f"the {analogy} analogue of model {model.name!r} has no generalized coordinates ({has}), so there is "
+            f"nothing to map: close the network (a loop through ground, a mass or capacitor on a free node), or use "
+            f"the other analogy."
+        )
     solution = sp.linsolve(equations, [plain[f] for f in unknowns])
     if not solution or solution == sp.EmptySet:
         raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has no consistent coordinate map.")

@@ -20,6 +20,8 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import logging
+import math
+import numbers
 import re
 import threading
 import time as _time
@@ -378,6 +380,9 @@ def netlist(
     .end
     """
 
+    t_end = _seconds("t_end", t_end)
+    step = None if step is None else _seconds("step", step)
+    max_step = None if max_step is None else _seconds("max_step", max_step)
     values = model._values(params or {})
     subs = {s: sp.Float(v) for s, v in values.items()}
     eq = model.eq
@@ -449,6 +454,21 @@ def netlist(
     lines.append(f".tran {_fmt(step)} {_fmt(t_end)} 0 {_fmt(max_step)} uic")
     lines.append(".end")
     return Netlist("\n".join(lines), elements, nodes, probes, quantities, ics)
+
+
+def _seconds(name: str, value: Any) -> float:
+    """A time of the ``.tran`` line (``t_end``, ``step``, ``max_step``): a finite positive number of seconds."""
+    if not isinstance(value, numbers.Real) or isinstance(value, bool):
+        hint = " (write it as a number, not text)" if isinstance(value, str) else ""
+        raise ModelError(f"netlist: {name} must be a positive number of seconds, got {value!r:.60} of type "
+                         f"{type(value).__name__}{hint}.")
+    try:
+        out = float(value)
+    except OverflowError:
+        out = math.inf
+    if not (math.isfinite(out) and out > 0):
+        raise ModelError(f"netlist: {name} must be a finite positive number of seconds, got {value!r:.40}.")
+    return out
 
 
 def _behaviour(law: Behaviour, subs: Mapping, nodes: Mapping[str, str], tags: Mapping[str, str], comp) -> str:

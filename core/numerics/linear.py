@@ -63,10 +63,11 @@ from scipy.linalg import expm
 from sympy.core.function import AppliedUndef
 
 from ..base.arguments import check_grid, check_mapping, check_span
+from ..base.budget import BudgetExceeded, interruptible
 from ..base.component import t
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError
 from ..base.identity import depends_on, is_zero
-from .simulation import Result, initial_state
+from .simulation import Result, _lambdify, initial_state
 from ..base.switching import SWITCHES as _SWITCHES
 from ..base.switching import resolve as _resolve
 from ..base.switching import switching_times as _switching_times
@@ -134,7 +135,7 @@ class StateSpace:
         if not self.inputs:
             return np.zeros((0, times.size))
         if self._input_fn is None:
-            self._input_fn = sp.lambdify(t, list(self.inputs), modules="numpy")
+            self._input_fn = _lambdify(t, list(self.inputs), {})  # huge integers as floats, erf from SciPy
         with np.errstate(all="ignore"):
             values = self._input_fn(times)
         return np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape) for v in values])
@@ -283,6 +284,18 @@ class _Unrepresentable(Exception):
     """An input term outside the exosystem class: ``args = (term,)`` or ``(term, channel index)``."""
 
 
+class _TooLarge(_Unrepresentable):
+    """An input that could not be expanded into exponentials within :data:`EXPAND_SECONDS` (``sin(sin(sin(t)))``,
+    whose expansion grows without end, is never of the form anyway)."""
+
+
+#: Wall time in which an input with nested functions of ``t`` or high powers must expand into exponentials;
+#: past it the input counts as not of the exact solver's form (``method="auto"`` then integrates it).
+EXPAND_SECONDS = 1.5
+#: A power of a function of ``t`` up to this is expanded without a budget (a flat input never takes long).
+_FLAT_POWER = 8
+
+
 @dataclass
 class _Exosystem:
     """``ẇ = S w``, ``w(0) = w0``, ``s(τ) = C w(τ)``; one block per (α, ω), ``order`` powers of τ each."""
@@ -303,10 +316,31 @@ class _Exosystem:
         return np.array(out)
 
 
+def _flat(expr: sp.Expr) -> bool:
+    """Whether ``expr`` expands quickly: no function of ``t`` inside another's argument, no high power of one."""
+    timed = [f for f in expr.atoms(sp.Function) if t in f.free_symbols]
+    if any(g is not f and t in g.free_symbols for f in timed for a in f.args for g in a.atoms(sp.Function)):
+        return False
+    return not any(p.exp.is_Number and abs(p.exp) > _FLAT_POWER and t in p.base.free_symbols
+                   for p in expr.atoms(sp.Pow))
+
+
 def _exp_terms(expr: sp.Expr) -> dict[tuple[int, complex], complex]:
-    """``expr`` as ``Σ c τ^k e^{λτ}`` (``t`` plays τ): a map ``(k, λ) → c``; raises :class:`_Unrepresentable`."""
+    """``expr`` as ``Σ c τ^k e^{λτ}`` (``t`` plays τ): a map ``(k, λ) → c``; raises :class:`_Unrepresentable`, or
+    :class:`_TooLarge` when an input that is not flat does not expand within :data:`EXPAND_SECONDS`."""
+    expr = sp.sympify(expr)
+    if _flat(expr):
+        return _terms(expr)
+    try:
+        return interruptible(_terms, expr, seconds=EXPAND_SECONDS)
+    except BudgetExceeded:
+        raise _TooLarge(expr) from None
+
+
+def _terms(expr: sp.Expr) -> dict[tuple[int, complex], complex]:
+    """:func:`_exp_terms` without a budget."""
     out: dict[tuple[int, complex], complex] = {}
-    expanded = sp.expand(sp.sympify(expr).rewrite(sp.exp))
+    expanded = sp.expand(expr.rewrite(sp.exp))
     for term in sp.Add.make_args(expanded):
         coeff, power, lam = sp.Integer(1), 0, sp.Integer(0)
         for factor in sp.Mul.make_args(term):
@@ -344,7 +378,7 @@ def _exosystem(channels: Sequence[sp.Expr], length: float) -> _Exosystem:
         try:
             terms = _exp_terms(expr)
         except _Unrepresentable as exc:
-            raise _Unrepresentable(exc.args[0], i) from None
+            raise type(exc)(exc.args[0], i) from None
         terms_of.append(terms)
         coeffs: dict[tuple[float, float, int, int], float] = {}
         for (k, lam), c in terms.items():
@@ -658,6 +692,14 @@ def _piece(ss: StateSpace, model: str, inputs: list[sp.Expr], a: float, b: float
         except _Unrepresentable as exc:
             term, i = exc.args
             local_time = f" (in the local time t − {a:g} of the piece [{a:g}, {b:g}])" if a else ""
+            if isinstance(exc, _TooLarge):
+                shown = sp.sstr(inputs[i])
+                raise ModelError(
+                    f"model {model!r}: the input {shown if len(shown) <= 200 else shown[:197] + '...'} in the equation "
+                    f"of {ss.equations[i]} did not expand into exponentials within {EXPAND_SECONDS:g} s{local_time} "
+                    f"(functions of t nested in one another, or high powers, are not combinations of constants, "
+                    f"powers of t, exp(α t), sin and cos(ω t + φ)); {_ADVICE}."
+                ) from None
             raise ModelError(
                 f"model {model!r}: the input {sp.sstr(inputs[i])} in the equation of {ss.equations[i]} has no exact "
                 f"solution: its term {sp.sstr(term)}{local_time} is not a combination of constants, powers of t, "

@@ -218,11 +218,13 @@ class Problem:
             return Spectrum(lam, ~zero, 0.0, 0.0)
         error = float(np.linalg.norm(E, 2))
         tau = 100.0 * max(error, 10.0 * self.dim * np.finfo(float).eps * scale)
-        count, power = 0, np.eye(self.dim)
+        # sv(Bᵏ) ≤ k·τ·‖B‖ᵏ⁻¹ read as sv((B/‖B‖)ᵏ) ≤ k·τ/‖B‖: the same test, with powers that never overflow
+        # (‖B‖ᵏ⁻¹ passes a float for a stiff model of many states: a mass of 1e-300, a stiffness of 1e150)
+        count, power, unit = 0, np.eye(self.dim), B / scale
         for k in range(1, self.dim + 1):
-            power = power @ B
+            power = power @ unit
             sv = np.linalg.svd(power, compute_uv=False)
-            now = int(np.sum(sv <= k * tau * scale ** (k - 1)))
+            now = int(np.sum(sv <= k * tau / scale))
             if now <= count:
                 break
             count = now

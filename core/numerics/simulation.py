@@ -17,12 +17,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.linalg
+import scipy.special
 import sympy as sp
 
 from .codegen import compile_model
 from ..base.component import t
 from ..derivation.equations import Equations
-from ..errors import ModelError, SingularMassMatrixError, UnknownNameError
+from ..errors import ExpressionError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
 from ..base.switching import switching_times
 from ..base.text import as_expr, parse_expression
 
@@ -62,9 +64,40 @@ def _checked_signal(name: str, fn: Callable) -> Callable:
     return signal
 
 
+#: Functions an expression may call (:data:`lagrangian.text.FUNCTIONS`) that NumPy lacks: SciPy's, which take
+#: arrays (lambdify would otherwise find the scalar ``math.erf``).
+_SPECIAL = {"erf": scipy.special.erf, "erfc": scipy.special.erfc}
+#: The LAPACK LU factorization and solve of :meth:`NumericModel.solve`.
+_GETRF, _GETRS = scipy.linalg.lapack.dgetrf, scipy.linalg.lapack.dgetrs
+_EPS = np.finfo(float).eps
+#: Integers beyond this are not exact in a float; beyond 2**63 NumPy holds them as Python objects, which its
+#: functions refuse (``np.tan(10**30)`` is a TypeError).
+_EXACT = 2**53
+
+
+def _floated(exprs: Any) -> Any:
+    """``exprs`` (an expression, a matrix, or a list or tuple of them) with every integer or fraction too large for
+    float arithmetic written as a float, as the tape and compiled code read it (``cot(10**30)`` is
+    ``cot(1.0e30)``); a number beyond a float becomes an infinite float.  Nothing changes when there is none."""
+    if isinstance(exprs, (list, tuple)):
+        return type(exprs)(_floated(e) for e in exprs)
+    if not isinstance(exprs, (sp.Basic, sp.MatrixBase)):
+        return exprs
+    big = {r: sp.Float(r) for r in exprs.atoms(sp.Rational) if abs(r.p) > _EXACT or r.q > _EXACT}
+    return exprs.xreplace(big) if big else exprs
+
+
 def _lambdify(args, exprs, signals):
-    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, "numpy"]
-    return sp.lambdify(args, exprs, modules=modules, cse=True)
+    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, _SPECIAL, "numpy"]
+    return sp.lambdify(args, _floated(exprs), modules=modules, cse=True)
+
+
+def _not_finite(time: float, state: np.ndarray, why: str) -> str:
+    """The message of equations that cannot be evaluated at a state (as compiled code words it)."""
+    shown = np.array2string(np.asarray(state, dtype=float), precision=4)
+    return (f"the equations cannot be evaluated at t={time:g} (state {shown}; {why}): a singular configuration of "
+            f"some component, a signal singular at that time (1/t at t=0), or a diverging solution. Start elsewhere "
+            f"or reduce the step.")
 
 
 class NumericModel:
@@ -164,9 +197,22 @@ class NumericModel:
 
     def solve(self, time: float, qv: np.ndarray, vI: np.ndarray) -> np.ndarray:
         """``u = (q̈_inertial, q̇_first_order)`` at one instant."""
-        A, b = self._solve_fn(time, qv, vI)
-        A = np.asarray(A, dtype=float)
-        b = np.asarray(b, dtype=float).reshape(-1)
+        try:
+            A, b = self._solve_fn(time, qv, vI)
+        except (ZeroDivisionError, OverflowError, FloatingPointError) as exc:  # Python arithmetic on the scalar time
+            raise NumericalError(_not_finite(time, np.concatenate([qv, vI]), str(exc))) from None
+        try:
+            A = np.asarray(A, dtype=float)
+            b = np.asarray(b, dtype=float).reshape(-1)
+        except (TypeError, ValueError, OverflowError):  # a complex value (a negative number to a fractional power)
+            raise NumericalError(_not_finite(time, np.concatenate([qv, vI]), "not a real number")) from None
+        if A.size and np.all(np.isfinite(A)):
+            # LU with partial pivoting, and compiled code's rule for a singular matrix: a pivot at most
+            # size·eps·max|A| (a mass of 1e-141 next to one of 1 is none, whatever the rounding leaves)
+            lu, piv, _ = _GETRF(A)
+            if not np.min(np.abs(np.diagonal(lu))) > A.shape[0] * _EPS * np.max(np.abs(A)):
+                raise SingularMassMatrixError(self._singular_message(time, A, qv))
+            return _GETRS(lu, piv, b)[0]
         try:
             return np.linalg.solve(A, b)
         except np.linalg.LinAlgError:
@@ -328,22 +374,53 @@ class NumericModel:
         return np.concatenate([v, acc])
 
     def evaluate(self, expr: Any, res: Result) -> np.ndarray:
-        """An expression in ``q(t)``, ``q̇(t)``, ``t`` and parameters, along a result of this model."""
+        """An expression in ``q(t)``, ``q̇(t)``, ``t`` and parameters, along a result of this model (a matrix of them:
+        an array of its shape followed by the time's); :class:`~lagrangian.ExpressionError` for one that is not a
+        finite real number."""
         eq = self.eq
+        if isinstance(expr, sp.MatrixBase):  # entry by entry
+            out = np.empty(expr.shape + res.t.shape)
+            for (i, j), entry in np.ndenumerate(np.array(expr.tolist(), dtype=object).reshape(expr.shape)):
+                out[i, j] = self.evaluate(entry, res)
+            return out
+        given = expr
         if isinstance(expr, str):  # text: coordinate names stand for the coordinates, parameters for their values
             names = {c.name: c.function for c in eq.coordinates} | {s.name: s for s in self.values}
             expr = parse_expression(expr, "the quantity", names=names)
-        elif not isinstance(expr, sp.MatrixBase):
+        else:
             expr = as_expr(expr, "the quantity")
         plain = eq.symbolic(expr)
         bad = plain.free_symbols - set(eq.sym.q) - set(eq.sym.v) - {t} - set(self.values)
         if bad:
             raise ModelError(f"cannot evaluate {expr}: {', '.join(sorted(map(str, bad)))} are not coordinates, rates or parameters.")
         plain = plain.xreplace({s: sp.Float(v) for s, v in self.values.items()})
+        shown = given if isinstance(given, str) else sp.sstr(expr)
+        shown = repr(shown if len(shown) <= 80 else shown[:77] + "...")
+        if plain.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+            raise ExpressionError(f"the quantity {shown} is not finite ({sp.sstr(plain)[:60]}): write one that is "
+                                  f"(no division by zero).")
+        huge = [r for r in plain.atoms(sp.Number) if not np.isfinite(float(r))]
+        if huge:
+            raise ExpressionError(f"the quantity {shown} holds the number {str(huge[0])[:30]}..., beyond a float "
+                                  f"(±1.8e308): write it in units that keep it finite.")
         fn = _lambdify((t, eq.sym.q, eq.sym.v), plain, self.signals)
         q = np.array([res.q[n] for n in eq.names])
         v = np.array([res.v[n] for n in eq.names])
-        return np.broadcast_to(np.asarray(fn(res.t, q, v), dtype=float), res.t.shape).copy()
+        with np.errstate(all="ignore"):
+            try:
+                value = np.asarray(fn(res.t, q, v))
+            except (ZeroDivisionError, OverflowError, FloatingPointError) as exc:
+                raise ExpressionError(f"the quantity {shown} cannot be evaluated along the result ({exc}).") from None
+        if np.iscomplexobj(value):
+            if np.any(value.imag != 0):
+                raise ExpressionError(f"the quantity {shown} takes complex values along the result: write a real one "
+                                      f"(sqrt and log of negative numbers are complex; take abs() first).")
+            value = value.real
+        try:
+            out = np.asarray(value, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise ExpressionError(f"the quantity {shown} does not evaluate to real numbers along the result.") from None
+        return np.broadcast_to(out, res.t.shape).copy()
 
     def energies(self, time: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
         if self._fast is not None:
@@ -475,7 +552,10 @@ def initial_state(
         try:
             out = float(value)
         except (TypeError, ValueError):
-            raise ModelError(f"initial {what} of {name!r} must be a number, got {value!r}.") from None
+            raise ModelError(f"initial {what} of {name!r} must be a number, got {value!r:.80}.") from None
+        except OverflowError:  # an integer (or fraction) beyond a float
+            raise ModelError(f"initial {what} of {name!r} must be finite (within ±1.8e308), "
+                             f"got {value!r:.40}.") from None
         if not np.isfinite(out):
             raise ModelError(f"initial {what} of {name!r} must be finite, got {value!r}.")
         return out
