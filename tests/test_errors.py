@@ -475,7 +475,7 @@ CASES = [
     ("nan", nan_value, lg.ParameterError,
      [r"component 'k1', parameter 'k'", r"finite real number", r"nan"]),
     ("inf", inf_value, lg.ParameterError,
-     [r"component 'L1', parameter 'L'", r"finite real number", r"oo"]),
+     [r"component 'L1', parameter 'L'", r"finite real number", r"got 'inf'"]),
     ("one-over-zero", division_by_zero_string, lg.ParameterError,
      [r"component 'C1', parameter 'C'", r"finite real number", r"zoo"]),
     ("complex", complex_value, lg.ParameterError,

@@ -127,7 +127,10 @@ def check_positive(name: str, value: Any, *, infinite: bool = False) -> float | 
         return None
     if not _number(value):
         raise ModelError(f"{name} must be a positive number, got {value!r} of type {_kind(value)}.")
-    out = float(value)
+    try:
+        out = float(value)
+    except OverflowError:
+        out = math.inf
     if not out > 0 or math.isnan(out) or (math.isinf(out) and not infinite):
         raise ModelError(f"{name} must be a positive number{'' if infinite else ' (finite)'}, got {value!r}.")
     return out
@@ -177,16 +180,17 @@ def check_state(name: str, given: Mapping[str, Any]) -> Mapping[str, Any]:
     Energies square the state and methods' error norms square it again: from 1e149 on, LSODA never returns on
     an oscillator (measured: 1e140 takes 0.06 s).  Text, lists and the like are refused here too.
     """
+    what = "initial value" if name == "initial" else "initial velocity"
     for key, value in given.items():
         if not _number(value):
-            raise ModelError(f"{name}[{key!r}] must be a number, got {value!r:.60} of type {_kind(value)}.")
+            raise ModelError(f"{what} of {key!r} must be a number, got {value!r:.60} of type {_kind(value)}.")
         try:
             x = float(value)
         except OverflowError:
             x = math.inf
         if not math.isfinite(x) or abs(x) > STATE_LARGEST:
-            raise ModelError(f"{name}[{key!r}] = {value!r:.30} is not a finite number within ±{STATE_LARGEST:g}: give the "
-                             f"state in units that keep it finite.")
+            raise ModelError(f"{what} of {key!r} must be finite and within ±{STATE_LARGEST:g}, got {value!r:.30}: give "
+                             f"the state in units that keep it finite.")
     return given
 
 

@@ -105,7 +105,7 @@ def as_expr(value: Any, what: str, *, names: Mapping[str, sp.Basic] | None = Non
     if not isinstance(expr, sp.Expr):
         raise ExpressionError(f"{what}: expected a scalar number or expression, got {_short(repr(value))}.")
     if expr.has(sp.nan, sp.oo, -sp.oo, sp.zoo):
-        raise ExpressionError(f"{what}: expected a finite number or expression, got {_short(repr(value))}.")
+        raise ExpressionError(f"{what}: expected a finite real number or expression, got {_short(repr(value))}.")
     return expr
 
 
