@@ -67,3 +67,16 @@ def test_a_run_that_would_not_end_is_refused_and_the_way_out_works():
 def test_values_beyond_floating_point_products_are_refused_when_given():
     with pytest.raises(lg.ParameterError, match=r"component 'c', parameter 'c': 1e\+308 is beyond 1e\+150"):
         damped(1e308)
+
+
+@pytest.mark.parametrize("method", ["auto", "DOP853", "RK45"])
+def test_a_pendulum_too_short_to_integrate_is_refused_at_once(method):
+    """A rod of 4.91e-96 m: ω = √(g/L) ≈ 1.4e48 rad/s. The exact 1 of q' = v must not be taken for rounding next to
+    g/L (it was, the pair ±iω was lost, and the run went on for ~1e47 steps)."""
+    m = lg.Model("tiny pendulum", dim=2)
+    m.add("link", "arm", "arm", points={"bob": (4.91e-96, 0)})
+    m.add("revolute", "pin", ("ground", "arm"), absolute=True)
+    m.add("mass", "bob", "arm.bob", m=0.3)
+    m.add("gravity", "g", g=9.81)
+    with pytest.raises(lg.IntegrationError, match="oscillates at 1.3e\\+48 rad/s"):
+        m.simulate(0.5, initial={"theta_pin": -1.0}, velocity={"theta_pin": 0.0}, method=method)

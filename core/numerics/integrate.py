@@ -294,6 +294,12 @@ def _stiffness_note(problem: Problem, integrator, t_span, y0, model) -> str | No
     span = float(t_span[1]) - float(t_span[0])
     slow = max(spec.slowest, 1.0 / span) if span > 0 else spec.slowest
     steps = span * spec.rho if np.isfinite(spec.rho) else math.inf
+    if steps >= STIFFNESS_REFUSE_STEPS and np.max(np.abs(spec.nonzero.imag), initial=0.0) >= 0.5 * spec.rho:
+        raise IntegrationError(
+            f"model {model!r} oscillates at {spec.rho:.3g} rad/s in its linearization at the start: this run spans "
+            f"some {steps / (2 * math.pi):.3g} periods, which no method steps through. Check the parameter values "
+            f"(a length of 1e-96, a capacitance of 1e-93?) or shorten the run."
+        )
     if steps >= STIFFNESS_REFUSE_STEPS:
         raise IntegrationError(
             f"model {model!r} has a rate of {spec.rho:.3g} 1/s in its linearization at the start: the explicit method "

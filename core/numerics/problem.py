@@ -206,8 +206,11 @@ class Problem:
         from scipy.linalg import matrix_balance
 
         # entries at the level of rounding (a coordinate the model does not depend on, through sines and cosines
-        # that cancel) are zero: balancing would otherwise scale them up by orders of magnitude
-        floor = 100.0 * np.abs(J - J2) + 64.0 * np.finfo(float).eps * float(np.max(np.abs(J)))
+        # that cancel) are zero: balancing would otherwise scale them up by orders of magnitude.  Rounding is
+        # judged within each row (one equation, one unit): against the whole matrix, the exact 1 of q' = v next to
+        # g/L = 2e96 (a pendulum 4.9e-96 m long) was taken for rounding and the ±1e48 i pair lost
+        rows = np.max(np.abs(J), axis=1, keepdims=True)
+        floor = 100.0 * np.abs(J - J2) + 64.0 * np.finfo(float).eps * rows
         J = np.where(np.abs(J) <= floor, 0.0, J)
         B, T = matrix_balance(J)
         E = np.linalg.solve(T, (J - J2) @ T)
