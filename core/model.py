@@ -493,8 +493,9 @@ class Model:
 
         names = self.eq.names
         dim = len(names) + len(self.eq.inertial)
+        span = check_span(t_end)
         run = RunOptions(
-            span=check_span(t_end),
+            span=span,
             initial=check_state("initial", check_mapping("initial", initial, names)),
             velocity=check_state("velocity", check_mapping("velocity", velocity, names)),
             params=check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]})),
@@ -503,7 +504,7 @@ class Model:
             method=method,
             rtol=check_positive("rtol", rtol),
             atol=check_atol(atol, dim),
-            max_step=check_max_step(max_step, check_span(t_end)),
+            max_step=check_max_step(max_step, span),
             step=check_positive("step", step),
             energy_tol=check_energy_tol(energy_tol),
             progress=check_progress(progress),

@@ -174,8 +174,10 @@ def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
             raise ModelError(f"{where}: loads[{i}] is not a lagrangian.Load.")
         parts += [(f"loads[{i}].force", load.force), (f"loads[{i}].velocity", load.velocity)]
     for label, expr in parts:
+        if isinstance(expr, (str, bytes)):  # text is never read as code, even from a plugin
+            raise ModelError(f"{where}: {label} is text, not a SymPy expression: {expr!r:.60}.")
         try:
-            expr = sp.sympify(expr)
+            expr = sp.sympify(expr, strict=True)
         except sp.SympifyError:
             raise ModelError(f"{where}: {label} is not a SymPy expression: {expr!r}.") from None
         if label in ("T", "V", "D", "G") and not isinstance(expr, sp.Expr):
