@@ -18,6 +18,8 @@ import warnings
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import lagrangian as lg
 from lagrangian.impulse import (
@@ -461,6 +463,41 @@ def test_pendulum_rebounds_from_wall_with_e():
     assert res.impacts[0].after["theta_pin"] == pytest.approx(-0.7 * w0, rel=1e-9)
     assert res.impacts[1].before["theta_pin"] == pytest.approx(0.7 * w0, rel=1e-8)
     assert res.impacts[1].after["theta_pin"] == pytest.approx(-0.49 * w0, rel=1e-8)
+
+
+@pytest.mark.parametrize("method, options", [("DOP853", {}), ("Radau", {}), ("rk4", {"step": 7e-4}),
+                                             ("dopri5_c", {}), ("rk4_c", {"step": 7e-4})])
+@settings(max_examples=4, deadline=None, derandomize=True)
+@given(h=st.floats(0.05, 20.0), e=st.floats(0.1, 0.95), m=st.floats(1e-3, 1e3))
+def test_hybrid_runs_through_every_kind_of_integrator_plugin(method, options, h, e, m):
+    """Free flight is a polynomial of degree 2, which every one of these methods integrates exactly, so the
+    impact times of t_k = t₁ + 2v₁(e + … + e^k)/g hold to the location tolerance whatever the method."""
+    model = lg.Model("ball")
+    model.add("mass", "m", "ball", m=m)
+    model.add("gravity", "g", g=G)
+    v1, t1 = math.sqrt(2 * G * h), math.sqrt(2 * h / G)
+    expected = np.array([t1 + 2 * v1 * sum(e**i for i in range(1, k + 1)) / G for k in range(4)])
+    res = simulate_with_impacts(model, expected[-1] + 0.3 * (expected[-1] - expected[-2]), [ground("ball", e=e)],
+                                initial={"x_ball": h}, velocity={"x_ball": 0.0}, method=method, points=11, **options)
+    assert res.method == f"{method} + impacts"
+    np.testing.assert_allclose(res.impact_times[:4], expected, rtol=0, atol=1e-10 * max(1.0, expected[-1]))
+    assert res.impacts[0].after["x_ball"] == pytest.approx(e * v1, rel=1e-10)
+    if method.endswith("_c"):  # the C loop does not stop for events: its Python sibling ran, and says so
+        assert any("Python sibling" in note for note in res.notes)
+
+
+def test_hybrid_refuses_what_a_method_cannot_do():
+    model = ball()
+    with pytest.raises(lg.ModelError, match=r"'rk4' takes a fixed step: give step="):
+        simulate_with_impacts(model, 1.0, [ground("ball", e=0.5)], initial={"x_ball": 1.0}, method="rk4")
+    with pytest.raises(lg.ModelError, match=r"'DOP853' is adaptive: step= does not apply"):
+        simulate_with_impacts(model, 1.0, [ground("ball", e=0.5)], initial={"x_ball": 1.0}, step=1e-3)
+    with pytest.raises(lg.UnknownNameError, match=r"integration method.*'DOP854'"):
+        simulate_with_impacts(model, 1.0, [ground("ball", e=0.5)], initial={"x_ball": 1.0}, method="DOP854")
+    # Störmer–Verlet steps with the separable forces, which do not hold a resting contact
+    with pytest.raises(ContactError, match=r"'verlet' steps with the model's structure.*ground\(ball\)"):
+        simulate_with_impacts(model, 1.0, [ground("ball", e=0.5)], initial={"x_ball": 0.0}, velocity={"x_ball": 0.0},
+                              method="verlet", step=1e-3)
 
 
 # -- bad input and failures --------------------------------------------------------------------------

@@ -47,7 +47,7 @@ from ..base.text import parse_expression
 from ..errors import IntegrationError, ModelError
 from ..plugin.contracts import Solution
 
-__all__ = ["Event", "Occurrence"]
+__all__ = ["Event", "Occurrence", "StateCondition"]
 
 #: at most this many events in one run (a chattering event would otherwise never end)
 MAX_OCCURRENCES = 100_000
@@ -90,6 +90,8 @@ class Occurrence:
     t: float
     q: dict[str, float] = field(repr=False)
     v: dict[str, float] = field(repr=False)
+    #: the integrator's state vector there (``y = (q, q̇_inertial)``), for drivers that restart from it
+    state: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
 def check(events: Any) -> tuple[Event, ...]:
@@ -167,6 +169,24 @@ class _Condition:
         return self.event.direction == 0 or (self.event.direction > 0) == rising
 
 
+class StateCondition(_Condition):
+    """A terminal condition given as ``g(t, y)`` of the integrator's state, for drivers built on events.
+
+    The hybrid impact simulation stops on these: a contact's gap falling to zero, a resting contact's force
+    falling below zero.  ``direction`` as for :class:`Event`.
+    """
+
+    def __init__(self, name: str, g: Callable[[float, np.ndarray], float], problem, direction: int = -1):
+        self.event = Event(g, direction=direction, terminal=True, name=name)
+        self.name, self.problem, self._g = name, problem, g
+
+    def __call__(self, t: float, y: np.ndarray) -> float:
+        out = float(self._g(t, y))
+        if not math.isfinite(out):
+            raise IntegrationError(f"condition {self.name!r} is not finite ({out}) at t={t:g}.")
+        return out
+
+
 def _apply(cond: _Condition, t: float, y: np.ndarray) -> np.ndarray:
     """The state after ``cond``'s action at ``t``."""
     problem = cond.problem
@@ -200,8 +220,10 @@ def _xtol(t: float) -> float:
 class _Run:
     """Outputs, occurrences and the bookkeeping shared by the adaptive and the fixed-step loops."""
 
-    def __init__(self, problem, t_eval: np.ndarray, conditions: list[_Condition]):
+    def __init__(self, problem, t_eval: np.ndarray, conditions: list[_Condition], samples: int = 1,
+                 xtol: float | None = None):
         self.problem, self.t_eval, self.conditions = problem, t_eval, conditions
+        self.samples, self.xtol = samples, xtol
         self.Y = np.full((problem.dim, t_eval.size), np.nan)
         self.next = 0  # the first output not yet written
         self.occurrences: list[Occurrence] = []
@@ -218,18 +240,33 @@ class _Run:
             self.next += 1
 
     def first_crossing(self, t_old: float, t_new: float, y_new: np.ndarray, state_at) -> tuple[float, int] | None:
-        """The earliest event in ``(t_old, t_new]``, located to ``xtol``; the values are updated to ``t_new``."""
+        """The earliest event in ``(t_old, t_new]``, located to ``xtol``; the values are updated to ``t_new``.
+
+        With ``samples`` > 1 the conditions are also sampled inside the step (on ``state_at``), so that a
+        function that dips below zero and comes back within one step is still seen.
+        """
         found = None
         after = [c(t_new, y_new) for c in self.conditions]
+        times = [t_old, t_new]
+        rows = [[before, now] for before, now in zip(self.values, after)]
+        if self.samples > 1 and self.conditions:
+            inner = [float(s) for s in np.linspace(t_old, t_new, self.samples + 1)[1:-1]]
+            states = [state_at(s) for s in inner]
+            times = [t_old, *inner, t_new]
+            rows = [[self.values[k], *(c(s, y) for s, y in zip(inner, states)), after[k]]
+                    for k, c in enumerate(self.conditions)]
+        xtol = self.xtol if self.xtol is not None else _xtol(t_new)
         for k, c in enumerate(self.conditions):
-            if not c.crosses(self.values[k], after[k]):
-                continue
-            if after[k] == 0.0:
-                root = t_new
-            else:
-                root = brentq(lambda s, c=c: c(s, state_at(s)), t_old, t_new, xtol=_xtol(t_new), rtol=4 * np.finfo(float).eps)
-            if found is None or root < found[0]:
-                found = (root, k)
+            values = rows[k]
+            for i in range(len(times) - 1):
+                if not c.crosses(values[i], values[i + 1]):
+                    continue
+                a, b = times[i], times[i + 1]
+                root = b if values[i + 1] == 0.0 else brentq(lambda s, c=c: c(s, state_at(s)), a, b, xtol=xtol,
+                                                               rtol=4 * np.finfo(float).eps)
+                if found is None or root < found[0]:
+                    found = (root, k)
+                break
         self.values = after
         return found
 
@@ -237,7 +274,8 @@ class _Run:
         c = self.conditions[k]
         q, v = c.state(t, y)
         names = self.problem.names
-        self.occurrences.append(Occurrence(c.name, t, dict(zip(names, map(float, q))), dict(zip(names, map(float, v)))))
+        self.occurrences.append(Occurrence(c.name, t, dict(zip(names, map(float, q))), dict(zip(names, map(float, v))),
+                                           np.array(y, dtype=float)))
         if len(self.occurrences) > MAX_OCCURRENCES:
             raise IntegrationError(f"more than {MAX_OCCURRENCES} events in one run of model {self.problem.name!r} "
                                    f"(event {c.event.label} chatters): make it terminal, or give it a direction.")
@@ -247,19 +285,27 @@ class _Run:
         return Solution(self.t_eval[:done], self.Y[:, :done], nfev, status, message, notes, step)
 
 
-def solve(integrator, problem, t_span, y0, t_eval, options: Mapping[str, Any], events: Sequence[Event]
+def solve(integrator, problem, t_span, y0, t_eval, options: Mapping[str, Any], events: Sequence[Event], *,
+          conditions: Sequence[_Condition] = (), samples: int = 1, xtol: float | None = None
           ) -> tuple[Solution, list[Occurrence]]:
-    """Integrate with ``events`` (see the module docstring): the solution up to the end or a terminal event."""
+    """Integrate with ``events`` (see the module docstring): the solution up to the end or a terminal event.
+
+    Drivers built on events add ``conditions`` (:class:`StateCondition`), sample every condition at
+    ``samples`` − 1 points inside each adaptive step besides its ends (on the dense output; a fixed step is
+    checked at its ends, as sampling inside it would cost a step per point), and locate crossings to
+    ``xtol`` in time.
+    """
     notes: list[str] = []
     fallback = getattr(integrator, "fallback", None)  # a method whose stepping loop is C has a Python sibling
     if fallback is not None:
         notes.append(f"events: {integrator.name} steps in C without stopping for events; its Python sibling "
                      f"{fallback.name!r} ran instead")
         integrator = fallback
-    conditions = [_Condition(e, i, problem) for i, e in enumerate(events)]
-    run = _Run(problem, np.asarray(t_eval, dtype=float), conditions)
+    conditions = [_Condition(e, i, problem) for i, e in enumerate(events)] + list(conditions)
+    run = _Run(problem, np.asarray(t_eval, dtype=float), conditions, samples, xtol)
     start = problem.nfev
     if integrator.kind == "fixed-step" and callable(getattr(integrator, "stepper", None)):
+        run.samples = 1
         status, message, h = _fixed(integrator, problem, t_span, np.asarray(y0, dtype=float), options, run)
     elif callable(getattr(integrator, "start", None)):
         status, message, h = (*_adaptive(integrator, problem, t_span, np.asarray(y0, dtype=float), options, run), None)

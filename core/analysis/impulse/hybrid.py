@@ -1,18 +1,27 @@
 """Hybrid simulation: smooth motion between impacts, the jump at each (:func:`simulate_with_impacts`).
+
+Built on the events of :mod:`lagrangian.numerics.events`: each smooth piece is an integration by the
+chosen integrator plugin that stops at the first contact whose gap closes (or resting contact whose
+force would pull), located by the same Brent search on the method's dense output or own step.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import sympy as sp
 
+from ...base.arguments import check_grid
 from ...base.component import t
 from ...errors import ModelError, SingularMassMatrixError, IntegrationError
+from ...numerics.events import StateCondition, solve as solve_with_events
+from ...numerics.problem import Problem
 from ...numerics.simulation import Result, initial_state
 from ...model import Model
+from ...plugin.contracts import resolve
 from .contacts import Contact, ContactError, ImpactError
 from .jump import _Setup, _solve_numeric
 
@@ -154,6 +163,71 @@ class _Hybrid:
                               names=[self.names[j] for j in closed])
 
 
+#: what an integrator may ask of the problem in a resting mode, where the contact forces are part of ``rhs``
+_RHS_ONLY = frozenset({"numeric", "name", "names", "n", "nI", "dim", "inertial", "first_order", "constrained",
+                       "report", "jacobian", "eigenvalues", "spectrum"})
+
+
+class _Mode:
+    """The model's problem with the contacts in ``resting`` held closed: ``rhs`` adds their forces.
+
+    Everything else is the model's own :class:`Problem`; a method that would use its structure
+    (Störmer–Verlet's separable forces, a canonical form) gets a :class:`ContactError` while a contact rests.
+    """
+
+    def __init__(self, base: Problem, hy: "_Hybrid", resting: list[int], method: str):
+        self._base, self._hy, self._resting, self._method = base, hy, resting, method
+        self.last = 0.0
+
+    def __getattr__(self, name):
+        if self._resting and not name.startswith("_") and name not in _RHS_ONLY:
+            raise ContactError(
+                f"method {self._method!r} steps with the model's structure ({name}), which does not include the "
+                f"forces of resting contacts ({', '.join(self._hy.names[j] for j in self._resting)}): use an "
+                f"adaptive method (DOP853, RK45, Radau) or an explicit Runge–Kutta one (rk4)."
+            )
+        return getattr(self._base, name)
+
+    @property
+    def nfev(self) -> int:
+        return self._base.nfev
+
+    @property
+    def canonical(self) -> bool:
+        return False if self._resting else self._base.canonical
+
+    def rhs(self, tt: float, y: np.ndarray) -> np.ndarray:
+        self.last = tt
+        yd = self._base.rhs(tt, y)
+        if self._resting:
+            yd = np.array(yd, dtype=float)
+            yd[self._hy.n:] += self._hy.rest_force(tt, y, yd[self._hy.n:], self._resting)[1]
+        return yd
+
+    def holding(self, tt: float, y: np.ndarray) -> np.ndarray:
+        """The resting contacts' normal forces (multipliers) at ``(tt, y)``: positive while they push."""
+        free = np.asarray(self._hy.numeric.rhs(tt, y), dtype=float)[self._hy.n:]
+        return self._hy.rest_force(tt, y, free, self._resting)[0]
+
+
+def _options(integrator, rtol, atol, max_step, step) -> dict:
+    """The run options of ``integrator``: tolerances for adaptive methods, the step for fixed-step ones."""
+    if integrator.kind == "fixed-step":
+        if step is None:
+            raise ModelError(f"method {integrator.name!r} takes a fixed step: give step= (e.g. step=1e-3), or use an "
+                             f"adaptive method (DOP853, RK45, Radau).")
+        if not (isinstance(step, (int, float)) and 0 < step < np.inf):
+            raise ModelError(f"step must be a positive time, got {step!r}.")
+        return {"step": float(step)}
+    if step is not None:
+        raise ModelError(f"method {integrator.name!r} is adaptive: step= does not apply to it (give rtol, atol, "
+                         f"max_step).")
+    for key, value in (("rtol", rtol), ("atol", atol), ("max_step", max_step)):
+        if not (isinstance(value, (int, float)) and value > 0):
+            raise ModelError(f"{key} must be a positive number, got {value!r}.")
+    return {"rtol": float(rtol), "atol": float(atol), "max_step": float(max_step)}
+
+
 def simulate_with_impacts(
     model,
     t_end: float | tuple[float, float],
@@ -163,10 +237,11 @@ def simulate_with_impacts(
     velocity: Mapping[str, float] | None = None,
     params: Mapping[str, float] | None = None,
     points: int = 1001,
-    method: str = "DOP853",
+    method: Any = "DOP853",
     rtol: float = 1e-10,
     atol: float = 1e-12,
     max_step: float = np.inf,
+    step: float | None = None,
     event_tol: float = 1e-12,
     rest_velocity: float | None = None,
     zeno_time: float | None = None,
@@ -174,11 +249,13 @@ def simulate_with_impacts(
 ) -> ImpactResult:
     """Simulate ``model`` with ``contacts``: integrate, stop where a gap closes, apply the impact map, go on.
 
-    Between impacts the model's equations are integrated by a SciPy solver (``method``: ``"DOP853"``,
-    ``"RK45"``, ``"Radau"``, ...; ``rtol``, ``atol``, ``max_step``), stepped one step at a time: after each
-    step the gaps are sampled on the step's dense output and a gap changing sign from positive to zero or
-    below is located by Brent's method to ``event_tol`` in time.  There the contacts that are closed are
-    resolved together (:func:`impact`), and integration restarts from the post-impact state.
+    Between impacts the model's equations are integrated by an integrator plugin (``method``: an adaptive
+    one, ``"DOP853"``, ``"RK45"``, ``"Radau"``, ... with ``rtol``, ``atol``, ``max_step``; or a fixed-step
+    one, ``"rk4"``, ... with ``step``), stepped through the events of :mod:`lagrangian.numerics.events`:
+    after each step the gaps are checked (at six points of an adaptive step, on its dense output; at the
+    ends of a fixed one) and a gap changing sign from positive to zero or below is located by Brent's
+    method (on the dense output, or the method's own step) to ``event_tol`` in time.  There the contacts that are closed are resolved together (:func:`impact`), and
+    integration restarts from the post-impact state.
 
     **Resting contact.**  A contact whose normal velocity after an impact is below ``rest_velocity``
     (default 10⁻⁶ of the fastest impact on it so far), or whose impacts come in a shrinking geometric
@@ -205,17 +282,14 @@ def simulate_with_impacts(
     >>> round(res.impacts[0].after["x_ball"] / math.sqrt(2 * 9.81), 10)   # e·√(2gh)
     0.5
     """
-    from scipy import integrate as ivp
-    from scipy.optimize import brentq
-
     hy = _Hybrid(model, contacts, params)
     eq, n, k = hy.eq, hy.n, hy.k
     span = Model._span(t_end)
-    solver_cls = getattr(ivp, method, None) if isinstance(method, str) else method
-    if not (isinstance(solver_cls, type) and issubclass(solver_cls, ivp.OdeSolver)):
-        raise ModelError(f"method {method!r} is not a SciPy ODE solver; use one of RK45, RK23, DOP853, Radau, BDF, LSODA.")
-    if not event_tol > 0:
+    integrator = resolve(method, model.registry.integrators)
+    options = _options(integrator, rtol, atol, max_step, step)
+    if not (isinstance(event_tol, (int, float)) and event_tol > 0):
         raise ModelError(f"event_tol must be a positive time, got {event_tol!r}.")
+    check_grid(span, points, None, 2 * n)
     y, defaulted = initial_state(eq, initial or {}, velocity or {})
     t0, t1 = span
     if hy.m and np.max(np.abs(hy.Phi(t0, y[:n]))) > 1e-8:
@@ -225,9 +299,9 @@ def simulate_with_impacts(
         )
     zeno_time = 1e-6 * (t1 - t0) if zeno_time is None else float(zeno_time)
     grid = np.linspace(t0, t1, points)
+    base = Problem(hy.numeric, model.name)
     out_t: list[float] = []
     out_y: list[np.ndarray] = []
-    gi = 0  # next grid index to output
     resting: list[int] = []
     history: dict[int, list[float]] = {j: [] for j in range(k)}
     fastest = np.zeros(k)
@@ -237,7 +311,6 @@ def simulate_with_impacts(
     notes: list[str] = []
     nfev = 0
     switches = 0
-
     def scale_v(yy):
         return max(1.0, float(np.max(np.abs(yy[n:]), initial=0.0)))
 
@@ -347,76 +420,54 @@ def simulate_with_impacts(
     if np.any(g0 <= 1e-10 * (1 + float(np.max(np.abs(y[:n]))))):
         out_t.append(tt)
         out_y.append(y.copy())
-        gi = 1 if grid[0] <= tt else 0
         y = handle_impact(tt, y)
         if records and records[-1].impulses and all(x == 0 for x in records[-1].impulses.values()):
             records.pop()  # touching at rest: no impact
+        else:
+            out_t.append(tt)
+            out_y.append(y.copy())
         first = first_step_after(tt, y)
     while tt < t1:
         mode = list(resting)
-        first = min(first, t1 - tt) if first and t1 - tt > 0 else None
-        solver = solver_cls(lambda s, yy: hy.rhs(s, yy, mode), tt, y, t1, rtol=rtol, atol=atol, max_step=max_step,
-                            **({"first_step": first} if first else {}))
-        first, event = None, None
-        while solver.status == "running":
-            try:
-                solver.step()
-            except (np.linalg.LinAlgError, SingularMassMatrixError) as exc:
-                raise ImpactError(f"the integration of model {model.name!r} failed at t = {solver.t:.6g}: {exc}") from None
-            if solver.status == "failed":
-                raise IntegrationError(f"{method} failed at t = {solver.t:.6g} in model {model.name!r}: the step size became too small.")
-            ta, tb = solver.t_old, solver.t
-            dense = solver.dense_output()
-            ts = np.linspace(ta, tb, 7)
-            Y = dense(ts)
-            roots = []
-            G = np.array([hy.gaps(s, Y[:n, i]) for i, s in enumerate(ts)]).T  # (k, samples)
-            for j in range(k):
-                if j in mode:
-                    continue
-                for i in range(len(ts) - 1):
-                    if G[j, i] > 0 and G[j, i + 1] <= 0:
-                        f = lambda s, j=j: float(hy.gaps(s, dense(s)[:n])[j])
-                        r = ts[i + 1] if G[j, i + 1] == 0 else brentq(f, ts[i], ts[i + 1], xtol=event_tol)
-                        roots.append((r, "impact", j))
-                        break
-            if mode:
-                def lam_at(s):
-                    yy = dense(s)
-                    return hy.rest_force(s, yy, hy.numeric.rhs(s, yy)[n:], mode)[0]
-
-                L = np.array([lam_at(s) for s in ts]).T
-                for jj, j in enumerate(mode):
-                    for i in range(len(ts) - 1):
-                        if L[jj, i] >= 0 > L[jj, i + 1]:
-                            r = brentq(lambda s, jj=jj: float(lam_at(s)[jj]), ts[i], ts[i + 1], xtol=event_tol)
-                            roots.append((r, "liftoff", j))
-                            break
-            stop = tb
-            if roots:
-                event = min(roots)
-                stop = event[0]
-            while gi < len(grid) and grid[gi] <= stop:
-                if grid[gi] >= tt:
-                    out_t.append(float(grid[gi]))
-                    out_y.append(dense(grid[gi]))
-                gi += 1
-            if event:
-                break
-        nfev += solver.nfev
-        if event is None:
+        problem = _Mode(base, hy, mode, integrator.name)
+        conditions = [StateCondition(f"gap {j}", lambda s, yy, j=j: hy.gaps(s, yy[:n])[j], problem)
+                      for j in range(k) if j not in mode]
+        conditions += [StateCondition(f"force {j}", lambda s, yy, i=i: problem.holding(s, yy)[i], problem)
+                       for i, j in enumerate(mode)]
+        run_options = dict(options)
+        if first and integrator.kind == "adaptive" and t1 - tt > 0:
+            run_options["first_step"] = min(first, t1 - tt)
+        first = None
+        outputs = grid[grid > tt] if out_t else grid
+        try:
+            sol, occurred = solve_with_events(integrator, problem, (tt, t1), y, outputs, run_options, (),
+                                              conditions=conditions, samples=6, xtol=event_tol)
+        except (np.linalg.LinAlgError, SingularMassMatrixError) as exc:
+            raise ImpactError(f"the integration of model {model.name!r} failed at t = {problem.last:.6g}: {exc}") from None
+        if sol.status != 0:
+            raise IntegrationError(f"{integrator.name} failed at t = {problem.last:.6g} in model {model.name!r}: "
+                                   f"{sol.message}.")
+        nfev += sol.nfev
+        notes += [note for note in sol.notes if note.startswith("events: ") and "Python sibling" in note
+                  and note not in notes]
+        out_t += [float(x) for x in sol.t]
+        out_y += [np.array(x) for x in sol.y.T]
+        if not occurred:
             tt = t1
             break
-        tt, kind, j = event
-        y = dense(tt)
-        if kind == "liftoff":
+        hit = occurred[-1]
+        kind, j = hit.name.split()
+        j = int(j)
+        tt, y = hit.t, np.array(hit.state)
+        if not out_t or out_t[-1] != tt:
+            out_t.append(tt)
+            out_y.append(y.copy())
+        if kind == "force":
             resting = [r for r in resting if r != j]
             lifts.append((tt, hy.names[j]))
             notes.append(f"t = {tt:.12g}: contact {hy.names[j]!r} lifts off (its holding force would pull)")
             switches += 1
         else:
-            out_t.append(tt)
-            out_y.append(y.copy())
             y = handle_impact(tt, y)
             out_t.append(tt)
             out_y.append(y.copy())
@@ -435,6 +486,6 @@ def simulate_with_impacts(
         notes.append("resting at the end: " + ", ".join(hy.names[j] for j in resting))
     return ImpactResult(
         t=T_arr, q={nm: Y[i] for i, nm in enumerate(eq.names)}, v={nm: Y[n + i] for i, nm in enumerate(eq.names)},
-        T=Tk, V=Vp, D=Dr, model=model.name, defaulted=defaulted, nfev=nfev, method=f"{getattr(solver_cls, '__name__', method)} + impacts",
+        T=Tk, V=Vp, D=Dr, model=model.name, defaulted=defaulted, nfev=nfev, method=f"{integrator.name} + impacts",
         evaluator=hy.numeric.evaluate, notes=notes, impacts=records, resting=rests, liftoffs=lifts,
     )
