@@ -1,0 +1,112 @@
+"""Ignorable (cyclic) coordinates: which coordinates of a model are ignorable, and why (or why not).
+
+A coordinate is ignorable when it has inertia and neither the energies, the
+dissipation, the generalized forces nor the loop constraints depend on it or
+act along it; :func:`ignorability` gives the verdict with its reason for every
+coordinate, :func:`ignorable` the names of those that are.  The helpers that
+find which component a dependence comes from are used by the Jacobi integral too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from ...base.identity import depends_on, is_zero
+from ...derivation.equations import Equations
+from ...model import Model
+
+
+@dataclass(frozen=True)
+class Ignorability:
+    """Whether one coordinate is ignorable, and why (or why not)."""
+
+    coordinate: str
+    ignorable: bool
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.coordinate}: {'ignorable' if self.ignorable else 'not ignorable'} — {self.reason}"
+
+
+def _depends(eq: Equations, expr: sp.Expr, symbol: sp.Symbol) -> bool:
+    """Whether ``expr`` really depends on ``symbol`` (a derivative that is not identically zero)."""
+    return depends_on(expr, symbol, diff=eq._derivation.calc.diff)
+
+
+def _components(model: Model, part: str, symbol: sp.Symbol) -> list[str]:
+    """Components whose ``part`` (T, V, D or G) depends on ``symbol``."""
+    eq = model.eq
+    out = []
+    for name, c in model.assembly.contributions.items():
+        expr = sp.sympify(getattr(c, part))
+        if expr != 0 and _depends(eq, eq.symbolic(expr), symbol):
+            out.append(name)
+    return out
+
+
+def _named(names: list[str]) -> str:
+    return ", ".join(repr(n) for n in names) if names else "a component"
+
+
+def ignorability(model: Model) -> dict[str, Ignorability]:
+    """Every coordinate of ``model``, whether it is ignorable, and the reason.
+
+    A coordinate ``q_i`` is ignorable when it has inertia, ``L``, ``D``,
+    the generalized forces and the loop constraints do not depend on it,
+    and neither dissipation nor a generalized force acts on it — then
+    ``p_i = ∂L/∂q̇_i`` is conserved and the others' equations do not
+    involve ``q_i``.  Otherwise the reason names the energy term, force or
+    constraint at fault and the component it comes from.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("mass and spring")
+    >>> _ = m.add("mass", "m", "p", m=1)
+    >>> _ = m.add("spring", "k", ("ground", "p"), k=1)
+    >>> print(ignorability(m)["x_p"])
+    x_p: not ignorable — the potential energy V depends on it (from 'k'): a force acts along it
+    """
+    eq = model.eq
+    q, v = eq.sym.q, eq.sym.v
+    out = {}
+    for i, name in enumerate(eq.names):
+        qi, vi = q[i], v[i]
+
+        def verdict(reason: str, ok: bool = False) -> None:
+            out[name] = Ignorability(name, ok, reason)
+
+        if i in eq.first_order:
+            verdict("it has no inertia (a first-order coordinate): its rate follows from dissipation, there is no momentum to conserve")
+            continue
+        if _depends(eq, eq.T, qi):
+            verdict(f"the kinetic energy T depends on it (from {_named(_components(model, 'T', qi))})")
+            continue
+        if _depends(eq, eq.V, qi):
+            verdict(f"the potential energy V depends on it (from {_named(_components(model, 'V', qi))}): a force acts along it")
+            continue
+        if _depends(eq, eq.G, qi):
+            verdict(f"the velocity-coupling terms G depend on it (from {_named(_components(model, 'G', qi))})")
+            continue
+        if _depends(eq, eq.D, vi) or _depends(eq, eq.D, qi):
+            verdict(f"dissipation acts on it (the Rayleigh function D depends on it, from "
+                    f"{_named(_components(model, 'D', vi) or _components(model, 'D', qi))}): its momentum decays")
+            continue
+        acting = [c for c, share in eq.load_shares if not is_zero(share[i])]
+        if acting:
+            verdict(f"a generalized force acts on it (from {_named(acting)}): its momentum changes")
+            continue
+        through = [c for c, share in eq.load_shares if any(_depends(eq, e, qi) for e in share)]
+        if through:
+            verdict(f"the generalized force of {_named(through)} depends on it")
+            continue
+        if any(_depends(eq, c, qi) for c in eq.constraints):
+            verdict("it takes part in a loop-closure constraint, whose force acts along it")
+            continue
+        verdict("absent from L, D, the forces and the constraints: its momentum ∂L/∂q̇ is conserved", True)
+    return out
+
+
+def ignorable(model: Model) -> list[str]:
+    """Names of the ignorable coordinates of ``model`` (see :func:`ignorability`)."""
+    return [name for name, r in ignorability(model).items() if r.ignorable]

@@ -1,0 +1,182 @@
+"""Steady motions of a reduced model: the remaining coordinates constant, the ignorable ones uniform.
+
+:class:`SteadyMotion` is one solution of the steady-motion conditions
+``∂R/∂q_k = 0`` (found by :meth:`ReducedModel.steady_motions`), with its
+linearization and its stability; :func:`_solve` finds every real branch of the
+conditions symbolically, splitting ``|x|`` and ``sign(x)`` into their cases, and
+:func:`_is_angle` tells which coordinates get ``(−π, π)`` as a default search range.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from ...base.identity import is_zero
+from ...errors import ReductionError, UnknownNameError
+from .stability import Perturbation, Stability, _fmt, _off_singular
+
+
+@dataclass
+class SteadyMotion:
+    """One steady motion: constant remaining coordinates, constant momenta and ignorable rates."""
+
+    # the annotation names .reduction's ReducedModel, which imports this module: a string, never evaluated
+    model: ReducedModel = field(repr=False)  # noqa: F821
+    coordinates: dict[str, sp.Expr]
+    momenta: dict[str, sp.Expr]
+    rates: dict[str, sp.Expr]
+    values: dict[sp.Symbol, sp.Expr] = field(default_factory=dict, repr=False)
+
+    def __str__(self) -> str:
+        parts = [f"{k} = {v}" for k, v in self.coordinates.items()]
+        parts += [f"C_{k} = {v}" for k, v in self.momenta.items() if v != sp.Symbol(f"C_{k}", real=True)]
+        parts += [f"{k}' = {v}" for k, v in self.rates.items()]
+        return "steady motion: " + ", ".join(parts)
+
+    def perturbation(self) -> Perturbation:
+        """``M s̈ + C ṡ + K s = 0`` about this steady motion (symbolic where the steady motion is)."""
+        eq = self.model.reconstructing(False).eq
+        q, v = eq.sym.q, eq.sym.v
+        at = {q[i]: self.coordinates[n] for i, n in enumerate(eq.names)} | dict.fromkeys(v, sp.Integer(0))
+        subs = self._substitutions()
+        f = eq.f.xreplace(subs)
+        M = eq.M.xreplace(subs)
+        K = (-f.jacobian(q)).xreplace(at).applyfunc(_off_singular)
+        Cm = (-f.jacobian(v)).xreplace(at).applyfunc(_off_singular)
+        return Perturbation(M.xreplace(at).applyfunc(_off_singular), Cm, K, list(eq.names))
+
+    def _substitutions(self) -> dict:
+        subs = dict(self.values)
+        for n, C in zip(self.model.ignored, self.model._r_parts["C"]):
+            if isinstance(C, sp.Symbol):
+                subs[C] = self.momenta[n]
+        return subs
+
+    def stability(self, values: Mapping[str, float] | None = None) -> Stability:
+        """Linear stability: eigenvalues of the perturbation equations, with a verdict.
+
+        ``values`` gives numbers to whatever is still symbolic (parameters,
+        momenta ``C_<name>``, coordinate symbols ``<name>_0``).  The verdict
+        is *unstable* if an eigenvalue has a positive real part,
+        *asymptotically stable* if all are negative, *marginal* when an
+        eigenvalue is zero (a bifurcation: the linearization cannot decide)
+        or when the oscillation is only gyroscopically stabilized (the
+        effective potential is not a minimum), and *stable* when every mode
+        oscillates and ``V_eff`` has a strict minimum there (the energy
+        integral then bounds the perturbation).
+        """
+        pert = self.perturbation()
+        needed = {str(s) for m in (pert.M, pert.C, pert.K) for s in m.free_symbols}
+        names = {str(s): s for e in [*self.coordinates.values(), *self.momenta.values(), pert.M, pert.C, pert.K]
+                 for s in sp.sympify(e).free_symbols}
+        given = dict(values or {})
+        unknown = [k for k in given if k not in names]
+        if unknown:
+            raise UnknownNameError("symbol", unknown[0], names)
+        missing = sorted(needed - set(given))
+        if missing:
+            raise ReductionError(f"the steady motion is symbolic in {', '.join(missing)}: give values=... for them.")
+        subs = {names[k]: float(val) for k, val in given.items()}
+        try:
+            M, Cm, K = (np.array(m.xreplace(subs).evalf(), dtype=float) for m in (pert.M, pert.C, pert.K))
+        except TypeError:
+            raise ReductionError("the perturbation equations are not finite at this steady motion (a singular point of the reduction).") from None
+        if not (np.all(np.isfinite(M)) and np.all(np.isfinite(K)) and np.all(np.isfinite(Cm))):
+            raise ReductionError("the perturbation equations are not finite at this steady motion (a singular point of the reduction).")
+        n = len(pert.names)
+        A = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -np.linalg.solve(M, Cm)]])
+        lam = np.linalg.eigvals(A)
+        # Tolerances relative to the spectrum (1/s) and to the curvature (energy/coordinate²) separately: a
+        # zero eigenvalue of a double root (a Jordan block) comes out of eigvals only to about √ε of the scale.
+        scale = float(np.max(np.abs(lam))) if lam.size else 0.0
+        tol = 1e-7 * scale
+        curvature = None
+        if self.model._r_parts["quadratic"]:
+            eq = self.model.reconstructing(False).eq
+            Veff = eq.V.xreplace(self._substitutions())
+            at = {eq.sym.q[i]: self.coordinates[nm] for i, nm in enumerate(eq.names)}
+            H = sp.hessian(Veff, eq.sym.q).xreplace(at).xreplace(subs)
+            try:
+                curvature = np.linalg.eigvalsh(np.array(H.evalf(), dtype=float))
+            except TypeError:
+                curvature = None
+        minimum = curvature is not None and bool(np.all(curvature > 1e-9 * float(np.max(np.abs(curvature)))))
+        freqs = np.sort(np.abs(lam.imag[lam.imag > tol]))
+        gyroscopic = not is_zero(self.model._r_parts["G"])
+        if scale > 0.0 and np.any(lam.real > tol):
+            verdict, reason = "unstable", f"an eigenvalue with positive real part ({_fmt(lam[np.argmax(lam.real)])})"
+        elif scale == 0.0 or np.any(np.abs(lam) <= tol):
+            verdict, reason = "marginal", ("a zero eigenvalue: the linearization cannot decide (a bifurcation point of "
+                                           "the steady motions, or a neutral direction); the nonlinear terms do")
+        elif np.all(lam.real < -tol):
+            verdict, reason = "asymptotically stable", "every eigenvalue has a negative real part"
+        elif minimum:
+            verdict = "stable"
+            reason = ("every mode oscillates and the effective potential has a strict minimum (curvature "
+                      f"{', '.join(f'{c:.6g}' for c in curvature)}): the energy integral bounds the motion")
+        elif curvature is None:
+            verdict = "marginal"
+            reason = ("the linearized motion oscillates without growth, but the reduced Lagrangian is not quadratic in "
+                      "the velocities, so no effective potential bounds the motion: linear analysis is inconclusive")
+        elif gyroscopic:
+            verdict = "marginal"
+            reason = ("the linearized motion oscillates without growth, but the effective potential is not a minimum "
+                      f"(curvature {', '.join(f'{c:.6g}' for c in curvature)}; gyroscopic stabilization): linear "
+                      "analysis is inconclusive for the full motion")
+        else:
+            verdict = "marginal"
+            reason = ("the linearized motion oscillates without growth, but the effective potential is not a strict "
+                      f"minimum (curvature {', '.join(f'{c:.6g}' for c in curvature)}): linear analysis is inconclusive")
+        if curvature is not None and verdict == "unstable" and minimum and is_zero(self.model.eq.D):
+            reason += "; the effective potential has a minimum there, yet a mode grows (non-conservative forces)"
+        return Stability(verdict, lam, freqs, curvature, reason)
+
+
+def _is_angle(coordinate) -> bool:
+    text = f"{coordinate.name} {coordinate.description}".lower()
+    return any(w in text for w in ("angle", "revolute", "theta", "phi", "alpha", "beta", "gamma"))
+
+
+def _solve(exprs: list[sp.Expr], unknowns: list[sp.Symbol]) -> list[dict] | None:
+    """All real solutions SymPy finds, or None when it cannot solve.
+
+    ``|x|`` and ``sign(x)`` of an unknown (a distance ``√(s²)``) are split into their two
+    branches, each solved, and the solutions kept where the branch's sign holds.
+    """
+    folds = sorted({a.args[0] for e in exprs for a in e.atoms(sp.Abs, sp.sign) if a.args[0].free_symbols & set(unknowns)},
+                   key=sp.default_sort_key)
+    if folds and len(folds) <= 3:
+        out = []
+        for signs in itertools.product((1, -1), repeat=len(folds)):
+            rule = {}
+            for x, sgn in zip(folds, signs):
+                rule[sp.Abs(x)] = sgn * x
+                rule[sp.sign(x)] = sp.Integer(sgn)
+            branch = _solve([e.xreplace(rule) for e in exprs], unknowns)
+            if branch is None:
+                return None
+            for sol in branch:
+                if any((sgn * x.xreplace(sol)).is_negative for x, sgn in zip(folds, signs)):
+                    continue
+                if sol not in out:
+                    out.append(sol)
+        return out
+    try:
+        sols = sp.solve(exprs, unknowns, dict=True)
+    except (NotImplementedError, ValueError, TypeError):
+        return None
+    if not sols and any(e.free_symbols for e in exprs):
+        return None if any(not e.is_rational_function(*unknowns) for e in exprs) else []
+    out = []
+    for sol in sols:
+        if any(val.is_real is False for val in sol.values()):
+            continue
+        if any(val.has(sp.I) and val.is_number and abs(sp.im(sp.N(val))) > 1e-12 for val in sol.values()):
+            continue
+        out.append({k: (sp.re(v) if v.is_number else v) for k, v in sol.items()})
+    return out
