@@ -47,13 +47,13 @@ def test_a_falling_mass_stops_at_the_floor_at_the_closed_form_time(method):
     assert np.all(np.diff(res.t) > 0) and res.t[-2] < hit.t
 
 
-@pytest.mark.parametrize("method", ["DOP853", "RK45", "rk4", "verlet"])
+@pytest.mark.parametrize("method", ["DOP853", "RK45", "rk4", "verlet", "dopri5_c", "rk4_c", "verlet_c"])
 def test_a_pendulum_passes_the_vertical_after_a_quarter_of_its_elliptic_period(method):
     """From rest at α from the vertical: T/4 = K(sin²(α/2)) / √(g/L) (complete elliptic integral)."""
     L, g, alpha = 0.7, 9.81, 1.1
     model = pendulum(L, g=g)
     # the methods' own errors below 1e-10: rk4's (ω h)⁴, Störmer–Verlet's (ω h)²
-    step = {"rk4": {"step": 2e-4}, "verlet": {"step": 2e-5}}.get(method, {"rtol": 1e-12, "atol": 1e-14})
+    step = {"rk4": {"step": 2e-4}, "verlet": {"step": 2e-5}}.get(method.removesuffix("_c"), {"rtol": 1e-12, "atol": 1e-14})
     res = model.simulate(0.6, initial={"theta_pin": -math.pi / 2 + alpha}, velocity={"theta_pin": 0.0},
                          method=method, events=[lg.Event("theta_pin + pi/2", direction=-1, terminal=True)], **step)
     want = ellipk(math.sin(alpha / 2) ** 2) / math.sqrt(g / L)
@@ -81,7 +81,30 @@ def test_every_zero_crossing_of_an_oscillator_is_found(m, k, A, method):
     assert res.t[-1] == pytest.approx(t_end) and np.allclose(res["x_p"], A * np.cos(w * res.t), rtol=0, atol=1e-7 * A)
 
 
-@pytest.mark.parametrize("method", ["DOP853", "rk4", "dopri5_c"])
+@pytest.mark.parametrize("compiled, sibling, options", [("dopri5_c", "RK45", {"rtol": 1e-10, "atol": 1e-12}),
+                                                        ("rk4_c", "rk4", {"step": 3e-3}),
+                                                        ("verlet_c", "verlet", {"step": 3e-3})])
+def test_compiled_loops_stop_for_events_in_c_with_the_steps_of_their_python_sibling(compiled, sibling, options):
+    """dopri5_c is scipy's RK45 (pair, error norm, step control, dense output) with the loop in C; rk4_c and
+    verlet_c are rk4 and verlet.  With events they step in C one step at a time: the same steps and the same
+    crossings as the Python methods, with no note of a fallback."""
+    model = pendulum(0.45, m=0.7)
+    events = [lg.Event("theta_pin + pi/2", name="vertical"), lg.Event(lambda t, q, v: v["theta_pin"], direction=-1, name="turn")]
+    runs = {}
+    for method in (compiled, sibling):
+        runs[method] = model.simulate(3.0, initial={"theta_pin": -0.4}, velocity={"theta_pin": 0.0}, method=method,
+                                      events=events, points=31, compiled="auto", **options)
+    c, py = runs[compiled], runs[sibling]
+    if not any("sibling" in note or "no C compiler" in note for note in c.notes):  # a machine with a C compiler
+        assert not any("sibling" in note for note in c.notes)
+        if compiled == "dopri5_c":  # the same steps, rejected ones included
+            assert c.nfev == py.nfev
+    assert [e.name for e in c.events] == [e.name for e in py.events] and len(c.events) >= 6
+    np.testing.assert_allclose([e.t for e in c.events], [e.t for e in py.events], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(c["theta_pin"], py["theta_pin"], rtol=0, atol=1e-11)
+
+
+@pytest.mark.parametrize("method", ["DOP853", "rk4", "dopri5_c", "rk4_c"])
 def test_a_velocity_reversed_at_a_wall(method):
     """A mass sliding at v₀ towards a wall at L bounces with restitution e: hits at (L − x₀)/v₀, then x = L − e v₀ (t − t₁)."""
     x0, v0, wall, e = 0.12, 0.83, 0.5, 0.7

@@ -465,25 +465,26 @@ def test_pendulum_rebounds_from_wall_with_e():
     assert res.impacts[1].after["theta_pin"] == pytest.approx(-0.49 * w0, rel=1e-8)
 
 
-@pytest.mark.parametrize("method, options", [("DOP853", {}), ("Radau", {}), ("rk4", {"step": 7e-4}),
-                                             ("dopri5_c", {}), ("rk4_c", {"step": 7e-4})])
+@pytest.mark.parametrize("method, options", [("DOP853", {}), ("Radau", {}), ("rk4", {"step": 1 / 20}),
+                                             ("dopri5_c", {}), ("rk4_c", {"step": 1 / 20})])
 @settings(max_examples=4, deadline=None, derandomize=True)
 @given(h=st.floats(0.05, 20.0), e=st.floats(0.1, 0.95), m=st.floats(1e-3, 1e3))
 def test_hybrid_runs_through_every_kind_of_integrator_plugin(method, options, h, e, m):
     """Free flight is a polynomial of degree 2, which every one of these methods integrates exactly, so the
-    impact times of t_k = t₁ + 2v₁(e + … + e^k)/g hold to the location tolerance whatever the method."""
+    impact times of t_k = t₁ + 2v₁(e + … + e^k)/g hold to the location tolerance whatever the method (and
+    whether its steps are Python or C)."""
     model = lg.Model("ball")
     model.add("mass", "m", "ball", m=m)
     model.add("gravity", "g", g=G)
     v1, t1 = math.sqrt(2 * G * h), math.sqrt(2 * h / G)
     expected = np.array([t1 + 2 * v1 * sum(e**i for i in range(1, k + 1)) / G for k in range(4)])
+    if "step" in options:  # a fixed step sees a flight longer than a step: 20 steps to the shortest one here
+        options = {"step": options["step"] * 2 * v1 * e**3 / G}
     res = simulate_with_impacts(model, expected[-1] + 0.3 * (expected[-1] - expected[-2]), [ground("ball", e=e)],
                                 initial={"x_ball": h}, velocity={"x_ball": 0.0}, method=method, points=11, **options)
     assert res.method == f"{method} + impacts"
     np.testing.assert_allclose(res.impact_times[:4], expected, rtol=0, atol=1e-10 * max(1.0, expected[-1]))
     assert res.impacts[0].after["x_ball"] == pytest.approx(e * v1, rel=1e-10)
-    if method.endswith("_c"):  # the C loop does not stop for events: its Python sibling ran, and says so
-        assert any("Python sibling" in note for note in res.notes)
 
 
 def test_hybrid_refuses_what_a_method_cannot_do():

@@ -14,7 +14,7 @@ from ..base.component import t as time_symbol
 from .tape import OPS, Program, TapeError, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
-CODEGEN_VERSION = "2"
+CODEGEN_VERSION = "3"
 
 
 class _Unavailable(Exception):
@@ -347,117 +347,149 @@ static double rms_scaled(int dim, const double *x, const double *scale) {
 
 static void fail_at(int dim, double *fail, double t, const double *y) { fail[0] = t; memcpy(fail + 1, y, dim * sizeof(double)); }
 
+/* Dormand-Prince 5(4) (as scipy's RK45): the tableau, the error weights and the quartic dense output. */
+static const double DP_C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
+static const double DP_A[7][6] = {
+    {0}, {1.0 / 5}, {3.0 / 40, 9.0 / 40}, {44.0 / 45, -56.0 / 15, 32.0 / 9},
+    {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
+    {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656},
+    {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
+static const double DP_E[7] = {-71.0 / 57600, 0.0, 71.0 / 16695, -71.0 / 1920, 17253.0 / 339200, -22.0 / 525, 1.0 / 40};
+static const double DP_P[7][4] = {
+    {1.0, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
+    {0.0, 0.0, 0.0, 0.0},
+    {0.0, 131558114200.0 / 32700410799, -68118460800.0 / 10900136933, 87487479700.0 / 32700410799},
+    {0.0, -1754552775.0 / 470086768, 14199869525.0 / 1410260304, -10690763975.0 / 1880347072},
+    {0.0, 127303824393.0 / 49829197408, -318862633887.0 / 49829197408, 701980252875.0 / 199316789632},
+    {0.0, -282668133.0 / 205662961, 2019193451.0 / 616988883, -1453857185.0 / 822651844},
+    {0.0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
+
+/* The work array of a Dormand-Prince run (13 dim numbers): y, ynew, ys, err, scale, f1, then the stages K[0..6]. */
+#define DP_WORK 13
+static void dp_stages(int dim, double *work, double **K) { for (int s = 0; s < 7; s++) K[s] = work + (6 + s) * dim; }
+
+/* K[0] = f(t0, y) and the first step to try (first_step, or scipy's select_initial_step, error order 4). */
+static int dp_begin(rhs_fn f, const void *ctx, int dim, double t0, double t1, double rtol, double atol, double first_step,
+                    double *work, double *h, long *nfev, double *fail) {
+    double *y = work, *ys = y + 2 * dim, *err = y + 3 * dim, *scale = y + 4 * dim, *f1 = y + 5 * dim, *K[7];
+    dp_stages(dim, work, K);
+    int rc = f(ctx, t0, y, K[0]); (*nfev)++;
+    if (rc) { fail_at(dim, fail, t0, y); return rc; }
+    *h = first_step;
+    if (*h > 0.0) return 0;
+    for (int i = 0; i < dim; i++) scale[i] = atol + fabs(y[i]) * rtol;
+    double d0 = rms_scaled(dim, y, scale), d1 = rms_scaled(dim, K[0], scale), h0;
+    h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    if (h0 > t1 - t0) h0 = t1 - t0;
+    for (int i = 0; i < dim; i++) ys[i] = y[i] + h0 * K[0][i];
+    rc = f(ctx, t0 + h0, ys, f1); (*nfev)++;
+    double d2 = 0.0;
+    if (!rc) { for (int i = 0; i < dim; i++) err[i] = f1[i] - K[0][i]; d2 = rms_scaled(dim, err, scale) / h0; }
+    double dm = d1 > d2 ? d1 : d2, h1;
+    h1 = (dm <= 1e-15) ? fmax(1e-6, h0 * 1e-3) : pow(0.01 / dm, 1.0 / 5.0);
+    *h = fmin(100 * h0, h1);
+    if (*h > t1 - t0) *h = t1 - t0;
+    return 0;
+}
+
+/* One accepted step from (t, y) with K[0] = f(t, y), trying *h first (rejected tries shrink it): on return ynew and
+   the stages K belong to the step of length *hstep, ending at *tend; *h is the next step to try.  y and K[0] are not yet advanced
+   (the dense output needs them): dp_shift does that.  Status 0, or 1 singular matrix, 3 step size too small. */
+static int dp_step(rhs_fn f, const void *ctx, int dim, double t, double t1, double rtol, double atol, double max_step,
+                   double *work, double *h, double *hstep, double *tend, long *nfev, long *nrej, double *fail) {
+    const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
+    double *y = work, *ynew = y + dim, *ys = y + 2 * dim, *err = y + 3 * dim, *scale = y + 4 * dim, *K[7];
+    dp_stages(dim, work, K);
+    double min_step = 10.0 * fabs(nextafter(t, INFINITY) - t);
+    if (*h > max_step) *h = max_step;
+    if (*h < min_step) *h = min_step;
+    int rejected = 0, rc;
+    for (;;) {
+        if (*h < min_step) { fail_at(dim, fail, t, y); return 3; }
+        double tnew = t + *h;
+        if (tnew > t1) tnew = t1;
+        *hstep = tnew - t;
+        *tend = tnew;
+        int bad = 0;
+        for (int s = 1; s < 7 && !bad; s++) {
+            double *target = (s == 6) ? ynew : ys;
+            for (int i = 0; i < dim; i++) {
+                double acc = 0.0;
+                for (int j = 0; j < s; j++) acc += DP_A[s][j] * K[j][i];
+                target[i] = y[i] + *hstep * acc;
+            }
+            rc = f(ctx, s == 6 ? tnew : t + DP_C[s] * *hstep, target, K[s]); (*nfev)++;
+            if (rc == 1) { fail_at(dim, fail, t + DP_C[s] * *hstep, target); return 1; }
+            if (rc) bad = 1;
+        }
+        double norm;
+        if (bad) norm = INFINITY;
+        else {
+            for (int i = 0; i < dim; i++) {
+                double acc = 0.0;
+                for (int j = 0; j < 7; j++) acc += DP_E[j] * K[j][i];
+                err[i] = *hstep * acc;
+                scale[i] = atol + fmax(fabs(y[i]), fabs(ynew[i])) * rtol;
+            }
+            norm = rms_scaled(dim, err, scale);
+            if (!(norm == norm)) norm = INFINITY;
+        }
+        if (norm < 1.0) {
+            double factor = norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(norm, -0.2));
+            if (rejected && factor > 1.0) factor = 1.0;
+            *h = *hstep * factor;
+            return 0;
+        }
+        *h = *hstep * fmax(MIN_FACTOR, norm == INFINITY ? MIN_FACTOR : SAFETY * pow(norm, -0.2));
+        rejected = 1;
+        (*nrej)++;
+    }
+}
+
+/* The quartic dense output of the last step (from t_old, length hstep) at x = (s - t_old) / hstep. */
+static void dp_dense(int dim, const double *work, double hstep, double x, double *out) {
+    const double *y = work, *K[7];
+    for (int s = 0; s < 7; s++) K[s] = work + (6 + s) * dim;
+    double w[4] = {x, x * x, x * x * x, x * x * x * x};
+    for (int i = 0; i < dim; i++) {
+        double acc = 0.0;
+        for (int j = 0; j < 7; j++) {
+            if (j == 1) continue;
+            acc += K[j][i] * (DP_P[j][0] * w[0] + DP_P[j][1] * w[1] + DP_P[j][2] * w[2] + DP_P[j][3] * w[3]);
+        }
+        out[i] = y[i] + hstep * acc;
+    }
+}
+
+static void dp_shift(int dim, double *work) {  /* y = ynew, K[0] = K[6] (first same as last) */
+    memcpy(work, work + dim, dim * sizeof(double));
+    memcpy(work + 6 * dim, work + 12 * dim, dim * sizeof(double));
+}
+
 /* Dormand-Prince 5(4) with error control (as scipy's RK45) and its quartic dense output on tout.
    Status: 0 done; 1 singular matrix, 2 not finite, 3 step size too small, 4 diverged (state at fail). */
 static int dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
                   double max_step, double first_step, double *Y, long *counts, double *fail, double *work) {
-    static const double C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
-    static const double A[7][6] = {
-        {0}, {1.0 / 5}, {3.0 / 40, 9.0 / 40}, {44.0 / 45, -56.0 / 15, 32.0 / 9},
-        {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729},
-        {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656},
-        {35.0 / 384, 0.0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
-    static const double E[7] = {-71.0 / 57600, 0.0, 71.0 / 16695, -71.0 / 1920, 17253.0 / 339200, -22.0 / 525, 1.0 / 40};
-    static const double P[7][4] = {
-        {1.0, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
-        {0.0, 0.0, 0.0, 0.0},
-        {0.0, 131558114200.0 / 32700410799, -68118460800.0 / 10900136933, 87487479700.0 / 32700410799},
-        {0.0, -1754552775.0 / 470086768, 14199869525.0 / 1410260304, -10690763975.0 / 1880347072},
-        {0.0, 127303824393.0 / 49829197408, -318862633887.0 / 49829197408, 701980252875.0 / 199316789632},
-        {0.0, -282668133.0 / 205662961, 2019193451.0 / 616988883, -1453857185.0 / 822651844},
-        {0.0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
-    const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0;
-    double *y = work, *ynew = y + dim, *ys = ynew + dim, *err = ys + dim, *scale = err + dim, *f1 = scale + dim, *K[7];
+    double *y = work, *ynew = y + dim;
     const size_t row = dim * sizeof(double);
-    for (int s = 0; s < 7; s++) K[s] = f1 + (s + 1) * dim;
     long nfev = 0, nstep = 0, nrej = 0, o = 0;
-    int rc;
-    double t = t0, limit = 1.0;
+    double t = t0, limit = 1.0, h, hstep, tnew;
     memcpy(y, y0, row);
     for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
     limit *= 1e30;
-    rc = f(ctx, t, y, K[0]); nfev++;
-    if (rc) { fail_at(dim, fail, t, y); counts[0] = nfev; return rc; }
+    int rc = dp_begin(f, ctx, dim, t0, t1, rtol, atol, first_step, work, &h, &nfev, fail);
+    if (rc) { counts[0] = nfev; return rc; }
     while (o < nout && tout[o] <= t0) { memcpy(Y + o * dim, y, row); o++; }
-    double h = first_step;
-    if (!(h > 0.0)) {  /* scipy's select_initial_step, error order 4 */
-        for (int i = 0; i < dim; i++) scale[i] = atol + fabs(y[i]) * rtol;
-        double d0 = rms_scaled(dim, y, scale), d1 = rms_scaled(dim, K[0], scale), h0;
-        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
-        if (h0 > t1 - t0) h0 = t1 - t0;
-        for (int i = 0; i < dim; i++) ys[i] = y[i] + h0 * K[0][i];
-        rc = f(ctx, t + h0, ys, f1); nfev++;
-        double d2 = 0.0;
-        if (!rc) { for (int i = 0; i < dim; i++) err[i] = f1[i] - K[0][i]; d2 = rms_scaled(dim, err, scale) / h0; }
-        double dm = d1 > d2 ? d1 : d2, h1;
-        h1 = (dm <= 1e-15) ? fmax(1e-6, h0 * 1e-3) : pow(0.01 / dm, 1.0 / 5.0);
-        h = fmin(100 * h0, h1);
-        if (h > t1 - t0) h = t1 - t0;
-    }
     while (t < t1) {
-        double min_step = 10.0 * fabs(nextafter(t, INFINITY) - t);
-        if (h > max_step) h = max_step;
-        if (h < min_step) h = min_step;
-        int rejected = 0;
-        double tnew, hstep;
-        for (;;) {
-            if (h < min_step) { fail_at(dim, fail, t, y); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 3; }
-            tnew = t + h;
-            if (tnew > t1) tnew = t1;
-            hstep = tnew - t;
-            int bad = 0;
-            for (int s = 1; s < 7 && !bad; s++) {
-                double *target = (s == 6) ? ynew : ys;
-                for (int i = 0; i < dim; i++) {
-                    double acc = 0.0;
-                    for (int j = 0; j < s; j++) acc += A[s][j] * K[j][i];
-                    target[i] = y[i] + hstep * acc;
-                }
-                rc = f(ctx, s == 6 ? tnew : t + C[s] * hstep, target, K[s]); nfev++;
-                if (rc == 1) { fail_at(dim, fail, t + C[s] * hstep, target); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 1; }
-                if (rc) bad = 1;
-            }
-            double norm;
-            if (bad) norm = INFINITY;
-            else {
-                for (int i = 0; i < dim; i++) {
-                    double acc = 0.0;
-                    for (int j = 0; j < 7; j++) acc += E[j] * K[j][i];
-                    err[i] = hstep * acc;
-                    scale[i] = atol + fmax(fabs(y[i]), fabs(ynew[i])) * rtol;
-                }
-                norm = rms_scaled(dim, err, scale);
-                if (!(norm == norm)) norm = INFINITY;
-            }
-            if (norm < 1.0) {
-                double factor = norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(norm, -0.2));
-                if (rejected && factor > 1.0) factor = 1.0;
-                h = hstep * factor;
-                break;
-            }
-            h = hstep * fmax(MIN_FACTOR, norm == INFINITY ? MIN_FACTOR : SAFETY * pow(norm, -0.2));
-            rejected = 1;
-            nrej++;
-        }
-        /* dense output on (t, tnew] */
+        rc = dp_step(f, ctx, dim, t, t1, rtol, atol, max_step, work, &h, &hstep, &tnew, &nfev, &nrej, fail);
+        if (rc) { counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return rc; }
         while (o < nout && tout[o] <= tnew) {
             if (tout[o] == tnew) memcpy(Y + o * dim, ynew, row);
-            else {
-                double x = (tout[o] - t) / hstep, w[4] = {x, x * x, x * x * x, x * x * x * x};
-                for (int i = 0; i < dim; i++) {
-                    double acc = 0.0;
-                    for (int j = 0; j < 7; j++) {
-                        if (j == 1) continue;
-                        acc += K[j][i] * (P[j][0] * w[0] + P[j][1] * w[1] + P[j][2] * w[2] + P[j][3] * w[3]);
-                    }
-                    Y[o * dim + i] = y[i] + hstep * acc;
-                }
-            }
+            else dp_dense(dim, work, hstep, (tout[o] - t) / hstep, Y + o * dim);
             o++;
         }
         t = tnew;
-        memcpy(y, ynew, row);
-        memcpy(K[0], K[6], row);
+        dp_shift(dim, work);
         nstep++;
         if (!bounded(dim, y, limit)) { fail_at(dim, fail, t, y); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 4; }
     }
@@ -467,11 +499,57 @@ static int dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, cons
 
 int lg_dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
               double max_step, double first_step, double *Y, long *counts, double *fail) {
-    double *work = malloc((size_t)13 * (dim > 0 ? dim : 1) * sizeof(double));
+    double *work = malloc((size_t)DP_WORK * (dim > 0 ? dim : 1) * sizeof(double));
     if (!work) { fail_at(dim, fail, t0, y0); return 5; }
     int rc = dopri5(f, ctx, dim, t0, t1, y0, nout, tout, rtol, atol, max_step, first_step, Y, counts, fail, work);
     free(work);
     return rc;
+}
+
+/* Dormand-Prince one step at a time, for drivers that stop between steps (events).  work: DP_WORK * dim numbers
+   owned by the caller, y0 in its first dim.  lg_dopri5_begin evaluates K[0] and the first step *h; each
+   lg_dopri5_step (shift = 0 the first time, then 1: y and K[0] move on to the last step's end) takes one accepted
+   step from t and leaves y (its start), ynew (work + dim, its end at *tend) and the stages for lg_dopri5_dense.
+   counts: nfev, nrej (added to).  Status as lg_dopri5. */
+int lg_dopri5_begin(rhs_fn f, const void *ctx, int dim, double t0, double t1, double rtol, double atol, double first_step,
+                    double *work, double *h, long *counts, double *fail) {
+    return dp_begin(f, ctx, dim, t0, t1, rtol, atol, first_step, work, h, counts, fail);
+}
+
+int lg_dopri5_step(rhs_fn f, const void *ctx, int dim, int shift, double t, double t1, double rtol, double atol, double max_step,
+                   double *work, double *h, double *hstep, double *tend, long *counts, double *fail) {
+    if (shift) dp_shift(dim, work);
+    return dp_step(f, ctx, dim, t, t1, rtol, atol, max_step, work, h, hstep, tend, counts, counts + 1, fail);
+}
+
+void lg_dopri5_dense(int dim, const double *work, double hstep, double x, double *out) { dp_dense(dim, work, hstep, x, out); }
+
+/* One fixed step from (t, y) with fv = f(t, y) to tn = t + h: ynew and fnew = f(tn, ynew) (for Runge-Kutta only
+   with tail: the next step's first stage), in the work array (y, ynew, fv, fnew, k2, k3, k4, ys).  Method 0
+   classical Runge-Kutta, 1 Stormer-Verlet. */
+static int fixed_step(rhs_fn f, const void *ctx, int nq, int dim, int method, double t, double tn, double h, double *work,
+                      int tail, long *nfev, double *fail) {
+    double *y = work, *ynew = y + dim, *fv = ynew + dim, *fnew = fv + dim, *k2 = fnew + dim, *k3 = k2 + dim, *k4 = k3 + dim, *ys = k4 + dim;
+    int rc;
+    if (method == 0) {
+        for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * fv[i];
+        if ((rc = f(ctx, t + 0.5 * h, ys, k2))) { fail_at(dim, fail, t + 0.5 * h, ys); return rc; }
+        for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * k2[i];
+        if ((rc = f(ctx, t + 0.5 * h, ys, k3))) { fail_at(dim, fail, t + 0.5 * h, ys); return rc; }
+        for (int i = 0; i < dim; i++) ys[i] = y[i] + h * k3[i];
+        if ((rc = f(ctx, tn, ys, k4))) { fail_at(dim, fail, tn, ys); return rc; }
+        for (int i = 0; i < dim; i++) ynew[i] = y[i] + h / 6.0 * (fv[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+        *nfev += 3;
+        if (!tail) return 0;
+        if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); return rc; }
+        (*nfev)++;
+    } else {  /* y = (q, v), f = (v, a): v += h/2 a; q += h v; a = a(q); v += h/2 a */
+        for (int i = 0; i < nq; i++) { ynew[nq + i] = y[nq + i] + 0.5 * h * fv[nq + i]; ynew[i] = y[i] + h * ynew[nq + i]; }
+        if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); return rc; }
+        (*nfev)++;
+        for (int i = 0; i < nq; i++) { ynew[nq + i] += 0.5 * h * fnew[nq + i]; fnew[i] = ynew[nq + i]; }
+    }
+    return 0;
 }
 
 /* Fixed steps t_k = t0 + k h, k = 1..N: method 0 classical Runge-Kutta, 1 Stormer-Verlet (kick-drift-kick;
@@ -480,7 +558,7 @@ int lg_dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const do
    Status as lg_dopri5 (4: diverged). */
 static int fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,
                  long *counts, double *fail, double *work) {
-    double *y = work, *ynew = y + dim, *fv = ynew + dim, *fnew = fv + dim, *k2 = fnew + dim, *k3 = k2 + dim, *k4 = k3 + dim, *ys = k4 + dim;
+    double *y = work, *ynew = y + dim, *fv = ynew + dim, *fnew = fv + dim;
     const size_t row = dim * sizeof(double);
     long nfev = 0, o = 0;
     int rc;
@@ -493,23 +571,7 @@ static int fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double 
     while (o < nout && (tout[o] - t0) / h < 1e-7) { memcpy(Y + o * dim, y, row); o++; }
     for (long k = 1; k <= N && o < nout; k++) {
         const double t = t0 + (k - 1) * h, tn = t0 + k * h;
-        if (method == 0) {
-            for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * fv[i];
-            if ((rc = f(ctx, t + 0.5 * h, ys, k2))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
-            for (int i = 0; i < dim; i++) ys[i] = y[i] + 0.5 * h * k2[i];
-            if ((rc = f(ctx, t + 0.5 * h, ys, k3))) { fail_at(dim, fail, t + 0.5 * h, ys); break; }
-            for (int i = 0; i < dim; i++) ys[i] = y[i] + h * k3[i];
-            if ((rc = f(ctx, tn, ys, k4))) { fail_at(dim, fail, tn, ys); break; }
-            for (int i = 0; i < dim; i++) ynew[i] = y[i] + h / 6.0 * (fv[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
-            nfev += 3;
-            if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
-            nfev++;
-        } else {  /* y = (q, v), f = (v, a): v += h/2 a; q += h v; a = a(q); v += h/2 a */
-            for (int i = 0; i < nq; i++) { ynew[nq + i] = y[nq + i] + 0.5 * h * fv[nq + i]; ynew[i] = y[i] + h * ynew[nq + i]; }
-            if ((rc = f(ctx, tn, ynew, fnew))) { fail_at(dim, fail, tn, ynew); break; }
-            nfev++;
-            for (int i = 0; i < nq; i++) { ynew[nq + i] += 0.5 * h * fnew[nq + i]; fnew[i] = ynew[nq + i]; }
-        }
+        if ((rc = fixed_step(f, ctx, nq, dim, method, t, tn, h, work, 1, &nfev, fail))) break;
         while (o < nout && (tout[o] - t0) / h <= k + 1e-7) {
             double kf = (tout[o] - t0) / h;
             if (fabs(kf - k) < 1e-7) memcpy(Y + o * dim, ynew, row);
@@ -527,6 +589,15 @@ static int fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double 
     }
     counts[0] = nfev; counts[1] = o;
     return rc;
+}
+
+/* One fixed step of length h from (t, y), y in the first dim numbers of work (8 dim): the state after it is
+   work + dim.  counts[0]: nfev (added to).  Status as lg_dopri5. */
+int lg_fixed_step(rhs_fn f, const void *ctx, int nq, int dim, int method, double t, double h, double *work, long *counts, double *fail) {
+    int rc = f(ctx, t, work, work + 2 * dim);
+    counts[0]++;
+    if (rc) { fail_at(dim, fail, t, work); return rc; }
+    return fixed_step(f, ctx, nq, dim, method, t, t + h, h, work, 0, counts, fail);
 }
 
 int lg_fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,

@@ -260,6 +260,13 @@ class CompiledModel:
         runtime.lg_dopri5.restype = cint
         runtime.lg_fixed.argtypes = [ptr, ptr, cint, cint, cint, dbl, dbl, lng, ptr, lng, ptr, ptr, ptr, ptr]
         runtime.lg_fixed.restype = cint
+        runtime.lg_dopri5_begin.argtypes = [ptr, ptr, cint, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr]
+        runtime.lg_dopri5_begin.restype = cint
+        runtime.lg_dopri5_step.argtypes = [ptr, ptr, cint, cint, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr, ptr, ptr]
+        runtime.lg_dopri5_step.restype = cint
+        runtime.lg_dopri5_dense.argtypes, runtime.lg_dopri5_dense.restype = [cint, ptr, dbl, dbl, ptr], None
+        runtime.lg_fixed_step.argtypes = [ptr, ptr, cint, cint, cint, dbl, dbl, ptr, ptr, ptr]
+        runtime.lg_fixed_step.restype = cint
         self._rhs_c, self._matrix_c, self._energies_c = rhs, matrix, energies
         self._rhs_ptr = ctypes.cast(rhs, ctypes.c_void_p).value  # what the loops call
         self._local = threading.local()  # rhs() buffers, one pair per thread: a model may be shared by threads

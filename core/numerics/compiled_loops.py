@@ -5,18 +5,25 @@ a model's compiled right-hand side (its tape or its native library) without
 returning to Python per step.  The built-in integrators plugin registers
 them; each falls back to its Python sibling (``RK45``, ``rk4``, ``verlet``)
 with a note when the model cannot be compiled.
+
+Runs with events (:mod:`lagrangian.numerics.events`) take the same C steps
+one at a time: ``dopri5_c`` through :meth:`CompiledDormandPrince.start` (one
+accepted step per call, its quartic dense output evaluated in C for the
+event search), ``rk4_c`` and ``verlet_c`` through
+:meth:`CompiledFixedStep.stepper` (one step of any length per call).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 
 from .codegen import CompiledModel
 from ..errors import ModelError
 from ..plugin.contracts import Integrator, Solution
-from .fixed_step import FixedStepIntegrator, _grid
+from .fixed_step import FixedStepIntegrator, Stepper, _grid
 
 _log = logging.getLogger("lagrangian")
 
@@ -41,6 +48,74 @@ def _long_run_hint(compiled: CompiledModel, nfev: int) -> list[str]:
         return []
     return [f"a long run ({nfev} evaluations): compiled=True builds native code for this model, about twice as fast "
             f"per evaluation as the tape, compiled once (0.1–0.5 s) and then kept in the cache for every later run"]
+
+
+class CompiledSteps:
+    """``dopri5_c`` one accepted step at a time: the interface of SciPy's ``OdeSolver`` that the events driver uses
+    (``step()``, ``status``, ``t_old``, ``t``, ``y``, ``dense_output()``), each step and each dense-output
+    evaluation one call into C."""
+
+    def __init__(self, compiled: CompiledModel, problem, name: str, t0: float, y0, t_bound: float, *, rtol: float,
+                 atol: float, max_step: float, first_step: float | None):
+        dim = compiled.dim
+        self._c, self._problem, self.name, self._dim = compiled, problem, name, dim
+        self._work = np.zeros(13 * max(dim, 1))
+        self._work[:dim] = y0
+        self._scalars = np.zeros(3)  # next step to try, the last step's length, its end
+        self._counts = np.zeros(2, dtype=np.int64)  # nfev, rejected steps
+        self._fail = np.zeros(dim + 1)
+        self._ptrs = [a.ctypes.data for a in (self._work, self._scalars, self._counts, self._fail)]
+        self._tol = (float(rtol), float(atol), float(max_step) if math.isfinite(max_step) else 1e300)
+        self.t = self.t_old = float(t0)
+        self.t_bound = float(t_bound)
+        self.y = np.array(y0, dtype=float)
+        self._limit = 1e30 * max(1.0, float(np.max(np.abs(self.y), initial=0.0)))
+        self._shift, self._seen, self.notes = 0, 0, []
+        self.status = "running" if self.t < self.t_bound else "finished"
+        work, scalars, counts, fail = self._ptrs
+        rc = compiled.loops.lg_dopri5_begin(compiled._rhs_ptr, compiled._ctx, dim, self.t, self.t_bound, self._tol[0],
+                                            self._tol[1], float(first_step or 0.0), work, scalars, counts, fail)
+        self._count()
+        if rc:
+            compiled._raise(rc, self.t, self.y)
+
+    def _count(self) -> None:
+        self._problem.nfev += int(self._counts[0]) - self._seen
+        self._seen = int(self._counts[0])
+
+    def step(self) -> str | None:
+        """One accepted step; ``None``, or the message of a failure (then ``status`` is ``"failed"``)."""
+        c, (work, scalars, counts, fail) = self._c, self._ptrs
+        rc = c.loops.lg_dopri5_step(c._rhs_ptr, c._ctx, self._dim, self._shift, self.t, self.t_bound, *self._tol, work,
+                                    scalars, scalars + 8, scalars + 16, counts, fail)
+        self._shift = 1
+        self._count()
+        if rc:
+            self.status = "failed"
+            return c._run(rc, self._fail, self.name)
+        self.t_old, self.t = self.t, float(self._scalars[2])
+        self.y = self._work[self._dim: 2 * self._dim].copy()
+        if not np.all(np.abs(self.y) < self._limit):
+            self.status = "failed"
+            return f"the state diverged (beyond 1e30 times its initial size, or non-finite) by t={self.t:g}"
+        self._problem.report(self.t)
+        if self.t >= self.t_bound:
+            self.status = "finished"
+        return None
+
+    def dense_output(self):
+        """The last step's quartic dense output, ``state(s)`` for ``t_old ≤ s ≤ t``."""
+        work, hstep, t_old, t_new, y_new = self._work.copy(), float(self._scalars[1]), self.t_old, self.t, self.y
+        dense, dim, ptr = self._c.loops.lg_dopri5_dense, self._dim, work.ctypes.data
+
+        def state(s: float) -> np.ndarray:
+            if s == t_new:
+                return y_new.copy()
+            out = np.empty(dim)
+            dense(dim, ptr, hstep, (s - t_old) / hstep, out.ctypes.data)
+            return out
+
+        return state
 
 
 class CompiledDormandPrince(Integrator):
@@ -88,6 +163,18 @@ class CompiledDormandPrince(Integrator):
                  *_long_run_hint(compiled, nfev)]
         return Solution(np.asarray(t_eval)[:count], Y[:, :count], nfev, -1 if message else 0, message, notes)
 
+    def start(self, problem, t0, y0, t_bound, *, rtol=1e-9, atol=1e-12, max_step=np.inf, first_step=None):
+        """The same steps one at a time, for the events driver (:class:`CompiledSteps`); without compiled code,
+        the Python sibling's solver, with the note in its ``notes``."""
+        compiled, note = _compiled_or_note(problem, self.name, self.fallback)
+        if compiled is None:
+            solver = self.fallback.start(problem, t0, y0, t_bound, rtol=rtol, atol=atol, max_step=max_step,
+                                         first_step=first_step)
+            solver.notes = [note]
+            return solver
+        return CompiledSteps(compiled, problem, self.name, t0, y0, t_bound, rtol=rtol, atol=atol, max_step=max_step,
+                             first_step=first_step)
+
 
 class CompiledFixedStep(FixedStepIntegrator):
     """A fixed-step method whose stepping loop is C: ``rk4`` (classical Runge–Kutta) or ``verlet`` (Störmer–Verlet).
@@ -116,6 +203,31 @@ class CompiledFixedStep(FixedStepIntegrator):
             self.fallback.check(problem)
         except ModelError as exc:
             raise ModelError(str(exc).replace(f"{self.fallback.name} (", f"{self.name} (", 1)) from None
+
+    def stepper(self, problem, h, **options):
+        """One step of length ``h`` in C (the events driver steps with this); the sibling's without compiled code."""
+        compiled, note = _compiled_or_note(problem, self.name, self.fallback)
+        if compiled is None:
+            stepper = self.fallback.stepper(problem, h, **options)
+            stepper.notes = [note]
+            return stepper
+        self.check(problem)
+        dim, code = compiled.dim, {"rk4": 0, "verlet": 1}[self.method]
+        work, counts, fail = np.zeros(8 * max(dim, 1)), np.zeros(1, dtype=np.int64), np.zeros(dim + 1)
+        ptrs = (work.ctypes.data, counts.ctypes.data, fail.ctypes.data)
+        step_c, name = compiled.loops.lg_fixed_step, self.name
+
+        def step(t: float, y: np.ndarray) -> np.ndarray:
+            work[:dim] = y
+            before = int(counts[0])
+            rc = step_c(compiled._rhs_ptr, compiled._ctx, compiled.n, dim, code, float(t), float(h), *ptrs)
+            problem.nfev += int(counts[0]) - before
+            if rc:
+                compiled._run(rc, fail, name)  # a singular mass matrix raises; anything else is a state that is not finite
+                return np.full(dim, np.nan)
+            return work[dim: 2 * dim].copy()
+
+        return Stepper(step)
 
     def solve(self, problem, t_span, y0, t_eval, *, step=None, fast_linear=True, **options):
         """Integrate in C with uniform steps of at most ``step`` (``fast_linear`` is accepted and ignored)."""

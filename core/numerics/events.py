@@ -11,12 +11,12 @@ values) and the run goes on from them — a velocity reversed at a wall.
 
 Every crossing is located to ``xtol`` (default ``1e-14·max(1, |t|)``) by
 Brent's method: adaptive methods on their dense output between two steps
-(scipy's solvers, through the integrator contract's ``start``); fixed-step
-methods on the method's own step taken from the last step point with the
-length being solved for, so that the time found is where the method's
-solution crosses, not where an interpolant does.  Methods whose stepping
-loop is C (``dopri5_c``, ``rk4_c``, ``verlet_c``) run events on their
-Python sibling, with a note.  ``Result.events`` lists what happened.
+(through the integrator contract's ``start``: scipy's solvers, and
+``dopri5_c`` whose steps and dense output are C); fixed-step methods on the
+method's own step taken from the last step point with the length being
+solved for (through ``stepper``: ``rk4_c`` and ``verlet_c`` take that step
+in C), so that the time found is where the method's solution crosses, not
+where an interpolant does.  ``Result.events`` lists what happened.
 
 >>> import lagrangian as lg
 >>> m = lg.Model("drop")
@@ -228,10 +228,17 @@ class _Run:
         self.next = 0  # the first output not yet written
         self.occurrences: list[Occurrence] = []
         self.values: list[float | None] = []
+        self.notes: list[str] = []
 
     def start(self, t: float, y: np.ndarray, quiet: _Condition | None = None) -> None:
         """The conditions' values at a (re)start; ``quiet`` (the event just handled) waits for a step first."""
         self.values = [None if c is quiet else c(t, y) for c in self.conditions]
+
+    def noted(self, solver) -> None:
+        """Keep what a solver or stepper says of itself (a compiled method running its Python sibling)."""
+        for note in getattr(solver, "notes", None) or ():
+            if note not in self.notes:
+                self.notes.append(note)
 
     def write(self, upto: float, state_at: Callable[[float], np.ndarray], inclusive: bool = True) -> None:
         te = self.t_eval
@@ -296,13 +303,9 @@ def solve(integrator, problem, t_span, y0, t_eval, options: Mapping[str, Any], e
     ``xtol`` in time.
     """
     notes: list[str] = []
-    fallback = getattr(integrator, "fallback", None)  # a method whose stepping loop is C has a Python sibling
-    if fallback is not None:
-        notes.append(f"events: {integrator.name} steps in C without stopping for events; its Python sibling "
-                     f"{fallback.name!r} ran instead")
-        integrator = fallback
     conditions = [_Condition(e, i, problem) for i, e in enumerate(events)] + list(conditions)
     run = _Run(problem, np.asarray(t_eval, dtype=float), conditions, samples, xtol)
+    run.notes = notes
     start = problem.nfev
     if integrator.kind == "fixed-step" and callable(getattr(integrator, "stepper", None)):
         run.samples = 1
@@ -322,6 +325,7 @@ def solve(integrator, problem, t_span, y0, t_eval, options: Mapping[str, Any], e
 def _adaptive(integrator, problem, t_span, y0, options, run: _Run) -> tuple[int, str]:
     t0, t1 = map(float, t_span)
     solver = integrator.start(problem, t0, y0, t1, **options)
+    run.noted(solver)
     run.start(t0, y0)
     run.write(t0, lambda s: y0)
     while True:
@@ -373,6 +377,7 @@ def _fixed(integrator, problem, t_span, y0, options, run: _Run) -> tuple[int, st
             if len(steppers) > 64:
                 steppers.clear()
             st = steppers[tau] = integrator.stepper(problem, tau, **options)
+            run.noted(st)
         z = np.array(st.to_internal(t, np.array(y, dtype=float)), dtype=float)
         return np.array(st.to_state(t + tau, st.step(t, z)), dtype=float)
 

@@ -164,7 +164,7 @@ class _Hybrid:
 
 
 #: what an integrator may ask of the problem in a resting mode, where the contact forces are part of ``rhs``
-_RHS_ONLY = frozenset({"numeric", "name", "names", "n", "nI", "dim", "inertial", "first_order", "constrained",
+_RHS_ONLY = frozenset({"name", "names", "n", "nI", "dim", "inertial", "first_order", "constrained",
                        "report", "jacobian", "eigenvalues", "spectrum"})
 
 
@@ -192,6 +192,15 @@ class _Mode:
     def nfev(self) -> int:
         return self._base.nfev
 
+    @nfev.setter
+    def nfev(self, value: int) -> None:  # methods stepping in C count their evaluations here
+        self._base.nfev = value
+
+    @property
+    def numeric(self):
+        """The model's numeric form; while a contact rests, one that does not compile (its force is Python)."""
+        return _Interpreted(self._base.numeric) if self._resting else self._base.numeric
+
     @property
     def canonical(self) -> bool:
         return False if self._resting else self._base.canonical
@@ -208,6 +217,21 @@ class _Mode:
         """The resting contacts' normal forces (multipliers) at ``(tt, y)``: positive while they push."""
         free = np.asarray(self._hy.numeric.rhs(tt, y), dtype=float)[self._hy.n:]
         return self._hy.rest_force(tt, y, free, self._resting)[0]
+
+
+class _Interpreted:
+    """A numeric model that refuses compiled stepping loops: they would step without the resting contacts' forces."""
+
+    compile_note = "resting contacts add forces evaluated in Python"
+
+    def __init__(self, numeric):
+        self._numeric = numeric
+
+    def __getattr__(self, name):
+        return getattr(self._numeric, name)
+
+    def compile(self):
+        return None
 
 
 def _options(integrator, rtol, atol, max_step, step) -> dict:
@@ -251,7 +275,7 @@ def simulate_with_impacts(
 
     Between impacts the model's equations are integrated by an integrator plugin (``method``: an adaptive
     one, ``"DOP853"``, ``"RK45"``, ``"Radau"``, ... with ``rtol``, ``atol``, ``max_step``; or a fixed-step
-    one, ``"rk4"``, ... with ``step``), stepped through the events of :mod:`lagrangian.numerics.events`:
+    one, ``"rk4"``, ... with ``step``; ``dopri5_c`` and ``rk4_c`` step in C), stepped through the events of :mod:`lagrangian.numerics.events`:
     after each step the gaps are checked (at six points of an adaptive step, on its dense output; at the
     ends of a fixed one) and a gap changing sign from positive to zero or below is located by Brent's
     method (on the dense output, or the method's own step) to ``event_tol`` in time.  There the contacts that are closed are resolved together (:func:`impact`), and
@@ -448,8 +472,7 @@ def simulate_with_impacts(
             raise IntegrationError(f"{integrator.name} failed at t = {problem.last:.6g} in model {model.name!r}: "
                                    f"{sol.message}.")
         nfev += sol.nfev
-        notes += [note for note in sol.notes if note.startswith("events: ") and "Python sibling" in note
-                  and note not in notes]
+        notes += [note for note in sol.notes if "Python sibling" in note and note not in notes]
         out_t += [float(x) for x in sol.t]
         out_y += [np.array(x) for x in sol.y.T]
         if not occurred:
