@@ -17,7 +17,7 @@ import lagrangian as lg
 from lagrangian.base.domain import Coordinate
 from lagrangian.circuits.analogy import AnalogyError, map_model
 from lagrangian.circuits.spice import netlist
-from lagrangian.numerics import linear
+from lagrangian.numerics import exosystem, linear
 from lagrangian.numerics.problem import Problem
 from lagrangian.numerics.simulation import initial_state
 
@@ -332,7 +332,7 @@ def test_flat_inputs_expand_without_a_budget(monkeypatch):
     def no_budget(*args, **kwargs):
         raise AssertionError("a flat input went through the budget")
 
-    monkeypatch.setattr(linear, "interruptible", no_budget)
+    monkeypatch.setattr(exosystem, "interruptible", no_budget)
     res = oscillator(F="sin(2*t)**2 + exp(-t)*cos(3*t + 1) + t**3").simulate(
         1.0, points=5, method="exact", initial={"x_p": 0.1})
     assert res.method == "exact"
