@@ -58,7 +58,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.linalg import expm
+from scipy.linalg import expm, schur
 from sympy.core.function import AppliedUndef
 
 from ..base.arguments import check_grid, check_mapping, check_span
@@ -285,12 +285,23 @@ def _state_list(symbols: set, eq) -> str:
 
 
 class _Propagator:
-    """``e^{Z h}`` for one augmented matrix ``Z``, cached per step ``h``; also its first powers."""
+    """``e^{Z h}`` for one augmented matrix ``Z``, cached per step ``h``; also its first powers.
 
-    def __init__(self, Z: np.ndarray):
+    With ``ny`` states and an exosystem below them (``Z = [[F, G C], [0, S]]``), the exponential is built from
+    a particular solution ``y_p = Π w`` where one is well conditioned: ``F Π − Π S = −G C`` (:func:`_particular`), so
+    ``e^{Z h} = [[e^{F h}, Π e^{S h} − e^{F h} Π], [0, e^{S h}]]``.  ``expm`` of the augmented matrix errs
+    relative to its norm, which a large ``G C`` (a force on a small mass, 7e3 1/s² next to ω² of 1e-2)
+    turns into up to 4e-9 of the response, erratically (2e-13 for a step 1e-11 longer); the split form keeps
+    the error of ``e^{F h}`` alone (3e-13 there).  Near resonance — an eigenvalue of ``F`` within ``1/horizon`` of one of ``S``, where ``Π`` is
+    large and the response the small difference of two large terms — ``expm`` of ``Z`` is used as is.
+    """
+
+    def __init__(self, Z: np.ndarray, ny: int | None = None, horizon: float = 0.0):
         self.Z = Z
         self._cache: dict[float, np.ndarray] = {}
         self._powers: dict[float, np.ndarray] = {}
+        self.ny = ny
+        self.Pi = _particular(Z[:ny, :ny], Z[ny:, ny:], Z[:ny, ny:], horizon) if ny and ny < Z.shape[0] else None
 
     def powers(self, h: float, count: int) -> np.ndarray:
         """``[Φ, Φ², …, Φ^count]`` for ``Φ = e^{Z h}``, stacked (at least ``count`` of them)."""
@@ -311,8 +322,42 @@ class _Propagator:
         if phi is None:
             if len(self._cache) > 4096:
                 self._cache.clear()
-            phi = self._cache[h] = expm(self.Z * h)
+            if self.Pi is None:
+                phi = expm(self.Z * h)
+            else:
+                ny, Pi = self.ny, self.Pi
+                eF, eS = expm(self.Z[:ny, :ny] * h), expm(self.Z[ny:, ny:] * h)
+                phi = np.block([[eF, Pi @ eS - eF @ Pi], [np.zeros((eS.shape[0], ny)), eS]])
+            self._cache[h] = phi
         return phi
+
+
+def _particular(F: np.ndarray, S: np.ndarray, GC: np.ndarray, horizon: float) -> np.ndarray | None:
+    """``Π`` with ``F Π − Π S = −G C``, or ``None`` where it is ill conditioned (see :class:`_Propagator`).
+
+    Solved column by column on the complex Schur form ``S = Q T Qᴴ`` of the small exosystem matrix alone:
+    ``(F − T_kk) y_k = −(G C Q)_k + Σ_{j<k} T_jk y_j``, one LU solve with ``F`` as it is per column.  Measured
+    on a badly scaled shaft (‖F‖ = 1.8e6, ω² down to 1e-2): 8e-13 relative error in ``Π`` against 4.8e-10 for
+    Bartels–Stewart (``scipy.linalg.solve_sylvester``), which works on the Schur form of ``F`` as well.
+    """
+    try:
+        gap = float(np.min(np.abs(np.linalg.eigvals(F)[:, None] - np.linalg.eigvals(S)[None, :])))
+        if not gap * horizon > 1.0:
+            return None
+        T, Q = schur(S.astype(complex), output="complex")
+        R = -(GC @ Q).astype(complex)
+        Y = np.zeros((F.shape[0], S.shape[0]), dtype=complex)
+        eye = np.eye(F.shape[0])
+        for k in range(S.shape[0]):
+            Y[:, k] = np.linalg.solve(F - T[k, k] * eye, R[:, k] + Y[:, :k] @ T[:k, k])
+        Pi = (Y @ Q.conj().T).real
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    if not np.all(np.isfinite(Pi)):
+        return None
+    norm = np.linalg.norm
+    scale = norm(F) * norm(Pi) + norm(Pi) * norm(S) + norm(GC)
+    return Pi if norm(F @ Pi - Pi @ S + GC) <= 1e3 * _EPS * scale else None
 
 
 def _march(prop: _Propagator, z: np.ndarray, start: float, times: np.ndarray, uniform: float | None) -> np.ndarray:
@@ -455,7 +500,7 @@ def simulate_exact(
         if prop is None:
             if len(ss._propagators) > 256:
                 ss._propagators.clear()
-            prop = ss._propagators[key] = _Propagator(Z)
+            prop = ss._propagators[key] = _Propagator(Z, ny if nw else None, b - a)
         z = np.concatenate([y, exo.w0])
         last = p == len(bounds) - 2
         k = j
