@@ -1,0 +1,363 @@
+"""The text of a SPICE netlist read into a deck: lines, numbers, elements, sources and dot commands.
+
+:func:`_parse` splits the text into logical lines (comments removed,
+continuations joined) and tokens, and reads each line into an element
+(``R``, ``L``, ``C``, ``K``, ``V``, ``I`` with their values, ``ic=`` and source
+specifications) or a dot command (``.tran`` into a :class:`Transient`, ``.ic``,
+``.options``, ``.title``, ``.end``); :func:`parse_number` reads SPICE's numbers
+with their scale suffixes.  Whatever is not supported is refused here with a
+:class:`~lagrangian.errors.ModelError` naming the line, listing :data:`SUPPORTED`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from decimal import Decimal, InvalidOperation
+from typing import Any
+
+import numpy as np
+
+from ..errors import ModelError
+
+#: What the reader understands, quoted in its error messages.
+SUPPORTED = (
+    "R, L, C (linear; ic= on L and C), K (coupled inductors), independent V and I sources "
+    "(a DC value, DC x, SIN(...), PULSE(...)); dot commands .tran, .ic, .options, .title, .end "
+    "(.print, .plot, .save and .probe are ignored)"
+)
+
+_UNSUPPORTED_ELEMENTS = {
+    "a": "an XSPICE code model",
+    "b": "a behavioural source",
+    "d": "a diode",
+    "e": "a voltage-controlled voltage source",
+    "f": "a current-controlled current source",
+    "g": "a voltage-controlled current source",
+    "h": "a current-controlled voltage source",
+    "j": "a JFET",
+    "m": "a MOSFET",
+    "n": "a numerical device",
+    "o": "a lossy transmission line",
+    "p": "a coupled transmission line",
+    "q": "a bipolar transistor",
+    "s": "a voltage-controlled switch",
+    "t": "a transmission line",
+    "u": "an RC line",
+    "w": "a current-controlled switch",
+    "x": "a subcircuit instance",
+    "y": "a transmission line",
+    "z": "a MESFET",
+}
+_IGNORED_COMMANDS = {".print", ".plot", ".save", ".probe"}
+_ANALYSES = {".ac", ".dc", ".op", ".noise", ".tf", ".sens", ".pz", ".disto", ".four", ".sp", ".pss", ".meas", ".measure"}
+_WAVEFORMS = {"sin": (2, 6), "pulse": (2, 8)}
+_OTHER_WAVEFORMS = {"exp", "pwl", "sffm", "am", "trnoise", "trrandom", "distof1", "distof2", "port"}
+
+_NUMBER = re.compile(r"([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)([A-Za-z]*)\Z")
+_SCALES = (("meg", "1e6"), ("mil", "25.4e-6"), ("t", "1e12"), ("g", "1e9"), ("k", "1e3"),
+           ("m", "1e-3"), ("u", "1e-6"), ("n", "1e-9"), ("p", "1e-12"), ("f", "1e-15"))  # fmt: skip
+_TOKEN = re.compile(r"[^\s(),=]+|[()=]")
+
+
+def parse_number(text: str) -> float:
+    """A SPICE number: a decimal with an optional scale suffix, then ignored unit letters.
+
+    >>> parse_number("4.7k"), parse_number("10uF"), parse_number("2MEG"), parse_number("1mil")
+    (4700.0, 1e-05, 2000000.0, 2.54e-05)
+    >>> parse_number("1M")    # milli: SPICE is case-insensitive
+    0.001
+    """
+    match = _NUMBER.match(text.strip())
+    if not match:
+        raise ValueError(f"{text!r} is not a SPICE number")
+    mantissa, letters = match.groups()
+    letters = letters.lower()
+    scale = next((factor for suffix, factor in _SCALES if letters.startswith(suffix)), "1")
+    try:
+        return float(Decimal(mantissa) * Decimal(scale))
+    except InvalidOperation:  # pragma: no cover - the pattern admits only decimals
+        raise ValueError(f"{text!r} is not a SPICE number") from None
+
+
+@dataclass(frozen=True)
+class Transient:
+    """The ``.tran`` line: output step, stop time, output start, step cap, and whether ``uic`` was given."""
+
+    step: float
+    stop: float
+    start: float = 0.0
+    max_step: float | None = None
+    uic: bool = False
+
+    @property
+    def times(self) -> np.ndarray:
+        """SPICE's output grid: ``start, start + step, ...`` up to ``stop`` (included).
+
+        >>> Transient(0.25, 1.0).times
+        array([0.  , 0.25, 0.5 , 0.75, 1.  ])
+        """
+        n = int(np.floor((self.stop - self.start) / self.step * (1 + 1e-12)))
+        grid = self.start + self.step * np.arange(n + 1)
+        if abs(self.stop - grid[-1]) <= 1e-9 * self.step:
+            grid[-1] = self.stop  # 1e-5 · 3000 is 0.030000000000000002: the last point is the stop, not past it
+        elif self.stop - grid[-1] > 0:
+            grid = np.append(grid, self.stop)
+        return np.minimum(grid, self.stop)
+
+
+@dataclass
+class _Element:
+    letter: str
+    name: str
+    line: int
+    nodes: tuple[str, ...] = ()
+    value: Any = None  # a number, or (waveform, [args]) for sources
+    ic: float | None = None
+    refs: tuple[str, ...] = ()  # inductor names of a K element
+
+    def where(self) -> str:
+        return f"netlist line {self.line} ({self.name})"
+
+
+@dataclass
+class _Parsed:
+    title: str = ""
+    elements: list[_Element] = field(default_factory=list)
+    tran: Transient | None = None
+    node_ic: dict[str, float] = field(default_factory=dict)
+    options: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def element_ic(self) -> bool:
+        return any(e.ic is not None for e in self.elements)
+
+
+def _logical_lines(text: str) -> tuple[str, list[tuple[int, str]]]:
+    """The title and the (line number, text) of each logical line: comments removed, continuations joined."""
+    physical = text.splitlines()
+    first = next((i for i, line in enumerate(physical) if line.strip()), len(physical))
+    title = physical[first].strip() if first < len(physical) else ""
+    lines: list[list] = []
+    for number, raw in enumerate(physical[first + 1 :], start=first + 2):
+        line = raw.strip()
+        if not line or line.startswith("*"):
+            continue
+        line = re.split(r";|\s\$\s|\s\$$", line, maxsplit=1)[0].strip()
+        if line.startswith("+"):
+            if not lines:
+                raise ModelError(f"netlist line {number}: a continuation line ('+') with no line before it to continue.")
+            lines[-1][1] += " " + line[1:].strip()
+            continue
+        if line:
+            lines.append([number, line])
+    return title, [(n, s) for n, s in lines]
+
+
+def _parse(text: str) -> _Parsed:
+    title, lines = _logical_lines(text)
+    deck = _Parsed(title=title)
+    seen: dict[str, _Element] = {}
+    for number, line in lines:
+        tokens = _TOKEN.findall(line)
+        if not tokens:  # only separators (commas)
+            continue
+        head = tokens[0].lower()
+        if head.startswith("."):
+            if head == ".end":
+                break
+            _directive(deck, number, head, tokens[1:])
+            continue
+        element = _element(number, tokens)
+        other = seen.get(element.name.lower())
+        if other is not None:
+            raise ModelError(
+                f"netlist line {number}: element {element.name!r} has the same name as {other.name!r} on line "
+                f"{other.line} (SPICE names are case-insensitive): rename one."
+            )
+        seen[element.name.lower()] = element
+        deck.elements.append(element)
+    inductors = {e.name.lower(): e.name for e in deck.elements if e.letter == "l"}
+    for element in deck.elements:
+        if element.letter != "k":
+            continue
+        resolved = []
+        for ref in element.refs:
+            if ref.lower() not in inductors:
+                raise ModelError(
+                    f"{element.where()}: couples {ref!r}, which is not an inductor of this netlist "
+                    f"(inductors: {', '.join(inductors.values()) or 'none'})."
+                )
+            resolved.append(inductors[ref.lower()])
+        element.refs = tuple(resolved)
+    return deck
+
+
+def _number(token: str, where: str, what: str) -> float:
+    try:
+        return parse_number(token)
+    except ValueError:
+        raise ModelError(f"{where}: expected a number for {what}, got {token!r}.") from None
+
+
+def _node(token: str, where: str) -> str:
+    if token in "()=" or token.startswith("{"):
+        raise ModelError(f"{where}: expected a node name, got {token!r}.")
+    node = token.lower()
+    if node == "ground":
+        raise ModelError(
+            f"{where}: 'ground' is an ordinary node name in SPICE but the reference node in lagrangian; "
+            f"rename the node (SPICE's reference is 0)."
+        )
+    return node
+
+
+def _element(number: int, tokens: list[str]) -> _Element:
+    name = tokens[0]
+    letter = name[0].lower()
+    where = f"netlist line {number} ({name})"
+    if letter in _UNSUPPORTED_ELEMENTS:
+        raise ModelError(
+            f"{where}: {name!r} is {_UNSUPPORTED_ELEMENTS[letter]}, which the netlist reader does not support. "
+            f"Supported: {SUPPORTED}."
+        )
+    if letter not in "rlckvi":
+        raise ModelError(f"{where}: {name!r} is not a SPICE element the reader knows. Supported: {SUPPORTED}.")
+    if any(tok.startswith(("{", "'")) for tok in tokens):
+        raise ModelError(f"{where}: parameter expressions ({{...}}, '...') are not supported; write numbers. Supported: {SUPPORTED}.")
+    element = _Element(letter, name, number)
+    if letter == "k":
+        if len(tokens) != 4:
+            raise ModelError(f"{where}: expected 'K<name> <inductor1> <inductor2> <k>', got {' '.join(tokens)!r}.")
+        element.refs = (tokens[1], tokens[2])
+        element.value = _number(tokens[3], where, "the coupling coefficient")
+        return element
+    if len(tokens) < 3 or any(tok in "()=" for tok in tokens[1:3]):
+        raise ModelError(f"{where}: expected '{name} <node+> <node-> ...', got {' '.join(tokens)!r}.")
+    element.nodes = (_node(tokens[1], where), _node(tokens[2], where))
+    rest = tokens[3:]
+    if letter in "rlc":
+        quantity = {"r": "resistance", "l": "inductance", "c": "capacitance"}[letter]
+        if not rest:
+            raise ModelError(f"{where}: expected a {quantity} after the nodes.")
+        element.value = _number(rest[0], where, f"the {quantity}")
+        extra = rest[1:]
+        if letter in "lc" and len(extra) == 3 and extra[0].lower() == "ic" and extra[1] == "=":
+            element.ic = _number(extra[2], where, "ic")
+        elif extra:
+            allowed = " (only ic=... is supported)" if letter in "lc" else ""
+            raise ModelError(f"{where}: unsupported {quantity} parameters {' '.join(extra)!r}{allowed}. Supported: {SUPPORTED}.")
+        return element
+    element.value = _source(rest, where)
+    return element
+
+
+def _source(tokens: list[str], where: str) -> tuple[str, list[float]]:
+    """``("dc", [value])`` or ``(waveform, [arguments])`` from the tokens after a source's nodes."""
+    dc: float | None = None
+    wave: tuple[str, list[float]] | None = None
+    ac = False
+    i = 0
+    while i < len(tokens):
+        word = tokens[i].lower()
+        if word == "dc":
+            if i + 1 >= len(tokens):
+                raise ModelError(f"{where}: 'DC' needs a value.")
+            dc = _number(tokens[i + 1], where, "the DC value")
+            i += 2
+        elif word == "ac":
+            ac = True
+            i += 1
+            for _ in range(2):  # magnitude and phase, both optional
+                if i < len(tokens) and _NUMBER.match(tokens[i]):
+                    i += 1
+        elif word in _WAVEFORMS:
+            i, args = _arguments(tokens, i + 1, where, word)
+            low, high = _WAVEFORMS[word]
+            if not low <= len(args) <= high:
+                raise ModelError(f"{where}: {word.upper()} takes {low} to {high} values, got {len(args)}.")
+            wave = (word, args)
+        elif word in _OTHER_WAVEFORMS:
+            raise ModelError(f"{where}: {word.upper()} sources are not supported. Supported: {SUPPORTED}.")
+        elif i == 0 and _NUMBER.match(tokens[i]):
+            dc = _number(tokens[i], where, "the DC value")
+            i += 1
+        else:
+            raise ModelError(f"{where}: unexpected {tokens[i]!r} in the source specification. Supported: {SUPPORTED}.")
+    if wave is not None:
+        return wave
+    if dc is None and ac:
+        raise ModelError(
+            f"{where}: an AC-only source (small-signal analysis) has no transient value; give it a DC value or a "
+            f"SIN/PULSE waveform. Supported: {SUPPORTED}."
+        )
+    return ("dc", [dc or 0.0])
+
+
+def _arguments(tokens: list[str], i: int, where: str, word: str) -> tuple[int, list[float]]:
+    args: list[float] = []
+    parenthesized = i < len(tokens) and tokens[i] == "("
+    if parenthesized:
+        i += 1
+    while i < len(tokens) and tokens[i] != ")":
+        if not _NUMBER.match(tokens[i]):
+            if parenthesized:
+                raise ModelError(f"{where}: expected a number in {word.upper()}(...), got {tokens[i]!r}.")
+            break
+        args.append(_number(tokens[i], where, f"a {word.upper()} value"))
+        i += 1
+    if parenthesized:
+        if i >= len(tokens):
+            raise ModelError(f"{where}: {word.upper()}( is not closed by ')'.")
+        i += 1
+    return i, args
+
+
+def _directive(deck: _Parsed, number: int, head: str, tokens: list[str]) -> None:
+    where = f"netlist line {number} ({head})"
+    if head == ".tran":
+        uic = bool(tokens) and tokens[-1].lower() == "uic"
+        values = [_number(tok, where, ".tran values") for tok in (tokens[:-1] if uic else tokens)]
+        if not 2 <= len(values) <= 4:
+            raise ModelError(f"{where}: expected '.tran tstep tstop [tstart [tmax]] [uic]', got {len(values)} values.")
+        step, stop, start, max_step = (*values, None, None)[:4]
+        start = start or 0.0
+        if not (step > 0 and stop > start >= 0) or (max_step is not None and max_step <= 0):
+            raise ModelError(f"{where}: need tstep > 0, tstop > tstart ≥ 0 and tmax > 0, got {' '.join(tokens)!r}.")
+        deck.tran = Transient(step, stop, start, max_step, uic)
+    elif head == ".ic":
+        i = 0
+        while i < len(tokens):
+            chunk = tokens[i : i + 6]
+            if len(chunk) < 6 or chunk[0].lower() != "v" or chunk[1] != "(" or chunk[3] != ")" or chunk[4] != "=":
+                raise ModelError(f"{where}: expected 'v(node)=value' entries, got {' '.join(tokens[i:])!r}.")
+            node = _node(chunk[2], where)
+            value = _number(chunk[5], where, f"v({node})")
+            if node in ("0", "gnd"):
+                if value != 0:
+                    raise ModelError(f"{where}: the ground node 0 is at 0 V, not {value:g}.")
+            else:
+                deck.node_ic[node] = value
+            i += 6
+    elif head in (".options", ".option", ".opt"):
+        i = 0
+        while i < len(tokens):
+            key = tokens[i].lower()
+            if i + 2 < len(tokens) and tokens[i + 1] == "=":
+                raw = tokens[i + 2]
+                try:
+                    deck.options[key] = parse_number(raw)
+                except ValueError:
+                    deck.options[key] = raw.lower()
+                i += 3
+            else:
+                deck.options[key] = True
+                i += 1
+    elif head == ".title":
+        deck.title = " ".join(tokens)
+    elif head in _IGNORED_COMMANDS:
+        pass
+    elif head in _ANALYSES:
+        raise ModelError(f"{where}: only transient analysis (.tran) is supported. Supported: {SUPPORTED}.")
+    else:
+        raise ModelError(f"{where}: the dot command {head!r} is not supported. Supported: {SUPPORTED}.")

@@ -1,0 +1,128 @@
+"""The initial state of a netlist read into a model: SPICE's ``uic`` state as coordinates and velocities.
+
+:func:`_initial_values` gives every capacitor its initial voltage and every
+inductor its initial current (``ic=``, else the ``.ic`` node voltages, else
+zero); :func:`_initial_state` finds coordinate values and inertial velocities
+at ``t = 0`` that put them there, as the least-norm solution of the linear
+relations of the charge or flux formulation, and names the elements when the
+formulation cannot take that state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+import sympy as sp
+
+from ..base.component import t
+from ..errors import ModelError
+from ..model import Model
+from .deck import _Parsed
+
+
+def _initial_values(deck: _Parsed) -> dict[str, float]:
+    """The initial voltage of every capacitor and current of every inductor (SPICE's uic rule)."""
+    out = {}
+    for e in deck.elements:
+        if e.letter == "c":
+            a, b = (deck.node_ic.get(n, 0.0) for n in e.nodes)
+            out[e.name] = e.ic if e.ic is not None else a - b
+        elif e.letter == "l":
+            out[e.name] = e.ic if e.ic is not None else 0.0
+    return out
+
+
+def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float]]:
+    """Coordinates and inertial velocities at ``t = 0`` that put every capacitor and inductor at ``ic``."""
+    view = model.assembly.views["electrical"]
+    eq = model.eq
+    coords = model.coordinates
+    q = [sp.Dummy(f"q{i}") for i in range(len(coords))]
+    v = [sp.Dummy(f"v{i}") for i in range(len(coords))]
+    to_symbols = {}
+    for c, qi, vi in zip(coords, q, v):
+        to_symbols[c.function.diff(t)] = vi
+        to_symbols[c.function] = qi
+
+    def at_zero(expr: sp.Expr) -> sp.Expr:
+        return sp.sympify(expr).xreplace(to_symbols).subs(t, 0)
+
+    components = model.components
+    capacitors = [n for n in ic if components[n].kind == "capacitor"]
+    inductors = [n for n in ic if components[n].kind == "inductor"]
+    if view.formulation == "charge":
+        positions = [(n, at_zero(view.branch[n]), float(components[n].C) * ic[n]) for n in capacitors]
+        rates = [(n, at_zero(view.branch[n].diff(t)), ic[n]) for n in inductors]
+    else:
+        positions = []
+        for n in inductors:
+            flux = sum((float(m) * ic[other] for other, m in _mutuals(model, n)), float(components[n].L) * ic[n])
+            positions.append((n, at_zero(view.branch[n]), flux))
+        rates = [(n, at_zero(view.branch[n].diff(t)), ic[n]) for n in capacitors]
+    q0 = _solve(positions, q, model, view.formulation, "position")
+    v0 = _solve(rates, v, model, view.formulation, "rate")
+    initial = {c.name: float(x) + 0.0 for c, x in zip(coords, q0)}
+    velocity = {eq.names[i]: float(v0[i]) + 0.0 for i in eq.inertial}
+    return initial, velocity
+
+
+def _mutuals(model: Model, inductor: str) -> list[tuple[str, sp.Expr]]:
+    """``(other inductor, M)`` for every coupling of ``inductor``."""
+    out = []
+    components = model.components
+    for comp in components.values():
+        if comp.kind == "coupling" and inductor in comp.inductor_names:
+            a, b = comp.inductor_names
+            other = b if a == inductor else a
+            out.append((other, comp.k * sp.sqrt(components[a].L * components[b].L)))
+    return out
+
+
+_TROUBLE = {
+    ("charge", "position"): (
+        "capacitors {names} cannot start at these voltages in the charge formulation: their charges would not "
+        "balance at a node where only capacitors (and current sources) meet, and charge is conserved there. "
+        "Check their ic= values and the .ic line, or use formulation='flux'."
+    ),
+    ("charge", "rate"): (
+        "inductors {names} cannot start at these currents: they break Kirchhoff's current law (inductors in series, "
+        "or in series with a current source, carry one current). Check their ic= values."
+    ),
+    ("flux", "position"): (
+        "inductors {names} cannot start at these currents in the flux formulation: their flux linkages would not "
+        "add up to zero around a loop of inductors and voltage sources. Check their ic= values, or use "
+        "formulation='charge'."
+    ),
+    ("flux", "rate"): (
+        "capacitors {names} cannot start at these voltages: they break Kirchhoff's voltage law around a loop of "
+        "capacitors and voltage sources (a capacitor across a source starts at the source's value). Check their "
+        "ic= values and the .ic line."
+    ),
+}
+
+
+def _solve(
+    rows: list[tuple[str, sp.Expr, float]], unknowns: list[sp.Symbol], model: Model, formulation: str, level: str
+) -> np.ndarray:
+    """Least-norm solution of the linear conditions ``expr = value``; a ModelError naming the elements if there is none."""
+    n = len(unknowns)
+    if not rows or not n:
+        bad = [name for name, expr, value in rows if abs(value - float(expr)) > 0] if rows else []
+        if bad:
+            raise ModelError(f"model {model.name!r}: " + _TROUBLE[formulation, level].format(names=", ".join(bad)))
+        return np.zeros(n)
+    A = np.zeros((len(rows), n))
+    b = np.zeros(len(rows))
+    for r, (name, expr, value) in enumerate(rows):
+        expr = sp.expand(expr)
+        for j, u in enumerate(unknowns):
+            A[r, j] = float(expr.coeff(u))
+        b[r] = value - float(expr.xreplace({u: 0 for u in unknowns}))
+    x = np.linalg.lstsq(A, b, rcond=None)[0]
+    residual = np.abs(A @ x - b)
+    scale = np.abs(b).max() + np.abs(A).max() * np.abs(x).max()
+    bad = [rows[r][0] for r in np.flatnonzero(residual > 1e-9 * scale)]
+    if bad:
+        raise ModelError(f"model {model.name!r}: " + _TROUBLE[formulation, level].format(names=", ".join(bad)))
+    return x
