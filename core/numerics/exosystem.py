@@ -45,6 +45,16 @@ class _Exosystem:
     w0: np.ndarray
     modes: list[tuple[float, float, int]]
 
+    def states(self, taus: np.ndarray) -> np.ndarray:
+        """``w(τ) = e^{S τ} w0`` at many ``τ`` in closed form, one row each (``w0`` is :meth:`basis` at 0)."""
+        cols = []
+        for alpha, omega, order in self.modes:
+            env = np.exp(alpha * taus)
+            for k in range(order + 1):
+                p = taus**k / math.factorial(k) * env
+                cols += [p * np.cos(omega * taus), p * np.sin(omega * taus)] if omega else [p]
+        return np.column_stack(cols) if cols else np.zeros((np.size(taus), 0))
+
     def basis(self, tau: float) -> np.ndarray:
         """``w(τ)`` in closed form (for checking)."""
         out = []

@@ -302,6 +302,23 @@ class _Propagator:
         self._powers: dict[float, np.ndarray] = {}
         self.ny = ny
         self.Pi = _particular(Z[:ny, :ny], Z[ny:, ny:], Z[:ny, ny:], horizon) if ny and ny < Z.shape[0] else None
+        self._spectral: tuple | None | bool = False  # not yet computed
+
+    def spectral(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """``(V, λ, V⁻¹)`` of the matrix that moves the free part of the state (``F`` in the split form, ``Z``
+        without inputs), or ``None``: an exosystem without a particular solution, or eigenvectors whose
+        condition number passes :data:`SPECTRAL_COND` (a nearly defective matrix: critical damping)."""
+        if self._spectral is False:
+            self._spectral = None
+            if self.ny is None or self.Pi is not None:
+                M = self.Z if self.ny is None else self.Z[: self.ny, : self.ny]
+                try:
+                    lam, V = np.linalg.eig(M)
+                    if np.all(np.isfinite(V)) and np.linalg.cond(V) <= SPECTRAL_COND:
+                        self._spectral = (V, lam, np.linalg.inv(V))
+                except np.linalg.LinAlgError:
+                    pass
+        return self._spectral
 
     def powers(self, h: float, count: int) -> np.ndarray:
         """``[Φ, Φ², …, Φ^count]`` for ``Φ = e^{Z h}``, stacked (at least ``count`` of them)."""
@@ -330,6 +347,32 @@ class _Propagator:
                 phi = np.block([[eF, Pi @ eS - eF @ Pi], [np.zeros((eS.shape[0], ny)), eS]])
             self._cache[h] = phi
         return phi
+
+
+#: Largest condition number of the eigenvectors with which outputs at uneven times are evaluated from the
+#: eigendecomposition (error about ε times it); past it the state is stepped from output to output.
+SPECTRAL_COND = 1e3
+#: Outputs in one piece from which uneven times are evaluated at once from the eigendecomposition.
+SPECTRAL_MIN = 16
+
+
+def _spectral_states(prop: _Propagator, exo: _Exosystem, z: np.ndarray, start: float, times: np.ndarray
+                     ) -> np.ndarray | None:
+    """States at ``times`` from ``z`` at ``start`` (the piece's start, where the exosystem is at ``exo.w0``), all
+    at once: ``y(τ) = Π w(τ) + V e^{Λτ} V⁻¹ (y0 − Π w0)`` with ``w(τ)`` in closed form; ``None`` where
+    :meth:`_Propagator.spectral` has no decomposition.  One exponential per output and state, where stepping
+    through uneven times (the time points of ngspice) takes two matrix exponentials per distinct step."""
+    spec = prop.spectral()
+    if spec is None:
+        return None
+    V, lam, Vinv = spec
+    tau = times - start
+    if prop.Pi is None:  # no inputs
+        return ((np.exp(np.outer(tau, lam)) * (Vinv @ z)) @ V.T).real
+    ny, Pi = prop.ny, prop.Pi
+    W = exo.states(tau)
+    free = ((np.exp(np.outer(tau, lam)) * (Vinv @ (z[:ny] - Pi @ z[ny:]))) @ V.T).real
+    return np.hstack([free + W @ Pi.T, W])
 
 
 def _particular(F: np.ndarray, S: np.ndarray, GC: np.ndarray, horizon: float) -> np.ndarray | None:
@@ -507,7 +550,11 @@ def simulate_exact(
         while k < grid.size and grid[k] <= b:
             k += 1
         if k > j:
-            states = _march(prop, z, a, grid[j:k], uniform)
+            states = None
+            if uniform is None and k - j >= SPECTRAL_MIN:
+                states = _spectral_states(prop, exo, z, a, grid[j:k])
+            if states is None:
+                states = _march(prop, z, a, grid[j:k], uniform)
             Y[:, j:k] = states[:, :ny].T
             z = states[-1]
             here = grid[k - 1]
