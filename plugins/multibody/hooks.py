@@ -1,0 +1,16 @@
+"""The multibody plugin's hook implementation: it registers the body, joint and load component types."""
+
+from __future__ import annotations
+
+from lagrangian import hookimpl
+
+from .bodies import Body, Disc, Link, Rod
+from .joints import Fixed, Free, PlanarJoint, Prismatic, Revolute, Spherical
+from .loads import BodyTorque, RotationalDamper, RotationalSpring
+
+
+@hookimpl
+def register_component_types(register):
+    for cls in (Body, Link, Rod, Disc, Revolute, Prismatic, Spherical, PlanarJoint, Fixed, Free, BodyTorque,
+                RotationalSpring, RotationalDamper):
+        register(cls)
