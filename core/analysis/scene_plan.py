@@ -1,0 +1,156 @@
+"""What a scene plans and returns: the parts of its minimal model, the plan with its report, the result.
+
+:class:`Part` is one independently simulated part of a scene's minimal model,
+:class:`Offer` an approximate simplification offered (never applied),
+:class:`ScenePlan` what the scene keeps, drops and eliminates with its report,
+and :class:`SceneResult` the outputs on the requested times, each computed on
+first access by the :class:`~lagrangian.scene.Scene` that made it.  The
+measures the planner uses are here too: what coordinates are reachable
+(:func:`_closure`), whether equations may be linear time-invariant
+(:func:`_maybe_linear`), and what they cost to evaluate (:func:`_ops`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+
+from ..base.component import t
+from ..derivation.equations import Equations
+from ..errors import UnknownNameError
+from ..model import Model
+from ..numerics.simulation import Result
+from ..numerics.tape import size
+
+
+@dataclass
+class _Output:
+    label: str
+    expr: sp.Expr  # in the plain symbols of the full model
+    depends: set[int]  # coordinate indices (positions or rates)
+
+
+@dataclass
+class Part:
+    """One independently simulated part of a scene's minimal model."""
+
+    coordinates: list[str]  # full-model coordinates this part carries (integrated or not)
+    integrated: list[str]  # coordinates actually integrated
+    eliminated: list[str]  # ignorable coordinates eliminated through the Routhian
+    reconstructed: list[str]  # eliminated ones recovered by quadrature (their values are requested)
+    method: str  # "exact", "uniform", or the integrator's name
+    why: str  # why this solver path
+    model: Model = field(repr=False)
+    operations: int = 0
+
+
+@dataclass
+class Offer:
+    """An approximate simplification, offered, not applied."""
+
+    component: str
+    would_drop: list[str]
+    estimated_error: float
+    note: str
+
+
+@dataclass
+class ScenePlan:
+    """What the scene keeps, drops, eliminates, and how it solves each part."""
+
+    model: str
+    outputs: list[str]
+    parts: list[Part]
+    kept: list[str]
+    dropped: dict[str, str]
+    held: dict[str, str]
+    before: dict[str, int]
+    after: dict[str, int]
+    offers: list[Offer] = field(default_factory=list)
+    unused: dict[str, str] = field(default_factory=dict)  # given initial values (``x``), velocities (``x'``), params: why not needed
+
+    def report(self) -> str:
+        """The plan as text: kept, dropped and why, eliminated coordinates, solver paths, sizes."""
+        lines = [f"scene on model {self.model!r}: outputs {', '.join(self.outputs)}"]
+        lines.append(f"  before: {self.before['coordinates']} coordinates, {self.before['equations']} equations, "
+                     f"{self.before['operations']} operations")
+        lines.append(f"  after:  {self.after['coordinates']} coordinates solved for, {self.after['equations']} equations, "
+                     f"{self.after['operations']} operations, in {len(self.parts)} part(s)")
+        for k, part in enumerate(self.parts, 1):
+            lines.append(f"  part {k}: {', '.join(part.coordinates)} — {part.method} ({part.why})")
+            if part.eliminated:
+                lines.append(f"    eliminated through the Routhian: {', '.join(part.eliminated)}"
+                             + (f"; reconstructed by quadrature: {', '.join(part.reconstructed)}" if part.reconstructed else ""))
+        lines.append(f"  kept components: {', '.join(self.kept) if self.kept else '(none)'}")
+        for name, why in self.dropped.items():
+            lines.append(f"  dropped {name!r}: {why}")
+        for name, why in self.held.items():
+            lines.append(f"  held {name!r}: {why}")
+        reasons: dict[str, list[str]] = {}
+        for name, why in self.unused.items():
+            reasons.setdefault(why, []).append(name)
+        for why, given in reasons.items():
+            lines.append(f"  given, not needed: {', '.join(given)} ({why})")
+        for offer in self.offers:
+            lines.append(f"  offered, not applied: drop {offer.component!r} (would remove {', '.join(offer.would_drop)}): "
+                         f"{offer.note}; estimated change of the outputs {offer.estimated_error:.2e}")
+        return "\n".join(lines)
+
+
+class SceneResult:
+    """The scene's outputs on the requested times, each computed on first access.
+
+    ``res[label]`` is an output by the label it was requested with;
+    ``res.parts`` are the parts' :class:`~lagrangian.Result` objects;
+    ``res.t`` the time grid; ``res.computed`` the outputs computed so far.
+    """
+
+    # ``scene`` is the Scene of scene.py, which imports this module: the annotation stays a string
+    def __init__(self, scene: "Scene", t: np.ndarray, parts: list[tuple[Part, Result]]):  # noqa: F821
+        self.scene = scene
+        self.t = t
+        self.parts = parts
+        self.computed: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, label: str) -> np.ndarray:
+        if label not in self.computed:
+            outputs = {o.label: o for o in self.scene._outputs}
+            if label not in outputs:
+                raise UnknownNameError("scene output", label, outputs)
+            self.computed[label] = self.scene._evaluate(outputs[label].expr, self)
+        return self.computed[label]
+
+    @property
+    def outputs(self) -> list[str]:
+        return [o.label for o in self.scene._outputs]
+
+    def as_dict(self) -> dict[str, np.ndarray]:
+        """Every output (computing those not yet computed)."""
+        return {label: self[label] for label in self.outputs}
+
+
+def _closure(start, neighbours) -> set[int]:
+    """Everything reachable from ``start`` through ``neighbours(i)``."""
+    seen, stack = set(), list(start)
+    while stack:
+        i = stack.pop()
+        if i not in seen:
+            seen.add(i)
+            stack.extend(neighbours(i) - seen)
+    return seen
+
+
+def _maybe_linear(eq: Equations) -> bool:
+    """False when the equations are plainly not linear time-invariant (state or time in ``A``, ``b`` not
+    polynomial in the state); True means "ask :func:`lagrangian.linear.state_space`"."""
+    state = set(eq.sym.q) | set(eq.sym.v)
+    if any(e.free_symbols & (state | {t}) for e in eq.A):
+        return False
+    return all(e.is_polynomial(*state) for e in eq.b)
+
+
+def _ops(eq: Equations) -> int:
+    """Operations to evaluate ``A`` and ``b`` once, every common subexpression once (the size of their tape)."""
+    return size(list(eq.A) + list(eq.b))
