@@ -64,6 +64,23 @@ def test_a_run_that_would_not_end_is_refused_and_the_way_out_works():
     assert res["x_p"][-1] == pytest.approx(0.01 * math.exp(-40 / 1e9 * 10), rel=1e-6)
 
 
+def test_a_stiff_run_that_would_crawl_for_minutes_is_refused_at_once_and_auto_solves_it():
+    # c/m = 3.3e7 1/s decays: DOP853 would need some 3.3e8 steps over 10 s (it took 48 s at c = 1e5, 100 times
+    # fewer); the slow mode creeps at k/c = 4e-6 1/s — below the rounding of the linearization next to 3.3e7,
+    # so the refusal rests on the fast decay alone — and Radau steps over the decay
+    with pytest.raises(lg.IntegrationError, match=r"'damped' is stiff.*decays at 3\.33e\+07 1/s.*3\.3\de\+08 steps.*method='auto'.*'Radau'"):
+        damped(1e7).simulate(10, initial={"x_p": 0.01}, velocity={"x_p": 0.0})
+    res = damped(1e7).simulate(10, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, method="auto")
+    assert res["x_p"][-1] == pytest.approx(0.01 * math.exp(-40 / 1e7 * 10), rel=1e-6)
+    # an oscillation as fast is not stiff: every method must step through it, and it is not refused below 1e10
+    fast = lg.Model("fast")
+    fast.add("mass", "m", "p", m=0.3)
+    fast.add("spring", "k", ("ground", "p"), k=3e6)
+    fast.add("spring", "k2", ("p", "q"), k=1.0)
+    fast.add("mass", "m2", "q", m=3.0)
+    assert fast.simulate(0.05, initial={"x_p": 0.01}, points=5).t[-1] == pytest.approx(0.05)
+
+
 def test_values_beyond_floating_point_products_are_refused_when_given():
     with pytest.raises(lg.ParameterError, match=r"component 'c', parameter 'c': 1e\+308 is beyond 1e\+150"):
         damped(1e308)
