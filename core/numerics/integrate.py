@@ -174,6 +174,7 @@ def integrate(
         warnings.warn(stiff_note, StiffnessWarning, stacklevel=4)
     problem.nfev = 0
     problem._report = _reporter(t_span, model, progress) if progress else None
+    problem.watch(t_span, model)
     cuts, cut_note = _cuts(problem, integrator, t_span) if not events else ([], None)
     if cut_note:
         notes = [*notes, cut_note]
@@ -187,6 +188,7 @@ def integrate(
             sol = integrator.solve(problem, t_span, y0, t_eval, **options)
     finally:
         problem._report = None
+        problem.watch(None)
     if not isinstance(sol, Solution):
         raise IntegrationError(f"integrator {name!r} returned {type(sol).__name__}, not a lagrangian.integrate.Solution.")
     sol_t = np.asarray(sol.t, dtype=float)

@@ -99,6 +99,13 @@ class Spectrum:
         return float(mags.min()) if mags.size else 0.0
 
 
+#: A run is judged on its pace every PACE_EVERY + 1 evaluations, once it has taken PACE_MIN of them ...
+PACE_EVERY = 0x3FFF
+PACE_MIN = 1 << 17
+#: ... and refused when it would need more than this many evaluations in all (hours of Python).
+MAX_EVALUATIONS = 1e9
+
+
 class Problem:
     """What an integrator integrates: ``y' = rhs(t, y)`` on ``y = (q, q̇_inertial)``, with the model's structure.
 
@@ -133,6 +140,7 @@ class Problem:
         self.constrained = len(getattr(eq, "constraints", ())) > 0
         self.nfev = 0
         self._report: Callable[[float], None] | None = None
+        self._pace: tuple[float, float, int, str] | None = None  # (t0, t1, nfev at the start, model) of a run
 
     # -- every method -----------------------------------------------------------
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
@@ -140,7 +148,31 @@ class Problem:
         self.nfev += 1
         if self._report is not None:
             self._report(t)
+        if self._pace is not None and not self.nfev & PACE_EVERY:
+            self._check_pace(t)
         return self.numeric.rhs(t, y)
+
+    def watch(self, t_span: tuple[float, float] | None, model: str = "model") -> None:
+        """Refuse, from now on, a run over ``t_span`` that at its pace would need more than
+        :data:`MAX_EVALUATIONS` evaluations (``None``: stop watching)."""
+        self._pace = None if t_span is None else (float(t_span[0]), float(t_span[1]), self.nfev, model)
+
+    def _check_pace(self, t: float) -> None:
+        t0, t1, start, model = self._pace
+        used = self.nfev - start
+        if used < PACE_MIN or not t1 > t0:
+            return
+        done = (float(t) - t0) / (t1 - t0)
+        projected = used / done if done > 0 else np.inf
+        if projected > MAX_EVALUATIONS:
+            self._pace = None
+            raise IntegrationError(
+                f"the run of model {model!r} has come to t={t:.6g} of [{t0:.6g}, {t1:.6g}] in {used} evaluations: at "
+                f"this pace it would need some {projected:.3g}, and would not end. Its solution changes on a time "
+                f"scale of about {max(float(t) - t0, 0.0) / used:.3g} s per evaluation: a part many orders of magnitude "
+                f"faster than the run (a length of 1e-96, an inertia of 1e-30?) or a state running into a "
+                f"singularity. Check the parameter values, shorten the run, or try method='Radau' if it is stiff."
+            )
 
     def jacobian(self, t: float, y: np.ndarray, f0: np.ndarray | None = None) -> np.ndarray:
         """``∂F/∂y`` at ``(t, y)`` by forward differences (``dim`` evaluations, one more without ``f0``)."""
