@@ -140,3 +140,12 @@ def test_vectors_and_matrices_read_each_entry_as_text(marker):
             lg.Model("body", dim=3).add("body", "b", "b", m=1, inertia=(1, 1, 1), com=(0, text, 0))
     body = lg.Model("body", dim=3).add("body", "b", "b", m=1, inertia=[["0.3", 0, 0], [0, "0.3", 0], [0, 0, "1/2"]])
     assert body.params["inertia"] == sp.diag(sp.Float(0.3), sp.Float(0.3), sp.Rational(1, 2))
+
+
+def test_the_time_derivative_plugins_call_refuses_text(marker):
+    from lagrangian.derivation.calculus import time_derivative
+
+    for text in payloads(marker):
+        with pytest.raises(lg.ModelError, match="time_derivative takes a SymPy expression, not text"):
+            time_derivative(text, lg.t)
+    assert not marker.exists()

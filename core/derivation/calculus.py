@@ -17,6 +17,8 @@ from collections.abc import Callable, Iterable
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from ..errors import ModelError
+
 __all__ = ["Calculus", "Rewriter", "time_derivative", "trig"]
 
 _ZERO = sp.Integer(0)
@@ -128,10 +130,12 @@ def time_derivative(expr, t: sp.Symbol):
     >>> time_derivative(3 * sin(q), t)
     3*cos(q(t))*Derivative(q(t), t)
     """
+    if isinstance(expr, (str, bytes)):  # text is never read as code
+        raise ModelError(f"time_derivative takes a SymPy expression, not text: {expr!r:.60}.")
     if len(_DT_CACHE) > 200_000:  # bound the memory held between models
         _DT_CACHE.clear()
         _HAS_T.clear()
-    return _dt(sp.sympify(expr), t)
+    return _dt(sp.sympify(expr, strict=True), t)
 
 
 def _dt(e, t):
