@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from lagrangian import IntegrationError
@@ -24,53 +26,42 @@ class ScipyMethod(Integrator):
         from scipy.integrate import solve_ivp
 
         extra = {} if first_step is None else {"first_step": first_step}
-        try:
+        with self._failures(problem):
             sol = solve_ivp(problem.rhs, t_span, y0, method=self.name, t_eval=t_eval, rtol=rtol, atol=atol,
                             max_step=max_step, **extra)
-        except ValueError as exc:
-            error = self._failure(problem, exc)
-            if error is None:
-                raise
-            raise error from None
         return Solution(sol.t, sol.y, sol.nfev, sol.status, sol.message)
 
-    def _failure(self, problem, exc: ValueError) -> IntegrationError | None:
-        """The error for a ValueError out of SciPy's solver: a Jacobian (of an implicit method) or a state that is
-        not finite is an :class:`IntegrationError`, as compiled code reports it; ``None`` for any other (SciPy's
-        own error stands)."""
-        text = str(exc).lower()
-        if "finite" not in text and not ("inf" in text and "nan" in text):  # "array must not contain infs or NaNs"
-            return None
-        model = getattr(problem, "name", "") or "the model"
-        return IntegrationError(
-            f"{self.name} failed on model {model!r}: its Jacobian or state is not finite ({exc}) — a mass matrix "
-            f"nearly singular (an inertia, mass or inductance many orders of magnitude below the others), or "
-            f"equations that overflow. Give every coordinate an inertia comparable to the others, or start elsewhere."
-        )
+    @contextlib.contextmanager
+    def _failures(self, problem):
+        """A ValueError out of SciPy's solver for a Jacobian (of an implicit method) or a state that is not finite
+        becomes an :class:`IntegrationError`, as compiled code reports it; any other stands (SciPy's own error)."""
+        try:
+            yield
+        except ValueError as exc:
+            text = str(exc).lower()
+            if "finite" not in text and not ("inf" in text and "nan" in text):  # "array must not contain infs or NaNs"
+                raise
+            model = getattr(problem, "name", "") or "the model"
+            raise IntegrationError(
+                f"{self.name} failed on model {model!r}: its Jacobian or state is not finite ({exc}) — a mass matrix "
+                f"nearly singular (an inertia, mass or inductance many orders of magnitude below the others), or "
+                f"equations that overflow. Give every coordinate an inertia comparable to the others, or start "
+                f"elsewhere."
+            ) from None
 
     def start(self, problem, t0, y0, t_bound, *, rtol=1e-9, atol=1e-12, max_step=np.inf, first_step=None):
         """SciPy's solver object from ``(t0, y0)`` towards ``t_bound``, stepped by the driver (events)."""
         import scipy.integrate
 
         extra = {} if first_step is None else {"first_step": first_step}
-        try:
+        with self._failures(problem):
             solver = getattr(scipy.integrate, self.name)(problem.rhs, t0, y0, t_bound, rtol=rtol, atol=atol,
                                                          max_step=max_step, **extra)
-        except ValueError as exc:
-            error = self._failure(problem, exc)
-            if error is None:
-                raise
-            raise error from None
         step = solver.step
 
         def checked_step():  # each step the driver takes fails as solve() does
-            try:
+            with self._failures(problem):
                 return step()
-            except ValueError as exc:
-                error = self._failure(problem, exc)
-                if error is None:
-                    raise
-                raise error from None
 
         solver.step = checked_step
         return solver
