@@ -36,7 +36,7 @@ from .numerics.simulation import NumericModel, Result, initial_state
 from .numerics.integrate import choose, integrate, Problem, resolve
 from .numerics.events import Event
 from .numerics.events import check as check_events
-from .numerics.linear import simulate_exact, state_space
+from .numerics.linear import simulate_exact, stamped, state_space
 
 __all__ = ["Model"]
 
@@ -271,7 +271,21 @@ class Model:
     @property
     def parameters(self) -> list[sp.Symbol]:
         """Symbols that need numeric values before simulating, sorted by name."""
+        if "equations" not in self._cache and not self._get("unvalued", self._unvalued):
+            return []  # every symbol of the contributions has a value: nothing to derive to know that
         return sorted(self.eq.parameter_symbols(), key=lambda s: (s.name, str(s.assumptions0)))
+
+    def _unvalued(self) -> bool:
+        """Whether a symbol of the components' contributions (or the domains' constraints) has no value."""
+        a = self.assembly
+        known = set(a.values) | {t}
+        for c in a.generic.values():
+            parts = [c.T, c.V, c.D, c.G, *(x for load in c.loads for x in (load.force, load.velocity))]
+            for e in parts:
+                if isinstance(e, (sp.Basic, sp.MatrixBase)) and not e.free_symbols <= known:
+                    return True
+        return any(not sp.Matrix(view.constraints).free_symbols <= known
+                   for view in a.generic_views.values() if len(getattr(view, "constraints", ())))
 
     def latex(self) -> str:
         """The Lagrangian, Rayleigh function and equations of motion as LaTeX."""
@@ -314,7 +328,7 @@ class Model:
         >>> m.parameter_values
         {'m_m1': 0.3, 'k_k1': 40.0}
         """
-        return {s.name: float(v) for s, v in self.eq.values.items()}
+        return {s.name: float(v) for s, v in self.assembly.values.items()}
 
     def _values(self, params: Mapping[str, float], *, overrides: bool = False) -> dict[sp.Symbol, float]:
         """Every parameter's value: those given as numbers, and ``params`` by name for the symbolic ones.
@@ -324,7 +338,7 @@ class Model:
         for s in self.parameters:  # symbols of one name but different assumptions share the value
             needed.setdefault(s.name, []).append(s)
         valued: dict[str, list[sp.Symbol]] = {}
-        for s in self.eq.values:  # parameters given as numbers: another value may be given by name
+        for s in self.assembly.values:  # parameters given as numbers: another value may be given by name
             valued.setdefault(s.name, []).append(s)
         unknown = [k for k in params if k not in needed and k not in valued]
         if unknown:
@@ -333,7 +347,7 @@ class Model:
         if fixed and not overrides:
             k = fixed[0]
             raise ModelError(
-                f"parameter {k!r} of model {self.name!r} was given as a number ({float(self.eq.values[valued[k][0]]):g}) "
+                f"parameter {k!r} of model {self.name!r} was given as a number ({float(self.assembly.values[valued[k][0]]):g}) "
                 f"and this analysis uses that value: to vary it here, build the model with a symbol for it "
                 f"(sympy.Symbol) and give its value in params=; simulate(params={{{k!r}: ...}}) does take another value."
             )
@@ -343,7 +357,7 @@ class Model:
                 f"model {self.name!r} has symbolic parameters without values: {', '.join(missing)}. "
                 f"Pass them, e.g. simulate(..., params={{{', '.join(f'{k!r}: ...' for k in missing)}}})."
             )
-        values = {s: float(v) for s, v in self.eq.values.items()}
+        values = {s: float(v) for s, v in self.assembly.values.items()}
         for k in params:
             try:
                 value = float(params[k])
@@ -491,14 +505,17 @@ class Model:
         'exact'
         """
 
-        names = self.eq.names
-        dim = len(names) + len(self.eq.inertial)
+        names = self.coordinate_names
+        params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.assembly.values]}))
+        # a large linear model with every parameter valued is solved from its stamps, never derived symbolically
+        st = stamped(self, params) if method in ("auto", "exact") and not events else None
+        dim = len(names) + len(st.inertial if st is not None else self.eq.inertial)
         span = check_span(t_end)
         run = RunOptions(
             span=span,
             initial=check_state("initial", check_mapping("initial", initial, names)),
             velocity=check_state("velocity", check_mapping("velocity", velocity, names)),
-            params=check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.eq.values]})),
+            params=params,
             points=points,
             t_eval=t_eval,
             method=method,
@@ -516,6 +533,15 @@ class Model:
         if run.events and method == "exact":
             raise ModelError("method='exact' solves the whole span at once and takes no events: use an adaptive "
                              "method (DOP853, RK45, Radau) or method='auto'.")
+        if method == "auto" and st is not None:
+            try:
+                res = simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,
+                                     points=points, t_eval=t_eval, progress=run.progress)
+                res.notes.insert(0, "auto: exact, the model is linear time-invariant (assembled from its components' "
+                                    "stamps)")
+                return res
+            except ModelError as exc:  # an input the exact solution does not take: integrate
+                _log.info("%s: auto: not solved exactly: %s", self.name, exc)
         if method == "auto":
             return self._auto(run)
         if method == "exact":

@@ -133,6 +133,11 @@ def _vector(value: Any, dim: int, component: Component, pname: str) -> sp.Matrix
     return sp.Matrix([value])
 
 
+def _square(e: sp.Expr) -> sp.Expr:
+    """``e²``; a sum squared without SymPy's checks for infinite terms (a third of assembling a large chain)."""
+    return sp.Pow(e, 2, evaluate=False) if e.is_Add else e**2
+
+
 class Mass(Component):
     """Point mass: T = ½ m |v|²."""
 
@@ -183,7 +188,7 @@ class Spring(Component):
         if ctx.view.dim > 1 and self.rest_length == 0:
             d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
             return Contribution(V=self.k * dot(d, d) / 2)
-        return Contribution(V=self.k * self.extension(ctx) ** 2 / 2)
+        return Contribution(V=self.k * _square(self.extension(ctx)) / 2)
 
     @classmethod
     def example(cls) -> Example:
@@ -201,7 +206,7 @@ class Damper(Component):
         d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
         dv = sp.Matrix([time_derivative(e, t) for e in d])
         rate = dv[0] if ctx.view.dim == 1 else dot(d, dv) / sp.sqrt(dot(d, d))
-        return Contribution(D=self.c * rate**2 / 2)
+        return Contribution(D=self.c * _square(rate) / 2)
 
     @classmethod
     def example(cls) -> Example:
@@ -237,13 +242,13 @@ class Gravity(Component):
             if norm == 0:
                 raise ModelError(f"gravity {self.name!r}: direction must not be the zero vector.")
             u = u / norm
-        V = 0
+        terms = []  # summed once: adding term by term rebuilds the sum each time (quadratic in the masses)
         for comp in ctx.components:
             held = getattr(comp, "gravitational_mass", None)
             if held is not None:
                 node, mass = held
-                V -= mass * self.g * sp.Add(*[a * b for a, b in zip(u, ctx.view.position(node)) if a != 0])  # u · r
-        return Contribution(V=V)
+                terms.append(-mass * self.g * sp.Add(*[a * b for a, b in zip(u, ctx.view.position(node)) if a != 0]))
+        return Contribution(V=sp.Add(*terms))  # −Σ m g (u · r)
 
     @classmethod
     def example(cls) -> Example:

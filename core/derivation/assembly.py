@@ -41,7 +41,7 @@ class Assembly:
 
     coordinates: list[Coordinate]
     generic_views: dict[str, DomainView]
-    contributions: dict[str, Contribution]
+    contributions: Mapping[str, Contribution]
     signals: dict[sp.Function, Any] = field(default_factory=dict)
     generic: dict[str, Contribution] = field(default_factory=dict)
     values: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
@@ -132,7 +132,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     signals: dict[sp.Function, Any] = {}
     for comp in components:
         signals.update(comp.signals())
-    contributions, generic, values = {}, {}, {}
+    generic, values = {}, {}
     for comp in components:
         values.update(comp.values)
     for comp, view in zip(components, symbolic):
@@ -147,9 +147,29 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
             ) from exc
         _check_contribution(comp, contribution, allowed | set(signals))
         generic[comp.name] = contribution
-        contributions[comp.name] = _with_values(contribution, values)
+    contributions = _Valued(generic, values)
     valued = None if all(view is comp for comp, view in zip(components, symbolic)) else (lambda: build(None))
     return Assembly(coordinates, views, contributions, signals, generic, values, valued)
+
+
+class _Valued(Mapping):
+    """The contributions with the values given as numbers in, each built on first use (the derivation and the
+    stamps read the generic ones: a large model need not pay for both)."""
+
+    def __init__(self, generic: Mapping[str, Contribution], values: Mapping):
+        self._generic, self._values, self._done = generic, values, {}
+
+    def __getitem__(self, name: str) -> Contribution:
+        out = self._done.get(name)
+        if out is None:
+            out = self._done[name] = _with_values(self._generic[name], self._values)
+        return out
+
+    def __iter__(self):
+        return iter(self._generic)
+
+    def __len__(self) -> int:
+        return len(self._generic)
 
 
 def _with_values(c: Contribution, values: Mapping) -> Contribution:

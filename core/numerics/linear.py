@@ -51,6 +51,7 @@ True
 
 from __future__ import annotations
 
+import logging
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -66,12 +67,16 @@ from ..base.component import t
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError
 from ..base.identity import depends_on, is_zero
 from .exosystem import EXPAND_SECONDS, _Exosystem, _exosystem, _TooLarge, _Unrepresentable
-from .simulation import Result, _lambdify, initial_state
+from ..derivation.stamps import NotStampable, Stamps, stamps
+from .krylov import KrylovPropagator, SparseSpace, input_values, unknowns
+from .simulation import Result, initial_state
 from ..base.switching import SWITCHES as _SWITCHES
 from ..base.switching import resolve as _resolve
 from ..base.switching import switching_times as _switching_times
 
-__all__ = ["StateSpace", "state_space", "simulate_exact"]
+__all__ = ["StateSpace", "state_space", "simulate_exact", "stamped"]
+
+_log = logging.getLogger("lagrangian")
 
 _EPS = np.finfo(float).eps
 #: Functions that switch an input between expressions; their switching times split the time axis.
@@ -130,14 +135,7 @@ class StateSpace:
 
     def input_values(self, times: np.ndarray) -> np.ndarray:
         """The inputs ``s(t)`` at ``times``, as a ``len(inputs) × len(times)`` array."""
-        times = np.asarray(times, dtype=float)
-        if not self.inputs:
-            return np.zeros((0, times.size))
-        if self._input_fn is None:
-            self._input_fn = _lambdify(t, list(self.inputs), {})  # huge integers as floats, erf from SciPy
-        with np.errstate(all="ignore"):
-            values = self._input_fn(times)
-        return np.array([np.broadcast_to(np.asarray(v, dtype=float), times.shape) for v in values])
+        return input_values(self, times)
 
 
 def state_space(model, params: Mapping[str, float] | None = None) -> StateSpace:
@@ -260,6 +258,63 @@ def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
         inertial=[names[i] for i in inertial],
         first_order=[names[i] for i in first],
         equations=[names[i] for i in active],
+    )
+
+
+#: Models with at least this many coordinates are assembled numerically from their components' stamps
+#: (:mod:`lagrangian.derivation.stamps`) when every parameter has a value, instead of deriving their equations
+#: symbolically; at 40 masses the stamps take 0.03 s, the symbolic state space 1.2 s.
+STAMPS_MIN = 40
+#: Past this many states the exact solution works on sparse matrices (:mod:`lagrangian.numerics.krylov`) instead of
+#: dense matrix exponentials (a dense ``e^{F h}`` of 2,000 states is 32 MB, and costs seconds).
+DENSE_MAX = 1200
+
+
+def stamped(model, params: Mapping[str, float] | None = None) -> Stamps | None:
+    """The model's stamps with these parameter values (cached), or ``None``: fewer than :data:`STAMPS_MIN`
+    coordinates, or a model that is not linear time-invariant in the stamps' sense (the reason is logged)."""
+    if len(model.assembly.coordinates) < STAMPS_MIN:
+        return None
+    values = model._values(params or {}, overrides=True)
+
+    def build():
+        try:
+            return stamps(model.assembly, values)
+        except NotStampable as exc:
+            _log.debug("%s: not assembled from stamps: %s", model.name, exc)
+            return None
+
+    return model._get(("stamps", tuple(sorted((s.name, v) for s, v in values.items()))), build)
+
+
+def _from_stamps(st: Stamps) -> StateSpace | SparseSpace:
+    """The state space of a stamped model: dense up to :data:`DENSE_MAX` states, sparse beyond."""
+    space = st.__dict__.get("_space")
+    if space is None:
+        space = st.__dict__["_space"] = _space(st)
+    return space
+
+
+def _space(st: Stamps) -> StateSpace | SparseSpace:
+    names = list(st.names)
+    n, I = st.n, st.inertial
+    if n + len(I) > DENSE_MAX:
+        return SparseSpace(st)
+    A, R, Sel, E = unknowns(st)
+    A = A.toarray()
+    if np.linalg.cond(A) > 1 / (_EPS * 16):
+        raise NotStampable("the matrix of the unknowns is singular")
+    U = np.linalg.solve(A, np.hstack([R.toarray(), st.B.toarray()]))
+    ny = R.shape[1]
+    return StateSpace(
+        F=Sel @ U[:, :ny] + E.toarray(),
+        G=Sel @ U[:, ny:],
+        inputs=sp.Matrix(st.inputs) if st.inputs else sp.Matrix(0, 1, []),
+        states=names + [f"{names[i]}'" for i in I],
+        names=names,
+        inertial=[names[i] for i in I],
+        first_order=[names[i] for i in st.first_order],
+        equations=[names[r] for r in st.input_rows],
     )
 
 
@@ -476,11 +531,21 @@ def simulate_exact(
     'exact'
     """
     span = check_span(t_end)
-    initial = check_mapping("initial", initial, model.eq.names)
-    velocity = check_mapping("velocity", velocity, model.eq.names)
-    grid = check_grid(span, points, t_eval, len(model.eq.names) + len(model.eq.inertial))
-    ss = state_space(model, params)
-    y0, defaulted = initial_state(model.eq, initial or {}, velocity or {})
+    initial = check_mapping("initial", initial, model.coordinate_names)
+    velocity = check_mapping("velocity", velocity, model.coordinate_names)
+    st = stamped(model, params)
+    ss = None
+    if st is not None:
+        try:
+            ss = _from_stamps(st)
+        except NotStampable as exc:
+            _log.debug("%s: not solved from stamps: %s", model.name, exc)
+            st = None
+    eq = st if st is not None else model.eq
+    grid = check_grid(span, points, t_eval, len(eq.names) + len(eq.inertial))
+    if ss is None:
+        ss = state_space(model, params)
+    y0, defaulted = initial_state(eq, initial or {}, velocity or {})
     inputs = list(ss.inputs)
     ny = len(ss.states)
 
@@ -500,7 +565,6 @@ def simulate_exact(
                 f"derivatives have no impulse, and steps in position as steep ramps."
             )
 
-    numeric = model.numeric(params)  # the energies
     cuts = ss._cuts.get(span)
     if cuts is None:
         try:
@@ -531,6 +595,23 @@ def simulate_exact(
     for p, (a, b) in enumerate(zip(bounds[:-1], bounds[1:])):
         exo = _piece(ss, model.name, inputs, a, b)
         nw = exo.w0.size
+        if isinstance(ss, SparseSpace):
+            prop = KrylovPropagator(ss, exo.S, exo.C) if nw else KrylovPropagator(ss)
+            z = np.concatenate([y, exo.w0])
+            k = j
+            while k < grid.size and grid[k] <= b:
+                k += 1
+            here = a
+            if k > j:
+                states = prop.states(z, a, grid[j:k], uniform)
+                Y[:, j:k] = states[:, :ny].T
+                z, here = states[-1], grid[k - 1]
+            if p != len(bounds) - 2 and b > here:
+                z = prop.advance(z, b - here)
+            y, j = z[:ny], k
+            if callable(progress):
+                progress(b, span[1])
+            continue
         if nw:
             Z = np.zeros((ny + nw, ny + nw))
             Z[:ny, :ny] = ss.F
@@ -575,7 +656,14 @@ def simulate_exact(
     n = len(ss.names)
     q = Y[:n]
     v = ss.velocities(Y, ss.input_values(grid))
-    T, V, D = numeric.energies(grid, q, v)
+    if st is not None:
+        qv = np.vstack([q, v])
+        T, V, D = (st.energies[part].values(grid, qv) for part in "TVD")
+        evaluator = _lazy_evaluator(model, params)
+    else:
+        numeric = model.numeric(params)  # the energies
+        T, V, D = numeric.energies(grid, q, v)
+        evaluator = numeric.evaluate
     return Result(
         t=grid,
         q={name: q[i] for i, name in enumerate(ss.names)},
@@ -587,8 +675,19 @@ def simulate_exact(
         defaulted=defaulted,
         nfev=0,
         method="exact",
-        evaluator=numeric.evaluate,
+        evaluator=evaluator,
+        notes=[f"solved exactly from the components' stamps: {n} coordinates, "
+               f"{'sparse (expm_multiply)' if isinstance(ss, SparseSpace) else 'dense'} matrices"] if st is not None else [],
     )
+
+
+def _lazy_evaluator(model, params):
+    """``Result.quantity`` of a stamped run: the model's numeric functions, derived on the first request only."""
+
+    def evaluate(expr, result):
+        return model.numeric(params).evaluate(expr, result)
+
+    return evaluate
 
 
 def _piece(ss: StateSpace, model: str, inputs: list[sp.Expr], a: float, b: float) -> _Exosystem:
