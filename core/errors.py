@@ -103,10 +103,12 @@ class UnknownNameError(ModelError):
     def __init__(self, what: str, name: str, known: Iterable[str]):
         known = sorted(map(str, known))
         self.name = name
-        super().__init__(
-            f"unknown {what} {name!r}.{closest(name, known)} "
-            f"Known: {', '.join(known) if known else '(none)'}."
-        )
+        shown = ", ".join(known[:_SHOWN]) + (f", … ({len(known) - _SHOWN} more)" if len(known) > _SHOWN else "")
+        super().__init__(f"unknown {what} {name!r}.{closest(name, known)} Known: {shown or '(none)'}.")
+
+
+#: Names listed after an unknown one: a model of 10⁴ coordinates would otherwise fill the screen.
+_SHOWN = 40
 
 
 class DuplicateNameError(ModelError):

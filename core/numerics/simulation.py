@@ -564,6 +564,7 @@ def initial_state(
     defaulted = [n for n in names if n not in initial] + [f"{n}'" for n in inertial if n not in velocity]
     if defaulted and warn:
         warnings.warn(
-            f"initial conditions not given, set to zero: {', '.join(defaulted)}", InitialConditionWarning, stacklevel=3
+            f"initial conditions not given, set to zero: {', '.join(defaulted[:40])}"
+            + (f", … ({len(defaulted) - 40} more)" if len(defaulted) > 40 else ""), InitialConditionWarning, stacklevel=3
         )
     return np.array(y0), defaulted
