@@ -889,6 +889,11 @@ def _coord_text(text: Any, model) -> Any:
     return decode(text)
 
 
+#: The evaluation budget of every run, as a service running models it did not write would set it: a legitimate
+#: run of 3e8 evaluations (a 1e-12 kg mass on a 137 N/m spring for 0.7 s) takes minutes, and is refused at its pace.
+BUDGET = 1e7
+
+
 def simulate(model, action: dict, stats: Stats):
     kwargs = {k: decode(v) for k, v in action.items()
               if k in ("method", "compiled", "points", "step", "rtol", "atol", "max_step")}
@@ -897,7 +902,7 @@ def simulate(model, action: dict, stats: Stats):
     def run():
         return model.simulate(t_end, initial=_resolve(action.get("initial"), model),
                               velocity=_resolve(action.get("velocity"), model),
-                              params=_resolve(action.get("params"), model), **kwargs)
+                              params=_resolve(action.get("params"), model), max_evaluations=BUDGET, **kwargs)
 
     label = "simulate-native" if kwargs.get("compiled") is True else "simulate"
     return _attempt(stats, label, run)

@@ -425,6 +425,7 @@ class Model:
         progress: bool | Callable[[float, float], None] = False,
         compiled: bool | str = "auto",
         events: Sequence[Event] = (),
+        max_evaluations: float | None = None,
         **options: Any,
     ) -> Result:
         """Integrate the equations of motion with a registered method, or solve them exactly.
@@ -459,6 +460,11 @@ class Model:
         input that is not a sum of products of polynomials, exponentials,
         sines and cosines of ``t`` (piecewise ones included), is refused with
         a :class:`ModelError` naming the term.
+
+        ``max_evaluations`` is the run's budget of evaluations (default 1e9):
+        a run that at its pace would need more stops with an
+        :class:`IntegrationError` saying where it got to — lower it to bound
+        the work of models from untrusted input.
 
         ``events`` are :class:`~lagrangian.Event` objects: zero-crossings of a
         function of time and state, located to 1e-14 relative, that end the
@@ -528,6 +534,7 @@ class Model:
             compiled=compiled,
             events=check_events(events),
             options=dict(options),
+            max_evaluations=check_positive("max_evaluations", max_evaluations, infinite=True),
         )
         check_grid(run.span, points, t_eval, dim)
         if run.events and method == "exact":
@@ -639,5 +646,5 @@ class Model:
             problem, integrator, run.span, y0,
             t_eval=grid, options={**run_options, **run.options}, model=self.name, defaulted=defaulted,
             integrators=self.registry.integrators, notes=notes, energy_tol=run.energy_tol, progress=run.progress,
-            events=run.events,
+            events=run.events, max_evaluations=run.max_evaluations,
         )

@@ -9,6 +9,8 @@ central force k/r² falls into the centre in the finite time
 import math
 import warnings
 
+import numpy as np
+
 import pytest
 
 import lagrangian as lg
@@ -111,3 +113,22 @@ def test_a_pendulum_too_short_to_integrate_is_refused_at_once(method):
     m.add("gravity", "g", g=9.81)
     with pytest.raises(lg.IntegrationError, match="oscillates at 1.3e\\+48 rad/s"):
         m.simulate(0.5, initial={"theta_pin": -1.0}, velocity={"theta_pin": 0.0}, method=method)
+
+
+def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs():
+    """A 1e-12 kg mass on a 137 N/m spring for 0.7 s: ω = 1.17e7 rad/s, some 1.3e6 periods and ~3e8 evaluations
+    of DOP853 — a legitimate run of minutes, which a service running models it did not write bounds with
+    ``max_evaluations``."""
+    m = lg.Model("speck on a spring")
+    m.add("mass", "m", "p", m=1e-12)
+    m.add("spring", "k", ("ground", "p"), k=137.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", lg.StiffnessWarning)
+        with pytest.raises(lg.IntegrationError, match=r"would need some .* allow more than max_evaluations=1e\+06"):
+            m.simulate(0.7, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e6)
+        res = m.simulate(2e-6, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e6, points=3)
+    omega = math.sqrt(137.0 / 1e-12)
+    assert res["x_p"] == pytest.approx(1e-3 * np.cos(omega * res.t), rel=0, abs=1e-3 * 1e-7)
+    for bad in (0, -5, "1e6", float("nan")):
+        with pytest.raises(lg.ModelError, match="max_evaluations must be a positive number"):
+            m.simulate(1e-6, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=bad)

@@ -229,6 +229,7 @@ class RunOptions:
     compiled: bool | str = "auto"
     events: tuple = ()
     options: Mapping[str, Any] = field(default_factory=dict)
+    max_evaluations: float | None = None
     notes: tuple[str, ...] = ()
 
 

@@ -122,6 +122,7 @@ def integrate(
     energy_tol: float | bool | None = None,
     progress: bool | Callable[[float, float], None] = False,
     events: Sequence[Any] = (),
+    max_evaluations: float | None = None,
 ) -> Result:
     """Integrate ``problem`` with ``integrator`` into a :class:`~lagrangian.Result`.
 
@@ -174,7 +175,7 @@ def integrate(
         warnings.warn(stiff_note, StiffnessWarning, stacklevel=4)
     problem.nfev = 0
     problem._report = _reporter(t_span, model, progress) if progress else None
-    problem.watch(t_span, model)
+    problem.watch(t_span, model, max_evaluations)
     cuts, cut_note = _cuts(problem, integrator, t_span) if not events else ([], None)
     if cut_note:
         notes = [*notes, cut_note]

@@ -152,26 +152,28 @@ class Problem:
             self._check_pace(t)
         return self.numeric.rhs(t, y)
 
-    def watch(self, t_span: tuple[float, float] | None, model: str = "model") -> None:
-        """Refuse, from now on, a run over ``t_span`` that at its pace would need more than
-        :data:`MAX_EVALUATIONS` evaluations (``None``: stop watching)."""
-        self._pace = None if t_span is None else (float(t_span[0]), float(t_span[1]), self.nfev, model)
+    def watch(self, t_span: tuple[float, float] | None, model: str = "model", limit: float | None = None) -> None:
+        """Refuse, from now on, a run over ``t_span`` that at its pace would need more than ``limit`` evaluations
+        (default :data:`MAX_EVALUATIONS`; ``t_span=None``: stop watching)."""
+        limit = MAX_EVALUATIONS if limit is None else float(limit)
+        self._pace = None if t_span is None else (float(t_span[0]), float(t_span[1]), self.nfev, model, limit)
 
     def _check_pace(self, t: float) -> None:
-        t0, t1, start, model = self._pace
+        t0, t1, start, model, limit = self._pace
         used = self.nfev - start
-        if used < PACE_MIN or not t1 > t0:
+        if used < min(PACE_MIN, limit) or not t1 > t0:
             return
         done = (float(t) - t0) / (t1 - t0)
         projected = used / done if done > 0 else np.inf
-        if projected > MAX_EVALUATIONS:
+        if projected > limit:
             self._pace = None
             raise IntegrationError(
                 f"the run of model {model!r} has come to t={t:.6g} of [{t0:.6g}, {t1:.6g}] in {used} evaluations: at "
                 f"this pace it would need some {projected:.3g}, and would not end. Its solution changes on a time "
                 f"scale of about {max(float(t) - t0, 0.0) / used:.3g} s per evaluation: a part many orders of magnitude "
                 f"faster than the run (a length of 1e-96, an inertia of 1e-30?) or a state running into a "
-                f"singularity. Check the parameter values, shorten the run, or try method='Radau' if it is stiff."
+                f"singularity. Check the parameter values, shorten the run, or try method='Radau' if it is stiff"
+                + (f"; or allow more than max_evaluations={limit:.3g}." if limit != MAX_EVALUATIONS else ".")
             )
 
     def jacobian(self, t: float, y: np.ndarray, f0: np.ndarray | None = None) -> np.ndarray:

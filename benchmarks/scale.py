@@ -1,0 +1,150 @@
+"""Real sizes: large chains and ladders, each run in a fresh process, against ngspice where it has a peer.
+
+- ``chain10k``: a chain of 10,000 masses, springs and dampers (30,001 components) driven by a harmonic force
+  at its end, built, assembled and solved over 1 s (101 points) with ``method="auto"``: CPU time and peak
+  memory of the whole process, import included.
+- ``ladder2000``: an RLC ladder of 2,000 sections (sine source, 30 s, 3,001 points), likewise.
+- ``ladder200`` against ngspice: the same ladder at 200 sections (the first capacitor's voltage compared), our process against one running the same
+  circuit through PySpice at ngspice's default settings (no lagrangian imported).  ngspice's error is
+  measured against ours (exact up to rounding: its agreement with the symbolic path and with closed forms is
+  tested in ``tests/test_stamps.py``).
+
+Prints a table and, as its last line, a JSON object with the fields of the real-sizes issue that this run
+measures (``null`` for those it does not).  Run: ``.venv/bin/python benchmarks/scale.py``.
+"""
+
+from __future__ import annotations
+
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve()
+
+
+def ladder_values(sections: int):
+    rng = np.random.default_rng(1)
+    return [(float(f"{rng.uniform(0.2, 1.0):.3g}"), float(f"{rng.uniform(0.5, 2.0):.3g}"),
+             float(f"{rng.uniform(0.2, 1.0):.3g}")) for _ in range(sections)]
+
+
+def child_chain(n: int) -> dict:
+    import warnings
+
+    import sympy as sp
+
+    import lagrangian as lg
+
+    m = lg.Model("chain")
+    prev = "ground"
+    for i in range(n):
+        m.add("mass", f"m{i}", f"p{i}", m=0.3 + 0.01 * (i % 7))
+        m.add("spring", f"k{i}", (prev, f"p{i}"), k=40.0 + i % 5)
+        m.add("damper", f"c{i}", (prev, f"p{i}"), c=0.02)
+        prev = f"p{i}"
+    m.add("force", "F", prev, F=0.5 * sp.sin(3 * lg.t))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = m.simulate(1.0, initial={"x_p0": 0.01}, method="auto", points=101)
+    return {"method": res.method, "notes": res.notes[:2], "x_end": float(res[f"x_{prev}"][-1])}
+
+
+def child_ladder(n: int) -> dict:
+    import warnings
+
+    import sympy as sp
+
+    import lagrangian as lg
+
+    c = lg.Model("ladder", formulation="charge")
+    c.add("voltage_source", "V1", ("in", "0"), E=sp.sin(sp.Float(1.3) * lg.t))
+    prev = "in"
+    for k, (R, L, C) in enumerate(ladder_values(n)):
+        c.add("resistor", f"R{k}", (prev, f"m{k}"), R=R)
+        c.add("inductor", f"L{k}", (f"m{k}", f"n{k}"), L=L)
+        c.add("capacitor", f"C{k}", (f"n{k}", "0"), C=C)
+        prev = f"n{k}"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = c.simulate(30.0, method="auto", points=3001)
+    # the first capacitor's voltage: its charge is the difference of the loop charges on either side
+    v_out = (res["q_L0"] - res["q_L1"]) / ladder_values(n)[0][2]
+    np.save(f"/tmp/lagrangian-scale-ours-{n}.npy", np.vstack([res.t, v_out]))
+    return {"method": res.method, "notes": res.notes[:2]}
+
+
+def child_ngspice(n: int) -> dict:
+    from PySpice.Spice.Netlist import Circuit
+    from PySpice.Unit import u_s
+
+    circuit = Circuit("ladder")
+    circuit.SinusoidalVoltageSource("1", "in", circuit.gnd, amplitude=1, frequency=1.3 / (2 * np.pi))
+    prev = "in"
+    for k, (R, L, C) in enumerate(ladder_values(n)):
+        circuit.R(f"{k}", prev, f"m{k}", R)
+        circuit.L(f"{k}", f"m{k}", f"n{k}", L)
+        circuit.C(f"{k}", f"n{k}", circuit.gnd, C)
+        prev = f"n{k}"
+    sim = circuit.simulator()
+    analysis = sim.transient(step_time=0.01 @ u_s, end_time=30 @ u_s, use_initial_condition=True)
+    np.save(f"/tmp/lagrangian-scale-ngspice-{n}.npy", np.vstack([np.array(analysis.time), np.array(analysis["n0"])]))
+    return {"points": len(analysis.time)}
+
+
+def run_child(kind: str, n: int) -> dict:
+    """Run one case in a fresh process: its CPU time (user + system, children included) and peak memory."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = time.perf_counter()
+    out = subprocess.run([sys.executable, str(HERE), "--child", kind, str(n)], capture_output=True, text=True)
+    wall = time.perf_counter() - wall
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if out.returncode:
+        raise SystemExit(f"{kind} {n} failed:\n{out.stderr[-3000:]}")
+    info = json.loads(out.stdout.strip().splitlines()[-1])
+    info["cpu_s"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    info["wall_s"] = wall
+    return info
+
+
+def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--child":
+        kind, n = sys.argv[2], int(sys.argv[3])
+        info = {"chain": child_chain, "ladder": child_ladder, "ngspice": child_ngspice}[kind](n)
+        info["rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+        print(json.dumps(info))
+        return
+    rows = []
+    ngspice200 = run_child("ngspice", 200)
+    ours200 = run_child("ladder", 200)
+    t_ng, v_ng = np.load("/tmp/lagrangian-scale-ngspice-200.npy")
+    t_us, v_us = np.load("/tmp/lagrangian-scale-ours-200.npy")
+    peak = np.abs(v_us).max()
+    ng_error = float(np.abs(np.interp(t_us, t_ng, v_ng) - v_us).max() / peak)
+    rows.append(("ladder 200 sections, ngspice (PySpice)", ngspice200["cpu_s"], ngspice200["rss_gb"], f"error {ng_error:.2g} of peak"))
+    rows.append(("ladder 200 sections, ours", ours200["cpu_s"], ours200["rss_gb"], ours200["notes"][-1]))
+    ladder2000 = run_child("ladder", 2000)
+    rows.append(("ladder 2,000 sections, ours", ladder2000["cpu_s"], ladder2000["rss_gb"], ladder2000["notes"][-1]))
+    chain = run_child("chain", 10000)
+    rows.append(("chain of 10,000 masses, ours", chain["cpu_s"], chain["rss_gb"], chain["notes"][-1]))
+    print(f"{'case':42s} {'CPU s':>8s} {'peak GB':>8s}  notes")
+    for name, cpu, rss, note in rows:
+        print(f"{name:42s} {cpu:8.2f} {rss:8.3f}  {note}")
+    print(json.dumps({
+        "spatial_ops_vs_kane": None,
+        "spatial_speed_vs_pydy_cython": None,
+        "ladder200_speed_vs_ngspice": round(ngspice200["cpu_s"] / ours200["cpu_s"], 3),
+        "ladder200_ngspice_error": ng_error,
+        "ladder2000_s": round(ladder2000["cpu_s"], 2),
+        "chain10k_cpu_s": round(chain["cpu_s"], 2),
+        "chain10k_rss_gb": round(chain["rss_gb"], 3),
+        "second_run_vs_numpy_scipy_import": None,
+    }))
+
+
+if __name__ == "__main__":
+    main()
