@@ -404,6 +404,10 @@ class _Propagator:
         return phi
 
 
+#: Up to this many states a uniform grid is marched by blocks of precomputed powers of ``e^{Z h}`` (one matrix
+#: product per block, against a Python step per output); beyond, the B powers cost ``B·ny³`` against ``B·ny²`` for
+#: stepping (a 200-section ladder, 404 states, 3,001 points: 1.1 s of powers, 0.05 s of steps).
+POWERS_MAX = 128
 #: Largest condition number of the eigenvectors with which outputs at uneven times are evaluated from the
 #: eigendecomposition (error about ε times it); past it the state is stepped from output to output.
 SPECTRAL_COND = 1e3
@@ -472,7 +476,7 @@ def _march(prop: _Propagator, z: np.ndarray, start: float, times: np.ndarray, un
             m += 1
         if h == 0:
             out[i : i + m] = z
-        elif m < 8:
+        elif m < 8 or z.size > POWERS_MAX:  # a large state: one product per step costs less than the powers
             phi = prop(h)
             for k in range(m):
                 z = phi @ z
