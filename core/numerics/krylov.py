@@ -17,8 +17,9 @@ without inertia) is diagonal, as for chains of masses and ladders of
 inductors; otherwise an operator that solves with its sparse LU
 factorization at each product.  Measured on a chain of 10,000 masses,
 springs and dampers (``benchmarks/scale.py``): the states at 101 times over
-1 s in 0.6 s, where the dense exponential does not fit in memory; against
-the dense exact solution at 300 masses, 1e-15 of the peak.
+1 s in 0.6 s, where the dense exponential does not fit in memory; on a
+200-section RLC ladder over 30 s it agrees with the dense exact solution to
+8e-14 of the peak.
 """
 
 from __future__ import annotations
