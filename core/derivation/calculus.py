@@ -27,6 +27,11 @@ _TWO = sp.Integer(2)
 _EMPTY: frozenset = frozenset()
 
 
+#: A sum of more addends than this is differentiated through an index of its addends by symbol: ``∂/∂q_i`` of the
+#: potential of an n-spring chain then visits the two addends holding ``q_i``, not all n (quadratic in n).
+_INDEXED = 32
+
+
 class Calculus:
     """Memoized partial derivatives with respect to a fixed set of symbols.
 
@@ -38,6 +43,7 @@ class Calculus:
         self.symbols = frozenset(symbols)
         self._deps: dict = {}
         self._diff: dict = {}
+        self._addends: dict = {}
 
     def deps(self, e) -> frozenset:
         d = self._deps.get(e)
@@ -69,6 +75,14 @@ class Calculus:
         if e == s:
             return _ONE
         if e.is_Add:
+            if len(e.args) > _INDEXED:  # a sum over the whole model (V, D): its addends by symbol, found once
+                index = self._addends.get(e)
+                if index is None:
+                    index = self._addends[e] = {}
+                    for a in e.args:
+                        for x in self.deps(a):
+                            index.setdefault(x, []).append(a)
+                return sp.Add(*[self.diff(a, s) for a in index.get(s, ())])
             return sp.Add(*[self.diff(a, s) for a in e.args if s in self.deps(a)])
         if e.is_Mul:
             args = e.args
