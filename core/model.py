@@ -442,7 +442,8 @@ class Model:
 
         ``method`` names a registered integrator (``lagrangian integrators``
         lists them; see :mod:`lagrangian.integrate`) or is an integrator
-        object.  Adaptive ones (``RK45``, ``DOP853``, ``Radau``, ``BDF``,
+        object.  Adaptive ones (``RK45``, ``DOP853`` — the default, stepped
+        in C where the model has compiled code —, ``Radau``, ``BDF``,
         ``LSODA``, ...) take ``rtol`` (default 1e-9), ``atol`` (1e-12) and
         ``max_step``; fixed-step ones (``rk4``, ``verlet``,
         ``implicit_midpoint``, ``gauss_legendre``, ``variational``) take

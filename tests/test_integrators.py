@@ -29,8 +29,8 @@ from lagrangian.bench import stability_limit
 from lagrangian.integrate import EnergyDriftWarning, FixedStepIntegrator, Integrator, Problem, Solution, Stepper, choose
 
 FIXED = ["rk4", "verlet", "implicit_midpoint", "gauss_legendre", "variational"]
-ADAPTIVE = ["RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA"]
-COMPILED = ["dopri5_c", "rk4_c", "verlet_c"]  # stepping loops in C (see tests/test_codegen.py)
+ADAPTIVE = ["RK23", "RK45", "DOP853", "DOP853_scipy", "Radau", "BDF", "LSODA"]  # DOP853: in C where it can
+COMPILED = ["dopri5_c", "dop853_c", "rk4_c", "verlet_c"]  # stepping loops in C (see tests/test_codegen.py)
 
 
 def decades(lo, hi):
@@ -111,7 +111,8 @@ def test_builtin_integrators_are_registered_by_the_integrators_plugin():
     assert set(info["integrators"].integrators) == set(FIXED) | set(ADAPTIVE) | set(COMPILED)
     assert {n for n, m in reg.integrators.items() if m.kind == "fixed-step"} == set(FIXED) | {"rk4_c", "verlet_c"}
     assert {n for n, m in reg.integrators.items() if m.symplectic} == {"verlet", "verlet_c", "implicit_midpoint", "gauss_legendre", "variational"}
-    assert {n for n, m in reg.integrators.items() if not m.implicit} == {"RK23", "RK45", "DOP853", "rk4", "verlet", *COMPILED}
+    assert {n for n, m in reg.integrators.items() if not m.implicit} == {"RK23", "RK45", "DOP853", "DOP853_scipy", "rk4",
+                                                                          "verlet", *COMPILED}
     assert {n for n, m in reg.integrators.items() if not m.first_order} == {"verlet", "verlet_c", "variational"}
     assert {m.order for n, m in reg.integrators.items() if n in FIXED} == {2, 4}
 
@@ -738,3 +739,29 @@ def test_energy_drift_of_a_conservative_model_warns_and_is_noted():
         with warnings.catch_warnings():
             warnings.simplefilter("error", EnergyDriftWarning)  # how a caller makes drift an error
             oscillator().simulate(100.0, initial={"x_p": 1}, velocity={"x_p": 0}, energy_tol=1e-13)
+
+
+def test_dop853_runs_in_c_with_scipys_steps_and_accuracy():
+    """The loop in C against SciPy's DOP853 (an independent implementation of the same method): the same steps (the
+    evaluations differ by the three of one dense output SciPy also prepares for the start), solutions within a
+    hundredth of the tolerance, and against the closed form of a damped oscillator within the tolerance."""
+    m = lg.Model("damped oscillator")
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("ground", "p"), k=47.0)
+    m.add("damper", "c", ("ground", "p"), c=0.09)
+    start = dict(initial={"x_p": 0.02}, velocity={"x_p": 0.0}, points=301)
+    w0, zeta = math.sqrt(47.0 / 0.3), 0.09 / (2 * math.sqrt(47.0 * 0.3))
+    wd = w0 * math.sqrt(1 - zeta**2)
+    for rtol in (1e-5, 1e-8, 1e-11):
+        ours = m.simulate(6.0, rtol=rtol, atol=rtol * 1e-3, **start)
+        ref = m.simulate(6.0, method="DOP853_scipy", rtol=rtol, atol=rtol * 1e-3, **start)
+        assert ours.method == "DOP853" and any("steps in compiled code" in n for n in ours.notes)
+        assert abs(ours.nfev - ref.nfev) <= 3
+        assert np.abs(ours["x_p"] - ref["x_p"]).max() <= max(0.01 * rtol, 1e-11) * 0.02  # rounding below 1e-11
+        t = ours.t
+        exact = 0.02 * np.exp(-zeta * w0 * t) * (np.cos(wd * t) + zeta * w0 / wd * np.sin(wd * t))
+        assert np.abs(ours["x_p"] - exact).max() <= 50 * rtol * 0.02
+    # where it cannot run in C (NumPy evaluation asked for, or progress reported) it is SciPy's, without a note
+    numpy = m.simulate(6.0, compiled=False, rtol=1e-8, **start)
+    assert numpy.method == "DOP853" and not any("compiled" in n for n in numpy.notes)
+    assert np.abs(numpy["x_p"] - m.simulate(6.0, rtol=1e-8, **start)["x_p"]).max() <= 1e-12

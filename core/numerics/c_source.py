@@ -11,6 +11,7 @@ import math
 import sympy as sp
 
 from ..base.component import t as time_symbol
+from .c_dop853 import dop853_source
 from .tape import OPS, Program, TapeError, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
@@ -617,7 +618,7 @@ def _runtime_source() -> str:
     """The runtime library: the tape interpreter and the stepping loops (model-independent: compiled once per
     compiler and kept in the cache)."""
     return "\n".join([f"/* lagrangian.codegen {CODEGEN_VERSION}: runtime (tape interpreter, stepping loops); do not edit. */",
-                      _HEADER, _SOLVE, _interpreter(), _LOOPS])
+                      _HEADER, _SOLVE, _interpreter(), _LOOPS, dop853_source()])
 
 
 # ---------------------------------------------------------------------------

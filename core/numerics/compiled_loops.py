@@ -51,15 +51,16 @@ def _long_run_hint(compiled: CompiledModel, nfev: int) -> list[str]:
 
 
 class CompiledSteps:
-    """``dopri5_c`` one accepted step at a time: the interface of SciPy's ``OdeSolver`` that the events driver uses
-    (``step()``, ``status``, ``t_old``, ``t``, ``y``, ``dense_output()``), each step and each dense-output
-    evaluation one call into C."""
+    """``dopri5_c`` or ``dop853_c`` one accepted step at a time: the interface of SciPy's ``OdeSolver`` that the
+    events driver uses (``step()``, ``status``, ``t_old``, ``t``, ``y``, ``dense_output()``), each step and each
+    dense-output evaluation one call into C."""
 
     def __init__(self, compiled: CompiledModel, problem, name: str, t0: float, y0, t_bound: float, *, rtol: float,
-                 atol: float, max_step: float, first_step: float | None):
+                 atol: float, max_step: float, first_step: float | None, variant: str = "dopri5"):
         dim = compiled.dim
         self._c, self._problem, self.name, self._dim = compiled, problem, name, dim
-        self._work = np.zeros(13 * max(dim, 1))
+        self._variant = variant
+        self._work = np.zeros((30 if variant == "dop853" else 13) * max(dim, 1))
         self._work[:dim] = y0
         self._scalars = np.zeros(3)  # next step to try, the last step's length, its end
         self._counts = np.zeros(2, dtype=np.int64)  # nfev, rejected steps
@@ -73,8 +74,14 @@ class CompiledSteps:
         self._shift, self._seen, self.notes = 0, 0, []
         self.status = "running" if self.t < self.t_bound else "finished"
         work, scalars, counts, fail = self._ptrs
-        rc = compiled.loops.lg_dopri5_begin(compiled._rhs_ptr, compiled._ctx, dim, self.t, self.t_bound, self._tol[0],
-                                            self._tol[1], float(first_step or 0.0), work, scalars, counts, fail)
+        if variant == "dop853":
+            rc = compiled.loops.lg_dop853_begin(compiled._rhs_ptr, compiled._ctx, dim, self.t, self.t_bound,
+                                                self._tol[0], self._tol[1], self._tol[2], float(first_step or 0.0), work,
+                                                scalars, counts, fail)
+        else:
+            rc = compiled.loops.lg_dopri5_begin(compiled._rhs_ptr, compiled._ctx, dim, self.t, self.t_bound,
+                                                self._tol[0], self._tol[1], float(first_step or 0.0), work, scalars,
+                                                counts, fail)
         self._count()
         if rc:
             compiled._raise(rc, self.t, self.y)
@@ -86,8 +93,9 @@ class CompiledSteps:
     def step(self) -> str | None:
         """One accepted step; ``None``, or the message of a failure (then ``status`` is ``"failed"``)."""
         c, (work, scalars, counts, fail) = self._c, self._ptrs
-        rc = c.loops.lg_dopri5_step(c._rhs_ptr, c._ctx, self._dim, self._shift, self.t, self.t_bound, *self._tol, work,
-                                    scalars, scalars + 8, scalars + 16, counts, fail)
+        step = c.loops.lg_dop853_step if self._variant == "dop853" else c.loops.lg_dopri5_step
+        rc = step(c._rhs_ptr, c._ctx, self._dim, self._shift, self.t, self.t_bound, *self._tol, work, scalars,
+                  scalars + 8, scalars + 16, counts, fail)
         self._shift = 1
         self._count()
         if rc:
@@ -99,14 +107,35 @@ class CompiledSteps:
             self.status = "failed"
             return f"the state diverged (beyond 1e30 times its initial size, or non-finite) by t={self.t:g}"
         self._problem.report(self.t)
+        if getattr(self._problem, "_pace", None) is not None:
+            self._problem._check_pace(self.t)
         if self.t >= self.t_bound:
             self.status = "finished"
         return None
 
     def dense_output(self):
-        """The last step's quartic dense output, ``state(s)`` for ``t_old ≤ s ≤ t``."""
-        work, hstep, t_old, t_new, y_new = self._work.copy(), float(self._scalars[1]), self.t_old, self.t, self.y
-        dense, dim, ptr = self._c.loops.lg_dopri5_dense, self._dim, work.ctypes.data
+        """The last step's dense output (quartic; of order 7 for ``dop853_c``, which evaluates the model three more
+        times for it), ``state(s)`` for ``t_old ≤ s ≤ t``."""
+        c, hstep, t_old, t_new, y_new, dim = self._c, float(self._scalars[1]), self.t_old, self.t, self.y, self._dim
+        if self._variant == "dop853":
+            work, scalars, counts, fail = self._ptrs
+            rc = c.loops.lg_dop853_prepare(c._rhs_ptr, c._ctx, dim, t_old, hstep, work, counts, fail)
+            self._count()
+            if rc:
+                c._raise(rc, t_old, self.y)
+            work = self._work.copy()
+            ptr = work.ctypes.data
+
+            def state(s: float) -> np.ndarray:
+                if s == t_new:
+                    return y_new.copy()
+                out = np.empty(dim)
+                c.loops.lg_dop853_dense(dim, ptr, (s - t_old) / hstep, out.ctypes.data)
+                return out
+
+            return state
+        work = self._work.copy()
+        dense, ptr = c.loops.lg_dopri5_dense, work.ctypes.data
 
         def state(s: float) -> np.ndarray:
             if s == t_new:
@@ -119,14 +148,16 @@ class CompiledSteps:
 
 
 class CompiledDormandPrince(Integrator):
-    """Dormand–Prince 5(4) (scipy's ``RK45``) with its whole stepping loop in C.
+    """Dormand–Prince 5(4) (scipy's ``RK45``), or with ``variant="dop853"`` Hairer's 8(5,3) (scipy's ``DOP853``),
+    with its whole stepping loop in C.
 
     The same pair, error norm, step-size control and initial step as
-    :class:`scipy.integrate.RK45`, and its quartic dense output at the
-    output times, so it agrees with ``RK45`` to within the tolerance; no
-    Python runs per step.  Needs a C compiler: without one (or for a model
-    with Python-callable signals) it runs ``fallback`` (``RK45``) and says
-    so in ``Result.notes``.
+    :class:`scipy.integrate.RK45` (:class:`scipy.integrate.DOP853`), and its
+    dense output at the output times (quartic; of order 7), so it takes the
+    same steps as SciPy's method up to rounding; no Python runs per step.
+    Needs a C compiler: without one (or for a model with Python-callable
+    signals) it runs ``fallback`` (``RK45``, ``DOP853``) and says so in
+    ``Result.notes``.
     """
 
     kind = "adaptive"
@@ -136,16 +167,39 @@ class CompiledDormandPrince(Integrator):
     first_order = True
     options = {"first_step": "initial step size (default: chosen as scipy does)"}
 
-    def __init__(self, fallback: Integrator, name: str = "dopri5_c"):
-        self.name, self.fallback = name, fallback
-        self.description = "Dormand–Prince 5(4) (as RK45) with the stepping loop compiled to C; explicit, adaptive"
+    def __init__(self, fallback: Integrator, name: str = "dopri5_c", variant: str = "dopri5", *, quiet: bool = False):
+        if variant not in ("dopri5", "dop853"):
+            raise ModelError(f"CompiledDormandPrince: variant must be 'dopri5' or 'dop853', got {variant!r}.")
+        self.name, self.fallback, self.variant = name, fallback, variant
+        # quiet: the method by its own name (DOP853), which runs in C where it can and as SciPy's otherwise, without
+        # a note — compiled code is how it runs, not what was asked (a note comes from compiled=True unmet)
+        self.quiet, self.needs_compiled = quiet, not quiet
+        self.order = 8 if variant == "dop853" else 5
+        self.description = ("Dormand–Prince 5(4) (as RK45)" if variant == "dopri5" else "explicit Runge–Kutta of order 8 "
+                            "(as DOP853)") + " with the stepping loop compiled to C; explicit, adaptive"
+
+    def _compiled(self, problem, atol):
+        """The model's compiled code and the note of a fallback (``None`` for a quiet one, and when progress is
+        reported: that needs the Python loop); ``atol`` as one number (the loop in C takes no per-state ones)."""
+        if self.quiet and (getattr(problem, "_report", None) is not None
+                           or getattr(problem.numeric, "python_only", False)):
+            return None, None, atol
+        tol = np.asarray(atol, dtype=float)
+        if tol.ndim and tol.size and np.all(tol == tol.flat[0]):
+            atol = float(tol.flat[0])
+        elif tol.ndim:
+            note = f"{self.name}: a per-state atol; ran {self.fallback.name!r} instead (the loop in C takes one atol)"
+            return None, None if self.quiet else note, atol
+        compiled, note = _compiled_or_note(problem, self.name, self.fallback)
+        return compiled, None if self.quiet else note, atol
 
     def solve(self, problem, t_span, y0, t_eval, *, rtol=1e-9, atol=1e-12, max_step=np.inf, first_step=None):
         """Integrate in C (see the class documentation)."""
-        compiled, note = _compiled_or_note(problem, self.name, self.fallback)
+        compiled, note, atol = self._compiled(problem, atol)
         if compiled is None:
             sol = self.fallback.solve(problem, t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step)
-            sol.notes.insert(0, note)
+            if note:
+                sol.notes.insert(0, note)
             return sol
         if not (rtol > 0 and atol >= 0):
             raise ModelError(f"{self.name}: rtol must be positive and atol non-negative, got rtol={rtol!r}, atol={atol!r}.")
@@ -153,8 +207,12 @@ class CompiledDormandPrince(Integrator):
             raise ModelError(f"{self.name}: max_step must be positive, got {max_step!r}.")
         if first_step is not None and not (0 < first_step <= t_span[1] - t_span[0]):
             raise ModelError(f"{self.name}: first_step must be positive and within the time span, got {first_step!r}.")
-        Y, nfev, nstep, message = compiled.dopri5(t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step,
-                                                  first_step=first_step)
+        pace = getattr(problem, "_pace", None)
+        Y, nfev, nstep, status, message, reached = compiled.dopri5(
+            t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, variant=self.variant,
+            budget=pace[4] if pace else 0.0)
+        if status == 6:  # judged on its pace in C, refused as in Python
+            raise problem.pace_error(reached, nfev, nfev * (t_span[1] - t_span[0]) / (reached - t_span[0]))
         problem.nfev += nfev
         problem.report(float(t_span[1]))
         done = np.all(np.isfinite(Y), axis=0)
@@ -166,14 +224,14 @@ class CompiledDormandPrince(Integrator):
     def start(self, problem, t0, y0, t_bound, *, rtol=1e-9, atol=1e-12, max_step=np.inf, first_step=None):
         """The same steps one at a time, for the events driver (:class:`CompiledSteps`); without compiled code,
         the Python sibling's solver, with the note in its ``notes``."""
-        compiled, note = _compiled_or_note(problem, self.name, self.fallback)
+        compiled, note, atol = self._compiled(problem, atol)
         if compiled is None:
             solver = self.fallback.start(problem, t0, y0, t_bound, rtol=rtol, atol=atol, max_step=max_step,
                                          first_step=first_step)
-            solver.notes = [note]
+            solver.notes = [note] if note else []
             return solver
         return CompiledSteps(compiled, problem, self.name, t0, y0, t_bound, rtol=rtol, atol=atol, max_step=max_step,
-                             first_step=first_step)
+                             first_step=first_step, variant=self.variant)
 
 
 class CompiledFixedStep(FixedStepIntegrator):

@@ -167,14 +167,20 @@ class Problem:
         projected = used / done if done > 0 else np.inf
         if projected > limit:
             self._pace = None
-            raise IntegrationError(
-                f"the run of model {model!r} has come to t={t:.6g} of [{t0:.6g}, {t1:.6g}] in {used} evaluations: at "
-                f"this pace it would need some {projected:.3g}, and would not end. Its solution changes on a time "
-                f"scale of about {max(float(t) - t0, 0.0) / used:.3g} s per evaluation: a part many orders of magnitude "
-                f"faster than the run (a length of 1e-96, an inertia of 1e-30?) or a state running into a "
-                f"singularity. Check the parameter values, shorten the run, or try method='Radau' if it is stiff"
-                + (f"; or allow more than max_evaluations={limit:.3g}." if limit != MAX_EVALUATIONS else ".")
-            )
+            raise self.pace_error(t, used, projected, (t0, t1, start, model, limit))
+
+    def pace_error(self, t: float, used: int, projected: float, pace: tuple | None = None) -> IntegrationError:
+        """The refusal of a run that at its pace would need ``projected`` evaluations (also raised for compiled loops
+        that judge their own pace)."""
+        t0, t1, _, model, limit = pace or self._pace
+        return IntegrationError(
+            f"the run of model {model!r} has come to t={t:.6g} of [{t0:.6g}, {t1:.6g}] in {used} evaluations: at "
+            f"this pace it would need some {projected:.3g}, and would not end. Its solution changes on a time "
+            f"scale of about {max(float(t) - t0, 0.0) / used:.3g} s per evaluation: a part many orders of magnitude "
+            f"faster than the run (a length of 1e-96, an inertia of 1e-30?) or a state running into a "
+            f"singularity. Check the parameter values, shorten the run, or try method='Radau' if it is stiff"
+            + (f"; or allow more than max_evaluations={limit:.3g}." if limit != MAX_EVALUATIONS else ".")
+        )
 
     def jacobian(self, t: float, y: np.ndarray, f0: np.ndarray | None = None) -> np.ndarray:
         """``∂F/∂y`` at ``(t, y)`` by forward differences (``dim`` evaluations, one more without ``f0``)."""

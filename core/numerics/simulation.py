@@ -123,6 +123,7 @@ class NumericModel:
         self.signals = dict(signals)
         self._builds: dict[str, Any] = {}  # kind → lagrangian.codegen.CompiledModel (or None: cannot), see compile()
         self._mode = "auto"  # what compile() builds when a method with a compiled loop asks (use_compiled sets it)
+        self.python_only = False  # compiled=False was asked (use_compiled sets it)
         self.compile_note: str | None = None
         self._fast: Any = None  # the CompiledModel that rhs() and energies() use (use_compiled)
 
@@ -192,6 +193,7 @@ class NumericModel:
             raise ModelError(f"compiled must be True, False, 'auto', 'native' or 'tape', not {compiled!r}.")
         kind = kinds[compiled]
         self._mode = kind or "auto"
+        self.python_only = kind is None  # compiled=False: NumPy, and no loop in C for a method that may choose one
         self._fast = self.compile(kind) if kind else None
         return self.compile_note if compiled not in (False, "auto") and self._fast is None else None
 

@@ -2,7 +2,9 @@
 
 Adaptive (``rtol``, ``atol``, ``max_step``), from :func:`scipy.integrate.solve_ivp`:
 ``RK23``, ``RK45``, ``DOP853`` (explicit), ``Radau``, ``BDF`` (implicit, for
-stiff models) and ``LSODA`` (switches between Adams and BDF).
+stiff models) and ``LSODA`` (switches between Adams and BDF).  ``DOP853``
+steps in C where the model has compiled code (SciPy's steps, see
+``dop853_c`` below); ``DOP853_scipy`` is SciPy's own.
 
 Fixed-step (``step=``), written here on the contract of
 :class:`lagrangian.integrate.FixedStepIntegrator`:
@@ -25,7 +27,8 @@ Fixed-step (``step=``), written here on the contract of
 With the stepping loop compiled to C (:mod:`lagrangian.codegen`; the
 Python sibling runs, with a note, when there is no C compiler):
 ``dopri5_c`` (adaptive, the Dormand–Prince pair of ``RK45`` with its dense
-output), ``rk4_c`` and ``verlet_c`` (fixed-step, the same steps and
+output), ``dop853_c`` (adaptive, ``DOP853`` with its 7th-order dense output),
+``rk4_c`` and ``verlet_c`` (fixed-step, the same steps and
 refusals as ``rk4`` and ``verlet``).
 
 The plugin's modules: :mod:`.adaptive` (SciPy's methods), :mod:`.explicit`

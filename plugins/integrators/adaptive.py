@@ -17,9 +17,11 @@ class ScipyMethod(Integrator):
     kind = "adaptive"
     options = {"first_step": "initial step size (default: chosen by scipy)"}
 
-    def __init__(self, name: str, order: int, description: str, *, implicit: bool = False, stiff: bool = False):
+    def __init__(self, name: str, order: int, description: str, *, implicit: bool = False, stiff: bool = False,
+                 method: str | None = None):
         self.name, self.order, self.description = name, order, description
         self.implicit, self.stiff = implicit, stiff
+        self.method = method or name  # SciPy's name of it
 
     def solve(self, problem, t_span, y0, t_eval, *, rtol=1e-9, atol=1e-12, max_step=np.inf, first_step=None):
         """Integrate with :func:`scipy.integrate.solve_ivp` (``method=self.name``)."""
@@ -27,7 +29,7 @@ class ScipyMethod(Integrator):
 
         extra = {} if first_step is None else {"first_step": first_step}
         with self._failures(problem):
-            sol = solve_ivp(problem.rhs, t_span, y0, method=self.name, t_eval=t_eval, rtol=rtol, atol=atol,
+            sol = solve_ivp(problem.rhs, t_span, y0, method=self.method, t_eval=t_eval, rtol=rtol, atol=atol,
                             max_step=max_step, **extra)
         return Solution(sol.t, sol.y, sol.nfev, sol.status, sol.message)
 
@@ -55,7 +57,7 @@ class ScipyMethod(Integrator):
 
         extra = {} if first_step is None else {"first_step": first_step}
         with self._failures(problem):
-            solver = getattr(scipy.integrate, self.name)(problem.rhs, t0, y0, t_bound, rtol=rtol, atol=atol,
+            solver = getattr(scipy.integrate, self.method)(problem.rhs, t0, y0, t_bound, rtol=rtol, atol=atol,
                                                          max_step=max_step, **extra)
         step = solver.step
 

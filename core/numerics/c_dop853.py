@@ -1,0 +1,253 @@
+"""The C source of ``dop853_c``: Hairer's explicit Runge–Kutta 8(5,3) with its 7th-order dense output.
+
+The method is scipy's ``DOP853`` step for step — the same tableau, error
+norm (the 5th- and 3rd-order estimates combined), step-size control and
+initial step — with the stepping loop in C, so it reaches DOP853's accuracy
+without Python per step.  The coefficients are read from
+:class:`scipy.integrate.DOP853` (the published tables of Hairer, Nørsett and
+Wanner) and printed exactly (17 significant digits); the loop is ours.
+
+The work array of a run holds ``D8_WORK × dim`` numbers: ``y``, ``ynew``, a
+stage argument, the two error estimates, the error scale and a spare
+evaluation, then the 16 stages ``K`` (12 of the step, the last-same-as-first
+evaluation at its end, 3 more for the dense output of a step that holds
+output times) and the 7 rows ``F`` of the interpolant.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from scipy.integrate import DOP853
+
+__all__ = ["dop853_source"]
+
+
+def _array(name: str, values) -> str:
+    values = np.asarray(values, dtype=float)
+    if values.ndim == 1:
+        return f"static const double {name}[{values.size}] = {{{', '.join(repr(float(v)) for v in values)}}};"
+    rows = ",\n    ".join("{" + ", ".join(repr(float(v)) for v in row) + "}" for row in values)
+    return f"static const double {name}[{values.shape[0]}][{values.shape[1]}] = {{\n    {rows}}};"
+
+
+@functools.lru_cache(maxsize=1)
+def dop853_source() -> str:
+    """The C functions ``lg_dop853`` (a whole run on output times), ``lg_dop853_begin``, ``lg_dop853_step`` and
+    ``lg_dop853_dense`` (one step at a time, for the events driver); they need ``rhs_fn``, ``rms_scaled``,
+    ``fail_at`` and ``bounded`` from the runtime library's loops."""
+    A = np.zeros((16, 16))
+    A[:12, :12] = DOP853.A
+    A[12, :12] = DOP853.B
+    A[13:16, :16] = DOP853.A_EXTRA
+    C = np.zeros(16)
+    C[:12] = DOP853.C
+    C[12] = 1.0
+    C[13:16] = DOP853.C_EXTRA
+    tables = "\n".join([_array("D8_A", A), _array("D8_C", C), _array("D8_E5", DOP853.E5), _array("D8_E3", DOP853.E3),
+                        _array("D8_D", DOP853.D)])
+    return tables + _LOOP
+
+
+_LOOP = r"""
+#define D8_WORK 30
+static void d8_parts(int dim, double *work, double **K, double **F) {
+    for (int s = 0; s < 16; s++) K[s] = work + (7 + s) * dim;
+    for (int r = 0; r < 7; r++) F[r] = work + (23 + r) * dim;
+}
+
+/* K[0] = f(t0, y) and the first step to try (first_step, or scipy's select_initial_step with error order 7). */
+static int d8_begin(rhs_fn f, const void *ctx, int dim, double t0, double t1, double rtol, double atol, double max_step,
+                    double first_step, double *work, double *h, long *nfev, double *fail) {
+    double *y = work, *ys = y + 2 * dim, *err = y + 3 * dim, *scale = y + 5 * dim, *f1 = y + 6 * dim, *K[16], *F[7];
+    d8_parts(dim, work, K, F);
+    int rc = f(ctx, t0, y, K[0]); (*nfev)++;
+    if (rc) { fail_at(dim, fail, t0, y); return rc; }
+    *h = first_step;
+    if (*h > 0.0) return 0;
+    double length = t1 - t0;
+    for (int i = 0; i < dim; i++) scale[i] = atol + fabs(y[i]) * rtol;
+    double d0 = rms_scaled(dim, y, scale), d1 = rms_scaled(dim, K[0], scale), h0;
+    h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    if (h0 > length) h0 = length;
+    for (int i = 0; i < dim; i++) ys[i] = y[i] + h0 * K[0][i];
+    rc = f(ctx, t0 + h0, ys, f1); (*nfev)++;
+    double d2 = 0.0;
+    if (!rc) { for (int i = 0; i < dim; i++) err[i] = f1[i] - K[0][i]; d2 = rms_scaled(dim, err, scale) / h0; }
+    double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? fmax(1e-6, h0 * 1e-3) : pow(0.01 / fmax(d1, d2), 1.0 / 8.0);
+    *h = fmin(fmin(100 * h0, h1), fmin(length, max_step));
+    return 0;
+}
+
+/* One accepted step from (t, y) with K[0] = f(t, y), trying *h first: on return ynew (= work + dim), K[12] = f at
+   its end, and the step's length *hstep and end *tend; *h is the next step to try.  Status 0, or 1 singular matrix,
+   3 step size too small. */
+static int d8_step(rhs_fn f, const void *ctx, int dim, double t, double t1, double rtol, double atol, double max_step,
+                   double *work, double *h, double *hstep, double *tend, long *nfev, long *nrej, double *fail) {
+    const double SAFETY = 0.9, MIN_FACTOR = 0.2, MAX_FACTOR = 10.0, EXPONENT = -1.0 / 8.0;
+    double *y = work, *ynew = y + dim, *ys = y + 2 * dim, *e5 = y + 3 * dim, *e3 = y + 4 * dim, *scale = y + 5 * dim;
+    double *K[16], *F[7];
+    d8_parts(dim, work, K, F);
+    double min_step = 10.0 * fabs(nextafter(t, INFINITY) - t);
+    if (*h > max_step) *h = max_step;
+    else if (*h < min_step) *h = min_step;
+    int rejected = 0, rc;
+    for (;;) {
+        if (*h < min_step) { fail_at(dim, fail, t, y); return 3; }
+        double tnew = t + *h;
+        if (tnew > t1) tnew = t1;
+        double hs = tnew - t;
+        *hstep = hs;
+        *tend = tnew;
+        int bad = 0;
+        for (int s = 1; s <= 12 && !bad; s++) {
+            double *target = (s == 12) ? ynew : ys;
+            for (int i = 0; i < dim; i++) {
+                double acc = 0.0;
+                for (int j = 0; j < s; j++) acc += D8_A[s][j] * K[j][i];
+                target[i] = y[i] + hs * acc;
+            }
+            double ts = s == 12 ? tnew : t + D8_C[s] * hs;
+            rc = f(ctx, ts, target, K[s]); (*nfev)++;
+            if (rc == 1) { fail_at(dim, fail, ts, target); return 1; }
+            if (rc) bad = 1;
+        }
+        double norm;
+        if (bad) norm = INFINITY;
+        else {
+            double s5 = 0.0, s3 = 0.0;
+            for (int i = 0; i < dim; i++) {
+                double a5 = 0.0, a3 = 0.0;
+                for (int j = 0; j < 13; j++) { a5 += D8_E5[j] * K[j][i]; a3 += D8_E3[j] * K[j][i]; }
+                scale[i] = atol + fmax(fabs(y[i]), fabs(ynew[i])) * rtol;
+                e5[i] = a5 / scale[i];
+                e3[i] = a3 / scale[i];
+                s5 += e5[i] * e5[i];
+                s3 += e3[i] * e3[i];
+            }
+            norm = (s5 == 0.0 && s3 == 0.0) ? 0.0 : hs * s5 / sqrt((s5 + 0.01 * s3) * dim);
+            if (!(norm == norm)) norm = INFINITY;
+        }
+        if (norm < 1.0) {
+            double factor = norm == 0.0 ? MAX_FACTOR : fmin(MAX_FACTOR, SAFETY * pow(norm, EXPONENT));
+            if (rejected && factor > 1.0) factor = 1.0;
+            *h = hs * factor;
+            return 0;
+        }
+        *h = hs * (norm == INFINITY ? MIN_FACTOR : fmax(MIN_FACTOR, SAFETY * pow(norm, EXPONENT)));
+        rejected = 1;
+        (*nrej)++;
+    }
+}
+
+/* The interpolant of the last step (from t, length hs): three more stages, then its 7 rows F.  Status as f. */
+static int d8_prepare(rhs_fn f, const void *ctx, int dim, double t, double hs, double *work, long *nfev, double *fail) {
+    double *y = work, *ynew = y + dim, *ys = y + 2 * dim, *K[16], *F[7];
+    d8_parts(dim, work, K, F);
+    for (int s = 13; s < 16; s++) {
+        for (int i = 0; i < dim; i++) {
+            double acc = 0.0;
+            for (int j = 0; j < s; j++) acc += D8_A[s][j] * K[j][i];
+            ys[i] = y[i] + hs * acc;
+        }
+        int rc = f(ctx, t + D8_C[s] * hs, ys, K[s]); (*nfev)++;
+        if (rc) { fail_at(dim, fail, t + D8_C[s] * hs, ys); return rc; }
+    }
+    for (int i = 0; i < dim; i++) {
+        double dy = ynew[i] - y[i];
+        F[0][i] = dy;
+        F[1][i] = hs * K[0][i] - dy;
+        F[2][i] = 2 * dy - hs * (K[12][i] + K[0][i]);
+        for (int r = 0; r < 4; r++) {
+            double acc = 0.0;
+            for (int j = 0; j < 16; j++) acc += D8_D[r][j] * K[j][i];
+            F[3 + r][i] = hs * acc;
+        }
+    }
+    return 0;
+}
+
+/* The 7th-order dense output of the last step at x = (s - t) / hs, from its rows F. */
+static void d8_dense(int dim, const double *work, double x, double *out) {
+    const double *y = work;
+    for (int i = 0; i < dim; i++) {
+        double acc = 0.0;
+        for (int r = 6; r >= 0; r--) {
+            acc += work[(23 + r) * dim + i];
+            acc *= ((6 - r) % 2 == 0) ? x : 1.0 - x;
+        }
+        out[i] = y[i] + acc;
+    }
+}
+
+static void d8_shift(int dim, double *work) {  /* y = ynew, K[0] = K[12] (first same as last) */
+    memcpy(work, work + dim, dim * sizeof(double));
+    memcpy(work + 7 * dim, work + 19 * dim, dim * sizeof(double));
+}
+
+/* DOP853 with error control (as scipy's DOP853) and its dense output on tout.  counts: nfev, steps, rejected.
+   Status: 0 done; 1 singular matrix, 2 not finite, 3 step size too small, 4 diverged, 6 at its pace the run would
+   need more than budget evaluations (judged from 131,072 on; budget 0: never) (state at fail). */
+static int dop853(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout,
+                  const double *tout, double rtol, double atol, double max_step, double first_step, double budget,
+                  double *Y, long *counts, double *fail, double *work) {
+    double *y = work, *ynew = y + dim;
+    const size_t row = dim * sizeof(double);
+    long nfev = 0, nstep = 0, nrej = 0, o = 0;
+    double t = t0, limit = 1.0, h, hstep, tnew;
+    memcpy(y, y0, row);
+    for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
+    limit *= 1e30;
+    int rc = d8_begin(f, ctx, dim, t0, t1, rtol, atol, max_step, first_step, work, &h, &nfev, fail);
+    if (rc) { counts[0] = nfev; return rc; }
+    while (o < nout && tout[o] <= t0) { memcpy(Y + o * dim, y, row); o++; }
+    while (t < t1) {
+        rc = d8_step(f, ctx, dim, t, t1, rtol, atol, max_step, work, &h, &hstep, &tnew, &nfev, &nrej, fail);
+        if (rc) break;
+        if (o < nout && tout[o] <= tnew) {
+            rc = d8_prepare(f, ctx, dim, t, hstep, work, &nfev, fail);
+            if (rc) break;
+            while (o < nout && tout[o] <= tnew) { d8_dense(dim, work, (tout[o] - t) / hstep, Y + o * dim); o++; }
+        }
+        t = tnew;
+        d8_shift(dim, work);
+        nstep++;
+        if (!bounded(dim, y, limit)) { fail_at(dim, fail, t, y); rc = 4; break; }
+        if (budget > 0 && nfev >= 131072 && nfev * ((t1 - t0) / (t - t0)) > budget) { fail_at(dim, fail, t, y); rc = 6; break; }
+    }
+    counts[0] = nfev; counts[1] = nstep; counts[2] = nrej;
+    return rc;
+}
+
+int lg_dop853(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout,
+              double rtol, double atol, double max_step, double first_step, double budget, double *Y, long *counts,
+              double *fail) {
+    double *work = malloc((size_t)D8_WORK * (dim > 0 ? dim : 1) * sizeof(double));
+    if (!work) { fail_at(dim, fail, t0, y0); return 5; }
+    int rc = dop853(f, ctx, dim, t0, t1, y0, nout, tout, rtol, atol, max_step, first_step, budget, Y, counts, fail, work);
+    free(work);
+    return rc;
+}
+
+/* DOP853 one step at a time, for drivers that stop between steps (events); as lg_dopri5_begin/step/dense, with
+   D8_WORK * dim numbers of work.  lg_dop853_dense prepares the step's interpolant on its first call after a step
+   (three evaluations, counted in counts[0]) and evaluates it at x in [0, 1]. */
+int lg_dop853_begin(rhs_fn f, const void *ctx, int dim, double t0, double t1, double rtol, double atol, double max_step,
+                    double first_step, double *work, double *h, long *counts, double *fail) {
+    return d8_begin(f, ctx, dim, t0, t1, rtol, atol, max_step, first_step, work, h, counts, fail);
+}
+
+int lg_dop853_step(rhs_fn f, const void *ctx, int dim, int shift, double t, double t1, double rtol, double atol,
+                   double max_step, double *work, double *h, double *hstep, double *tend, long *counts, double *fail) {
+    if (shift) d8_shift(dim, work);
+    return d8_step(f, ctx, dim, t, t1, rtol, atol, max_step, work, h, hstep, tend, counts, counts + 1, fail);
+}
+
+int lg_dop853_prepare(rhs_fn f, const void *ctx, int dim, double t, double hstep, double *work, long *counts,
+                      double *fail) {
+    return d8_prepare(f, ctx, dim, t, hstep, work, counts, fail);
+}
+
+void lg_dop853_dense(int dim, const double *work, double x, double *out) { d8_dense(dim, work, x, out); }
+"""
