@@ -920,7 +920,7 @@ def run_netlist(case: dict, stats: Stats) -> None:
     result = None
     for action in case["actions"]:
         if action["do"] == "run":
-            opts = {"method": action["method"], "compiled": action["compiled"]}
+            opts = {"method": action["method"], "compiled": action["compiled"], "max_evaluations": BUDGET}
             tran = net.tran
             if action["short"] or tran is None or not (tran.stop - tran.start) / tran.step <= 2000:
                 stop = tran.stop if tran is not None else 1e-3
