@@ -36,7 +36,7 @@ def _array(name: str, values) -> str:
 def dop853_source() -> str:
     """The C functions ``lg_dop853`` (a whole run on output times), ``lg_dop853_begin``, ``lg_dop853_step`` and
     ``lg_dop853_dense`` (one step at a time, for the events driver); they need ``rhs_fn``, ``rms_scaled``,
-    ``fail_at`` and ``bounded`` from the runtime library's loops."""
+    ``fail_at``, ``start_state`` and ``bounded`` from the runtime library's loops."""
     A = np.zeros((16, 16))
     A[:12, :12] = DOP853.A
     A[12, :12] = DOP853.B
@@ -192,13 +192,10 @@ static void d8_shift(int dim, double *work) {  /* y = ynew, K[0] = K[12] (first 
 static int dop853(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout,
                   const double *tout, double rtol, double atol, double max_step, double first_step, double budget,
                   double *Y, long *counts, double *fail, double *work) {
-    double *y = work, *ynew = y + dim;
+    double *y = work;
     const size_t row = dim * sizeof(double);
     long nfev = 0, nstep = 0, nrej = 0, o = 0;
-    double t = t0, limit = 1.0, h, hstep, tnew;
-    memcpy(y, y0, row);
-    for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
-    limit *= 1e30;
+    double t = t0, limit = start_state(dim, y, y0), h, hstep, tnew;
     int rc = d8_begin(f, ctx, dim, t0, t1, rtol, atol, max_step, first_step, work, &h, &nfev, fail);
     if (rc) { counts[0] = nfev; return rc; }
     while (o < nout && tout[o] <= t0) { memcpy(Y + o * dim, y, row); o++; }

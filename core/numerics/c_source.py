@@ -348,6 +348,14 @@ static double rms_scaled(int dim, const double *x, const double *scale) {
 
 static void fail_at(int dim, double *fail, double t, const double *y) { fail[0] = t; memcpy(fail + 1, y, dim * sizeof(double)); }
 
+/* y = y0, and the size past which an adaptive run's state counts as diverged: 1e30 times y0's (at least 1). */
+static double start_state(int dim, double *y, const double *y0) {
+    double limit = 1.0;
+    memcpy(y, y0, dim * sizeof(double));
+    for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
+    return limit * 1e30;
+}
+
 /* Dormand-Prince 5(4) (as scipy's RK45): the tableau, the error weights and the quartic dense output. */
 static const double DP_C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
 static const double DP_A[7][6] = {
@@ -474,10 +482,7 @@ static int dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, cons
     double *y = work, *ynew = y + dim;
     const size_t row = dim * sizeof(double);
     long nfev = 0, nstep = 0, nrej = 0, o = 0;
-    double t = t0, limit = 1.0, h, hstep, tnew;
-    memcpy(y, y0, row);
-    for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
-    limit *= 1e30;
+    double t = t0, limit = start_state(dim, y, y0), h, hstep, tnew;
     int rc = dp_begin(f, ctx, dim, t0, t1, rtol, atol, first_step, work, &h, &nfev, fail);
     if (rc) { counts[0] = nfev; return rc; }
     while (o < nout && tout[o] <= t0) { memcpy(Y + o * dim, y, row); o++; }
