@@ -177,6 +177,9 @@ class CompiledDormandPrince(Integrator):
         self.order = 8 if variant == "dop853" else 5
         self.description = ("Dormand–Prince 5(4) (as RK45)" if variant == "dopri5" else "explicit Runge–Kutta of order 8 "
                             "(as DOP853)") + " with the stepping loop compiled to C; explicit, adaptive"
+        if quiet:
+            self.description = (f"explicit Runge–Kutta of order {self.order}, SciPy's steps; the stepping loop in C "
+                                f"where the model has compiled code, else {fallback.name}")
 
     def _compiled(self, problem, atol):
         """The model's compiled code and the note of a fallback (``None`` for a quiet one, and when progress is
