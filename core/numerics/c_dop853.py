@@ -188,10 +188,12 @@ static void d8_shift(int dim, double *work) {  /* y = ynew, K[0] = K[12] (first 
 
 /* DOP853 with error control (as scipy's DOP853) and its dense output on tout.  counts: nfev, steps, rejected.
    Status: 0 done; 1 singular matrix, 2 not finite, 3 step size too small, 4 diverged, 6 at its pace the run would
-   need more than budget evaluations (judged from 131,072 on; budget 0: never) (state at fail). */
+   need more than budget evaluations (judged from 131,072 on; budget 0: never), 7 stopped (state at fail).  watch
+   (or NULL): the loop writes the time it has reached to watch[0] after each step, and stops when watch[1] is not 0
+   (another thread asks it to: an interrupted run). */
 static int dop853(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout,
                   const double *tout, double rtol, double atol, double max_step, double first_step, double budget,
-                  double *Y, long *counts, double *fail, double *work) {
+                  volatile double *watch, double *Y, long *counts, double *fail, double *work) {
     double *y = work;
     const size_t row = dim * sizeof(double);
     long nfev = 0, nstep = 0, nrej = 0, o = 0;
@@ -212,17 +214,19 @@ static int dop853(rhs_fn f, const void *ctx, int dim, double t0, double t1, cons
         nstep++;
         if (!bounded(dim, y, limit)) { fail_at(dim, fail, t, y); rc = 4; break; }
         if (budget > 0 && nfev >= 131072 && nfev * ((t1 - t0) / (t - t0)) > budget) { fail_at(dim, fail, t, y); rc = 6; break; }
+        if (watch) { watch[0] = t; if (watch[1] != 0.0) { fail_at(dim, fail, t, y); rc = 7; break; } }
     }
     counts[0] = nfev; counts[1] = nstep; counts[2] = nrej;
     return rc;
 }
 
 int lg_dop853(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout,
-              double rtol, double atol, double max_step, double first_step, double budget, double *Y, long *counts,
-              double *fail) {
+              double rtol, double atol, double max_step, double first_step, double budget, double *watch, double *Y,
+              long *counts, double *fail) {
     double *work = malloc((size_t)D8_WORK * (dim > 0 ? dim : 1) * sizeof(double));
     if (!work) { fail_at(dim, fail, t0, y0); return 5; }
-    int rc = dop853(f, ctx, dim, t0, t1, y0, nout, tout, rtol, atol, max_step, first_step, budget, Y, counts, fail, work);
+    int rc = dop853(f, ctx, dim, t0, t1, y0, nout, tout, rtol, atol, max_step, first_step, budget, watch, Y, counts,
+                    fail, work);
     free(work);
     return rc;
 }

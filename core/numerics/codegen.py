@@ -265,7 +265,7 @@ class CompiledModel:
         runtime.lg_dopri5_step.argtypes = [ptr, ptr, cint, cint, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr, ptr, ptr]
         runtime.lg_dopri5_step.restype = cint
         runtime.lg_dopri5_dense.argtypes, runtime.lg_dopri5_dense.restype = [cint, ptr, dbl, dbl, ptr], None
-        runtime.lg_dop853.argtypes = [ptr, ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr]
+        runtime.lg_dop853.argtypes = [ptr, ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr]
         runtime.lg_dop853.restype = cint
         runtime.lg_dop853_begin.argtypes = [ptr, ptr, cint, dbl, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr]
         runtime.lg_dop853_begin.restype = cint
@@ -371,21 +371,23 @@ class CompiledModel:
         }[status]
 
     def dopri5(self, t_span, y0, t_eval, *, rtol: float, atol: float, max_step: float, first_step: float | None,
-               variant: str = "dopri5", budget: float = 0.0):
+               variant: str = "dopri5", budget: float = 0.0, watch: np.ndarray | None = None):
         """Dormand–Prince 5(4) (``variant="dop853"``: DOP853) in C from ``y0``; ``(Y (dim × len), nfev, steps,
         status, message, t)`` with ``t`` where a failure stopped it; output stops at a failure.  DOP853 stops with
-        status 6 where at its pace the run would need more than ``budget`` evaluations (0: no budget)."""
+        status 6 where at its pace the run would need more than ``budget`` evaluations (0: no budget), and
+        with 7 when ``watch[1]`` is set (by another thread) while it runs; it writes the time reached to
+        ``watch[0]`` after each step."""
         t_eval = np.ascontiguousarray(t_eval, dtype=float)
         y0 = np.ascontiguousarray(y0, dtype=float)
         Y = np.full((t_eval.size, self.dim), np.nan)
         counts = np.zeros(3, dtype=np.int64)  # long is 64-bit on the platforms we build on
         fail = np.zeros(self.dim + 1)
-        extra = (float(budget),) if variant == "dop853" else ()
+        extra = (float(budget), None if watch is None else watch.ctypes.data) if variant == "dop853" else ()
         loop = self.loops.lg_dop853 if variant == "dop853" else self.loops.lg_dopri5
         status = loop(self._rhs_ptr, self._ctx, self.dim, float(t_span[0]), float(t_span[1]), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
                       float(rtol), float(atol), float(max_step) if math.isfinite(max_step) else 1e300,
                       float(first_step or 0.0), *extra, Y.ctypes.data, counts.ctypes.data, fail.ctypes.data)
-        message = self._run(status, fail, f"{variant}_c") if status and status != 6 else ""
+        message = self._run(status, fail, f"{variant}_c") if status and status not in (6, 7) else ""
         return Y.T, int(counts[0]), int(counts[1]), status, message, float(fail[0])
 
     def fixed(self, method: str, t0: float, h: float, N: int, y0, t_eval):

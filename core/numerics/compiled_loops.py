@@ -15,8 +15,10 @@ event search), ``rk4_c`` and ``verlet_c`` through
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
+import threading
 
 import numpy as np
 
@@ -37,6 +39,38 @@ def _compiled_or_note(problem, name: str, sibling) -> tuple[CompiledModel | None
         _log.info(note)
         return None, note
     return compiled, None
+
+
+#: Seconds between two looks at a loop in C that runs on its own thread (progress, an interrupt).
+POLL = 0.05
+
+
+def _watched(run, problem):
+    """``run(watch=...)`` (a loop in C) on a thread of its own, while this one reports its progress and, on an
+    interrupt (Ctrl-C), asks it to stop and raises ``KeyboardInterrupt`` once it has: a long run in C stays as
+    interruptible, and as watched, as one stepped in Python.  The loop needs no Python (ctypes releases the GIL)."""
+    watch = np.zeros(2)
+    out: list = []
+
+    def target():
+        try:
+            out.append(run(watch=watch))
+        except BaseException as exc:  # raised again on the caller's thread (a singular mass matrix, ...)
+            out.append(exc)
+
+    thread = threading.Thread(target=target, name="lagrangian-loop", daemon=True)
+    thread.start()
+    try:
+        while thread.is_alive():
+            thread.join(POLL)
+            problem.report(float(watch[0]))
+    except KeyboardInterrupt:
+        watch[1] = 1.0
+        thread.join()
+        raise
+    if isinstance(out[0], BaseException):
+        raise out[0]
+    return out[0]
 
 
 #: Evaluations beyond which a run on the tape says that native code would be worth its compilation.
@@ -182,10 +216,11 @@ class CompiledDormandPrince(Integrator):
                                 f"where the model has compiled code, else {fallback.name}")
 
     def _compiled(self, problem, atol):
-        """The model's compiled code and the note of a fallback (``None`` for a quiet one, and when progress is
-        reported: that needs the Python loop); ``atol`` as one number (the loop in C takes no per-state ones)."""
-        if self.quiet and (getattr(problem, "_report", None) is not None
-                           or getattr(problem.numeric, "python_only", False)):
+        """The model's compiled code and the note of a fallback (``None`` for a quiet one, which also runs its
+        fallback for ``compiled=False``, and for progress unless it is DOP853, whose loop runs watched on a thread of
+        its own); ``atol`` as one number (the loop in C takes no per-state ones)."""
+        if self.quiet and (getattr(problem.numeric, "python_only", False)
+                           or (self.variant != "dop853" and getattr(problem, "_report", None) is not None)):
             return None, None, atol
         tol = np.asarray(atol, dtype=float)
         if tol.ndim and tol.size and np.all(tol == tol.flat[0]):
@@ -211,9 +246,9 @@ class CompiledDormandPrince(Integrator):
         if first_step is not None and not (0 < first_step <= t_span[1] - t_span[0]):
             raise ModelError(f"{self.name}: first_step must be positive and within the time span, got {first_step!r}.")
         pace = getattr(problem, "_pace", None)
-        Y, nfev, nstep, status, message, reached = compiled.dopri5(
-            t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step, variant=self.variant,
-            budget=pace[4] if pace else 0.0)
+        run = functools.partial(compiled.dopri5, t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step,
+                                first_step=first_step, variant=self.variant, budget=pace[4] if pace else 0.0)
+        Y, nfev, nstep, status, message, reached = _watched(run, problem) if self.variant == "dop853" else run()
         if status == 6:  # judged on its pace in C, refused as in Python
             raise problem.pace_error(reached, nfev, nfev * (t_span[1] - t_span[0]) / (reached - t_span[0]))
         problem.nfev += nfev
