@@ -765,3 +765,26 @@ def test_dop853_runs_in_c_with_scipys_steps_and_accuracy():
     numpy = m.simulate(6.0, compiled=False, rtol=1e-8, **start)
     assert numpy.method == "DOP853" and not any("compiled" in n for n in numpy.notes)
     assert np.abs(numpy["x_p"] - m.simulate(6.0, rtol=1e-8, **start)["x_p"]).max() <= 1e-12
+
+
+def test_the_dop853_tables_in_c_are_scipys():
+    """The coefficients written out in lagrangian.numerics.c_dop853 are scipy.integrate.DOP853's, exactly."""
+    import re
+
+    from scipy.integrate import DOP853
+
+    from lagrangian.numerics.c_dop853 import dop853_source
+
+    source = dop853_source()
+
+    def table(name):
+        body = re.search(rf"static const double {name}\[[^=]*= \{{(.*?)\}};", source, re.S).group(1)
+        return np.array([float(x) for x in re.findall(r"-?\d+\.\d+(?:e-?\d+)?|-?\d+e-?\d+", body)])
+
+    A = table("D8_A").reshape(16, 16)
+    assert np.array_equal(A[:12, :12], DOP853.A) and np.array_equal(A[12, :12], DOP853.B)
+    assert np.array_equal(A[13:16], DOP853.A_EXTRA)
+    C = table("D8_C")
+    assert np.array_equal(C[:12], DOP853.C) and C[12] == 1.0 and np.array_equal(C[13:], DOP853.C_EXTRA)
+    assert np.array_equal(table("D8_E5"), DOP853.E5) and np.array_equal(table("D8_E3"), DOP853.E3)
+    assert np.array_equal(table("D8_D").reshape(4, 16), DOP853.D)

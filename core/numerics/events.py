@@ -40,7 +40,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.optimize import brentq
 
 from ..base.component import t as time_symbol
 from ..base.text import parse_expression
@@ -269,6 +268,8 @@ class _Run:
                 if not c.crosses(values[i], values[i + 1]):
                     continue
                 a, b = times[i], times[i + 1]
+                from scipy.optimize import brentq  # on the first crossing: scipy.optimize costs 0.3 s to import
+
                 root = b if values[i + 1] == 0.0 else brentq(lambda s, c=c: c(s, state_at(s)), a, b, xtol=xtol,
                                                                rtol=4 * np.finfo(float).eps)
                 if found is None or root < found[0]:
