@@ -61,9 +61,11 @@ def _watched(run, problem):
     thread = threading.Thread(target=target, name="lagrangian-loop", daemon=True)
     thread.start()
     try:
-        while thread.is_alive():
+        while True:
             thread.join(POLL)
-            problem.report(float(watch[0]))
+            if not thread.is_alive():
+                break
+            problem.report(float(watch[0]))  # the end is reported by the caller
     except KeyboardInterrupt:
         watch[1] = 1.0
         thread.join()
