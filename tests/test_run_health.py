@@ -117,7 +117,8 @@ def test_a_pendulum_too_short_to_integrate_is_refused_at_once(method):
         m.simulate(0.5, initial={"theta_pin": -1.0}, velocity={"theta_pin": 0.0}, method=method)
 
 
-def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs():
+@pytest.mark.parametrize("method", ["DOP853", "dopri5_c", "RK45"])  # loops in C, and SciPy's in Python
+def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs(method):
     """A 1e-12 kg mass on a 137 N/m spring for 0.7 s: ω = 1.17e7 rad/s, some 1.3e6 periods and ~3e8 evaluations
     of DOP853 — a legitimate run of minutes, which a service running models it did not write bounds with
     ``max_evaluations``."""
@@ -127,8 +128,9 @@ def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", lg.StiffnessWarning)
         with pytest.raises(lg.IntegrationError, match=r"would need some .* allow more than max_evaluations=1e\+06"):
-            m.simulate(0.7, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e6)
-        res = m.simulate(2e-6, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e6, points=3)
+            m.simulate(0.7, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e6, method=method)
+        res = m.simulate(2e-6, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e6, points=3,
+                         method=method)
     omega = math.sqrt(137.0 / 1e-12)
     assert res["x_p"] == pytest.approx(1e-3 * np.cos(omega * res.t), rel=0, abs=1e-3 * 1e-7)
     for bad in (0, -5, "1e6", float("nan")):
@@ -136,8 +138,9 @@ def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs():
             m.simulate(1e-6, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=bad)
 
 
-def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt():
-    """DOP853's loop in C runs on a thread of its own: the caller's reports progress on the way and, on Ctrl-C
+@pytest.mark.parametrize("method", ["DOP853", "dopri5_c"])
+def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt(method):
+    """A loop in C (DOP853's, dopri5_c's) runs on a thread of its own: the caller's reports progress on the way and, on Ctrl-C
     (simulated by ``_thread.interrupt_main``), stops the loop and raises ``KeyboardInterrupt``, as a run stepped in
     Python would.  The run: a 1e-12 kg mass on a 137 N/m spring for 0.7 s, some 3e8 evaluations."""
     import _thread
@@ -152,7 +155,7 @@ def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt():
     try:
         with warnings.catch_warnings(), pytest.raises(KeyboardInterrupt):
             warnings.simplefilter("ignore", lg.StiffnessWarning)
-            m.simulate(0.7, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e12,
+            m.simulate(0.7, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, max_evaluations=1e12, method=method,
                        progress=lambda t, end: seen.append(t))
     finally:
         timer.cancel()

@@ -55,7 +55,7 @@ static const double D8_D[4][16] = {
 def dop853_source() -> str:
     """The C functions ``lg_dop853`` (a whole run on output times), ``lg_dop853_begin``, ``lg_dop853_step``,
     ``lg_dop853_prepare`` and ``lg_dop853_dense`` (one step at a time, for the events driver); they need ``rhs_fn``,
-    ``rms_scaled``, ``fail_at``, ``start_state`` and ``bounded`` from the runtime library's loops."""
+    ``rms_scaled``, ``fail_at``, ``start_state``, ``watched`` and ``bounded`` from the runtime library's loops."""
     return _TABLES + _LOOP
 
 
@@ -222,8 +222,8 @@ static int dop853(rhs_fn f, const void *ctx, int dim, double t0, double t1, cons
         d8_shift(dim, work);
         nstep++;
         if (!bounded(dim, y, limit)) { fail_at(dim, fail, t, y); rc = 4; break; }
-        if (budget > 0 && nfev >= 131072 && nfev * ((t1 - t0) / (t - t0)) > budget) { fail_at(dim, fail, t, y); rc = 6; break; }
-        if (watch) { watch[0] = t; if (watch[1] != 0.0) { fail_at(dim, fail, t, y); rc = 7; break; } }
+        rc = watched(dim, t0, t1, t, y, nfev, budget, watch, fail);
+        if (rc) break;
     }
     counts[0] = nfev; counts[1] = nstep; counts[2] = nrej;
     return rc;

@@ -348,6 +348,16 @@ static double rms_scaled(int dim, const double *x, const double *scale) {
 
 static void fail_at(int dim, double *fail, double t, const double *y) { fail[0] = t; memcpy(fail + 1, y, dim * sizeof(double)); }
 
+/* After a step of an adaptive run to t: 6 where at its pace the run would need more than budget evaluations
+   (judged from 131,072 on; budget 0: never), 7 where another thread asked it to stop (watch[1] set; watch[0] gets
+   the time reached); else 0.  watch may be NULL. */
+static int watched(int dim, double t0, double t1, double t, const double *y, long nfev, double budget,
+                   volatile double *watch, double *fail) {
+    if (budget > 0 && nfev >= 131072 && nfev * ((t1 - t0) / (t - t0)) > budget) { fail_at(dim, fail, t, y); return 6; }
+    if (watch) { watch[0] = t; if (watch[1] != 0.0) { fail_at(dim, fail, t, y); return 7; } }
+    return 0;
+}
+
 /* y = y0, and the size past which an adaptive run's state counts as diverged: 1e30 times y0's (at least 1). */
 static double start_state(int dim, double *y, const double *y0) {
     double limit = 1.0;
@@ -476,9 +486,11 @@ static void dp_shift(int dim, double *work) {  /* y = ynew, K[0] = K[6] (first s
 }
 
 /* Dormand-Prince 5(4) with error control (as scipy's RK45) and its quartic dense output on tout.
-   Status: 0 done; 1 singular matrix, 2 not finite, 3 step size too small, 4 diverged (state at fail). */
+   Status: 0 done; 1 singular matrix, 2 not finite, 3 step size too small, 4 diverged, 6 over budget, 7 stopped
+   (state at fail); budget and watch as for lg_dop853. */
 static int dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
-                  double max_step, double first_step, double *Y, long *counts, double *fail, double *work) {
+                  double max_step, double first_step, double budget, volatile double *watch, double *Y, long *counts,
+                  double *fail, double *work) {
     double *y = work, *ynew = y + dim;
     const size_t row = dim * sizeof(double);
     long nfev = 0, nstep = 0, nrej = 0, o = 0;
@@ -498,16 +510,19 @@ static int dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, cons
         dp_shift(dim, work);
         nstep++;
         if (!bounded(dim, y, limit)) { fail_at(dim, fail, t, y); counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return 4; }
+        rc = watched(dim, t0, t1, t, y, nfev, budget, watch, fail);
+        if (rc) { counts[0] = nfev; counts[1] = nstep; counts[2] = nrej; return rc; }
     }
     counts[0] = nfev; counts[1] = nstep; counts[2] = nrej;
     return 0;
 }
 
 int lg_dopri5(rhs_fn f, const void *ctx, int dim, double t0, double t1, const double *y0, long nout, const double *tout, double rtol, double atol,
-              double max_step, double first_step, double *Y, long *counts, double *fail) {
+              double max_step, double first_step, double budget, double *watch, double *Y, long *counts, double *fail) {
     double *work = malloc((size_t)DP_WORK * (dim > 0 ? dim : 1) * sizeof(double));
     if (!work) { fail_at(dim, fail, t0, y0); return 5; }
-    int rc = dopri5(f, ctx, dim, t0, t1, y0, nout, tout, rtol, atol, max_step, first_step, Y, counts, fail, work);
+    int rc = dopri5(f, ctx, dim, t0, t1, y0, nout, tout, rtol, atol, max_step, first_step, budget, watch, Y, counts, fail,
+                    work);
     free(work);
     return rc;
 }

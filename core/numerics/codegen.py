@@ -256,7 +256,7 @@ class CompiledModel:
         matrix.argtypes, matrix.restype = [ptr, dbl, ptr, ptr, ptr, ptr], cint
         energies.argtypes, energies.restype = [ptr, lng, ptr, ptr, ptr, ptr], None
         runtime.lg_velocities.argtypes, runtime.lg_velocities.restype = [ptr, ptr, cint, cint, lng, ptr, ptr, ptr], lng
-        runtime.lg_dopri5.argtypes = [ptr, ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, ptr, ptr, ptr]
+        runtime.lg_dopri5.argtypes = [ptr, ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr]
         runtime.lg_dopri5.restype = cint
         runtime.lg_fixed.argtypes = [ptr, ptr, cint, cint, cint, dbl, dbl, lng, ptr, lng, ptr, ptr, ptr, ptr]
         runtime.lg_fixed.restype = cint
@@ -373,7 +373,7 @@ class CompiledModel:
     def dopri5(self, t_span, y0, t_eval, *, rtol: float, atol: float, max_step: float, first_step: float | None,
                variant: str = "dopri5", budget: float = 0.0, watch: np.ndarray | None = None):
         """Dormand–Prince 5(4) (``variant="dop853"``: DOP853) in C from ``y0``; ``(Y (dim × len), nfev, steps,
-        status, message, t)`` with ``t`` where a failure stopped it; output stops at a failure.  DOP853 stops with
+        status, message, t)`` with ``t`` where a failure stopped it; output stops at a failure.  It stops with
         status 6 where at its pace the run would need more than ``budget`` evaluations (0: no budget), and
         with 7 when ``watch[1]`` is set (by another thread) while it runs; it writes the time reached to
         ``watch[0]`` after each step."""
@@ -382,7 +382,7 @@ class CompiledModel:
         Y = np.full((t_eval.size, self.dim), np.nan)
         counts = np.zeros(3, dtype=np.int64)  # long is 64-bit on the platforms we build on
         fail = np.zeros(self.dim + 1)
-        extra = (float(budget), None if watch is None else watch.ctypes.data) if variant == "dop853" else ()
+        extra = (float(budget), None if watch is None else watch.ctypes.data)
         loop = self.loops.lg_dop853 if variant == "dop853" else self.loops.lg_dopri5
         status = loop(self._rhs_ptr, self._ctx, self.dim, float(t_span[0]), float(t_span[1]), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
                       float(rtol), float(atol), float(max_step) if math.isfinite(max_step) else 1e300,

@@ -219,10 +219,8 @@ class CompiledDormandPrince(Integrator):
 
     def _compiled(self, problem, atol):
         """The model's compiled code and the note of a fallback (``None`` for a quiet one, which also runs its
-        fallback for ``compiled=False``, and for progress unless it is DOP853, whose loop runs watched on a thread of
-        its own); ``atol`` as one number (the loop in C takes no per-state ones)."""
-        if self.quiet and (getattr(problem.numeric, "python_only", False)
-                           or (self.variant != "dop853" and getattr(problem, "_report", None) is not None)):
+        fallback for ``compiled=False``); ``atol`` as one number (the loop in C takes no per-state ones)."""
+        if self.quiet and getattr(problem.numeric, "python_only", False):
             return None, None, atol
         tol = np.asarray(atol, dtype=float)
         if tol.ndim and tol.size and np.all(tol == tol.flat[0]):
@@ -250,7 +248,7 @@ class CompiledDormandPrince(Integrator):
         pace = getattr(problem, "_pace", None)
         run = functools.partial(compiled.dopri5, t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step,
                                 first_step=first_step, variant=self.variant, budget=pace[4] if pace else 0.0)
-        Y, nfev, nstep, status, message, reached = _watched(run, problem) if self.variant == "dop853" else run()
+        Y, nfev, nstep, status, message, reached = _watched(run, problem)
         if status == 6:  # judged on its pace in C, refused as in Python
             raise problem.pace_error(reached, nfev, nfev * (t_span[1] - t_span[0]) / (reached - t_span[0]))
         problem.nfev += nfev
