@@ -369,6 +369,8 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
         for load in contribution.loads:
             force = list(load.force) if isinstance(load.force, sp.MatrixBase) else [sp.sympify(load.force)]
             vel = list(load.velocity) if isinstance(load.velocity, sp.MatrixBase) else [sp.sympify(load.velocity)]
+            if len(force) != len(vel):  # the symbolic path says so, naming the component
+                raise NotStampable(f"{cname}: a load's force and velocity differ in shape")
             for f, w in zip(force, vel):
                 if f == 0 or w == 0:
                     continue

@@ -280,7 +280,7 @@ def stamped(model, params: Mapping[str, float] | None = None) -> Stamps | None:
     def build():
         try:
             return stamps(model.assembly, values)
-        except NotStampable as exc:
+        except (NotStampable, ArithmeticError, TypeError, ValueError) as exc:  # the symbolic path decides, and says
             _log.debug("%s: not assembled from stamps: %s", model.name, exc)
             return None
 
