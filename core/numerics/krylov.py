@@ -93,6 +93,9 @@ class SparseSpace:
                 self._lu = lu = splu(A.tocsc())
             except RuntimeError as exc:  # exactly singular: the symbolic path says which coordinates
                 raise NotStampable(f"the matrix of the unknowns is singular ({exc})") from None
+            pivots = np.abs(lu.U.diagonal())
+            if not pivots.min() > A.shape[0] * np.finfo(float).eps * pivots.max():  # numerically singular
+                raise NotStampable("the matrix of the unknowns is singular to working precision")
             ny = R.shape[1]
             self.F = LinearOperator(
                 (ny, ny), dtype=float,
