@@ -161,3 +161,28 @@ def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt(method):
         timer.cancel()
     assert seen and 0 < max(seen) < 0.7
     assert seen == sorted(seen)
+
+
+@pytest.mark.parametrize("method", ["rk4_c", "verlet_c"])
+def test_the_fixed_step_loops_in_c_are_watched_and_budgeted(method):
+    """rk4_c and verlet_c run on a thread of their own like the adaptive loops (progress on the way, Ctrl-C stops
+    them); their evaluations are known before they start, so a run beyond max_evaluations is refused at once."""
+    import _thread
+    import threading
+
+    m = lg.Model("oscillator")
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("ground", "p"), k=47.0)
+    start = dict(initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, method=method, energy_tol=False)
+    with pytest.raises(lg.IntegrationError, match=r"1000000 steps .* need \d+ evaluations, more than the run's budget "
+                                                  r"\(max_evaluations=1e\+05\)"):
+        m.simulate(1.0, step=1e-6, max_evaluations=1e5, **start)
+    seen = []
+    timer = threading.Timer(0.5, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            m.simulate(50.0, step=1e-6, points=3, progress=lambda t, end: seen.append(t), **start)  # 5e7 steps
+    finally:
+        timer.cancel()
+    assert seen and 0 < max(seen) < 50.0

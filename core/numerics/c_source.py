@@ -577,16 +577,13 @@ static int fixed_step(rhs_fn f, const void *ctx, int nq, int dim, int method, do
    separable models only: A constant, b independent of the velocities). Outputs tout: a step's state when
    within 1e-7 h of it, else cubic Hermite interpolation between the neighbouring steps.
    Status as lg_dopri5 (4: diverged). */
-static int fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,
-                 long *counts, double *fail, double *work) {
+static int fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout,
+                 volatile double *watch, double *Y, long *counts, double *fail, double *work) {
     double *y = work, *ynew = y + dim, *fv = ynew + dim, *fnew = fv + dim;
     const size_t row = dim * sizeof(double);
     long nfev = 0, o = 0;
     int rc;
-    double limit = 1.0;
-    memcpy(y, y0, row);
-    for (int i = 0; i < dim; i++) if (fabs(y[i]) > limit) limit = fabs(y[i]);
-    limit *= 1e30;
+    double limit = start_state(dim, y, y0);
     rc = f(ctx, t0, y, fv); nfev++;
     if (rc) { fail_at(dim, fail, t0, y); counts[0] = nfev; return rc; }
     while (o < nout && (tout[o] - t0) / h < 1e-7) { memcpy(Y + o * dim, y, row); o++; }
@@ -607,6 +604,7 @@ static int fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double 
         memcpy(y, ynew, row);
         memcpy(fv, fnew, row);
         if (!bounded(dim, y, limit)) { fail_at(dim, fail, tn, y); rc = 4; break; }
+        if ((rc = watched(dim, t0, tn, tn, y, nfev, 0.0, watch, fail))) break;  /* its length is known: no budget */
     }
     counts[0] = nfev; counts[1] = o;
     return rc;
@@ -621,11 +619,11 @@ int lg_fixed_step(rhs_fn f, const void *ctx, int nq, int dim, int method, double
     return fixed_step(f, ctx, nq, dim, method, t, t + h, h, work, 0, counts, fail);
 }
 
-int lg_fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout, double *Y,
-             long *counts, double *fail) {
+int lg_fixed(rhs_fn f, const void *ctx, int nq, int dim, int method, double t0, double h, long N, const double *y0, long nout, const double *tout,
+             double *watch, double *Y, long *counts, double *fail) {
     double *work = malloc((size_t)8 * (dim > 0 ? dim : 1) * sizeof(double));
     if (!work) { fail_at(dim, fail, t0, y0); return 5; }
-    int rc = fixed(f, ctx, nq, dim, method, t0, h, N, y0, nout, tout, Y, counts, fail, work);
+    int rc = fixed(f, ctx, nq, dim, method, t0, h, N, y0, nout, tout, watch, Y, counts, fail, work);
     free(work);
     return rc;
 }

@@ -258,7 +258,7 @@ class CompiledModel:
         runtime.lg_velocities.argtypes, runtime.lg_velocities.restype = [ptr, ptr, cint, cint, lng, ptr, ptr, ptr], lng
         runtime.lg_dopri5.argtypes = [ptr, ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr]
         runtime.lg_dopri5.restype = cint
-        runtime.lg_fixed.argtypes = [ptr, ptr, cint, cint, cint, dbl, dbl, lng, ptr, lng, ptr, ptr, ptr, ptr]
+        runtime.lg_fixed.argtypes = [ptr, ptr, cint, cint, cint, dbl, dbl, lng, ptr, lng, ptr, ptr, ptr, ptr, ptr]
         runtime.lg_fixed.restype = cint
         runtime.lg_dopri5_begin.argtypes = [ptr, ptr, cint, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr]
         runtime.lg_dopri5_begin.restype = cint
@@ -368,6 +368,8 @@ class CompiledModel:
             3: f"{what}: the step size fell below the resolution of t at t={t:g} (the model may be stiff or singular there)",
             4: f"the state diverged (beyond 1e30 times its initial size, or non-finite) by t={t:g}",
             5: f"{what}: out of memory for the stepping loop's {13 * self.dim} numbers",
+            6: f"{what}: stopped at t={t:g}: at its pace the run would need more evaluations than its budget",
+            7: f"{what}: stopped at t={t:g} (interrupted)",
         }[status]
 
     def dopri5(self, t_span, y0, t_eval, *, rtol: float, atol: float, max_step: float, first_step: float | None,
@@ -390,8 +392,9 @@ class CompiledModel:
         message = self._run(status, fail, f"{variant}_c") if status and status not in (6, 7) else ""
         return Y.T, int(counts[0]), int(counts[1]), status, message, float(fail[0])
 
-    def fixed(self, method: str, t0: float, h: float, N: int, y0, t_eval):
-        """``N`` steps of ``rk4`` or ``verlet`` in C; ``(Y (dim × len), nfev, message)``."""
+    def fixed(self, method: str, t0: float, h: float, N: int, y0, t_eval, watch: np.ndarray | None = None):
+        """``N`` steps of ``rk4`` or ``verlet`` in C; ``(Y (dim × len), nfev, message)``; it stops (status 7) when
+        ``watch[1]`` is set while it runs, and writes the time reached to ``watch[0]`` after each step."""
         t_eval = np.ascontiguousarray(t_eval, dtype=float)
         y0 = np.ascontiguousarray(y0, dtype=float)
         Y = np.full((t_eval.size, self.dim), np.nan)
@@ -399,6 +402,6 @@ class CompiledModel:
         fail = np.zeros(self.dim + 1)
         code = {"rk4": 0, "verlet": 1}[method]
         status = self.loops.lg_fixed(self._rhs_ptr, self._ctx, self.n, self.dim, code, float(t0), float(h), int(N), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
-                                   Y.ctypes.data, counts.ctypes.data, fail.ctypes.data)
+                                   None if watch is None else watch.ctypes.data, Y.ctypes.data, counts.ctypes.data, fail.ctypes.data)
         message = self._run(status, fail, method) if status else ""
         return Y.T, int(counts[0]), message

@@ -1,15 +1,20 @@
-"""Integrators whose stepping loop is C: ``dopri5_c``, ``rk4_c`` and ``verlet_c``.
+"""Integrators whose stepping loop is C: ``DOP853`` (where it can), ``dop853_c``, ``dopri5_c``, ``rk4_c``, ``verlet_c``.
 
 The loops live in the runtime library of :mod:`lagrangian.codegen` and call
 a model's compiled right-hand side (its tape or its native library) without
 returning to Python per step.  The built-in integrators plugin registers
-them; each falls back to its Python sibling (``RK45``, ``rk4``, ``verlet``)
-with a note when the model cannot be compiled.
+them; each falls back to its Python sibling (``DOP853_scipy``, ``RK45``,
+``rk4``, ``verlet``) when the model cannot be compiled, with a note except
+for ``DOP853``, whose loop in C is how it runs, not what was asked.
+
+A whole run's loop runs on a thread of its own, watched from the caller's
+(:func:`_watched`): progress is reported, Ctrl-C stops it, and
+``max_evaluations`` bounds it, as for a run stepped in Python.
 
 Runs with events (:mod:`lagrangian.numerics.events`) take the same C steps
-one at a time: ``dopri5_c`` through :meth:`CompiledDormandPrince.start` (one
-accepted step per call, its quartic dense output evaluated in C for the
-event search), ``rk4_c`` and ``verlet_c`` through
+one at a time: ``DOP853`` and ``dopri5_c`` through
+:meth:`CompiledDormandPrince.start` (one accepted step per call, its dense
+output evaluated in C for the event search), ``rk4_c`` and ``verlet_c`` through
 :meth:`CompiledFixedStep.stepper` (one step of any length per call).
 """
 
@@ -23,7 +28,7 @@ import threading
 import numpy as np
 
 from .codegen import CompiledModel
-from ..errors import ModelError
+from ..errors import IntegrationError, ModelError
 from ..plugin.contracts import Integrator, Solution
 from .fixed_step import FixedStepIntegrator, Stepper, _grid
 
@@ -335,7 +340,13 @@ class CompiledFixedStep(FixedStepIntegrator):
         t0, t1 = map(float, t_span)
         t_eval = np.asarray(t_eval, dtype=float)
         h, N, notes = _grid(self.name, problem, t0, t1, t_eval, step, np.asarray(y0, dtype=float))
-        Y, nfev, message = compiled.fixed(self.method, t0, h, N, y0, t_eval)
+        pace = getattr(problem, "_pace", None)
+        needed = N * (4 if self.method == "rk4" else 1) + 1
+        if pace is not None and needed > pace[4]:  # its evaluations are known before it starts
+            raise IntegrationError(
+                f"{self.name}: {N} steps of {h:.3g} over [{t0:g}, {t1:g}] need {needed} evaluations, more than the "
+                f"run's budget (max_evaluations={pace[4]:.3g}): take a longer step= or allow more evaluations.")
+        Y, nfev, message = _watched(functools.partial(compiled.fixed, self.method, t0, h, N, y0, t_eval), problem)
         problem.nfev += nfev
         problem.report(t1)
         done = np.all(np.isfinite(Y), axis=0)
