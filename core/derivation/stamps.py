@@ -339,7 +339,7 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
 
     for cname, contribution in assembly.generic.items():
         for part in ("T", "V", "D", "G"):
-            for expr in sp.Add.make_args(sp.sympify(getattr(contribution, part))):
+            for expr in sp.Add.make_args(sp.sympify(getattr(contribution, part), strict=True)):
                 # each addend in its own few variables: gravity's sum over every mass stays linear in cost
                 if expr == 0:
                     continue
@@ -367,8 +367,8 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
                     else:
                         rates.setdefault(g - n, []).append(sign * e)
         for load in contribution.loads:
-            force = list(load.force) if isinstance(load.force, sp.MatrixBase) else [sp.sympify(load.force)]
-            vel = list(load.velocity) if isinstance(load.velocity, sp.MatrixBase) else [sp.sympify(load.velocity)]
+            force = list(load.force) if isinstance(load.force, sp.MatrixBase) else [sp.sympify(load.force, strict=True)]
+            vel = list(load.velocity) if isinstance(load.velocity, sp.MatrixBase) else [sp.sympify(load.velocity, strict=True)]
             if len(force) != len(vel):  # the symbolic path says so, naming the component
                 raise NotStampable(f"{cname}: a load's force and velocity differ in shape")
             for f, w in zip(force, vel):
