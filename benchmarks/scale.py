@@ -3,6 +3,8 @@
 - ``chain10k``: a chain of 10,000 masses, springs and dampers (30,001 components) driven by a harmonic force
   at its end, built, assembled and solved over 1 s (101 points) with ``method="auto"``: CPU time and peak
   memory of the whole process, import included.
+- ``spatial``: three rigid bodies on spherical joints (``benchmarks/spatial.py``): the size of our equations against
+  KanesMethod's, and a warm 5 s run against PyDy's Cython code (``null`` without the ``bench`` extra).
 - ``ladder2000``: an RLC ladder of 2,000 sections (sine source, 30 s, 3,001 points), likewise.
 - ``second run``: a 6-link pendulum run for 10 s in a second process (its compiled code in the cache), against a
   process that imports ``numpy`` and ``scipy.integrate``.
@@ -118,6 +120,19 @@ def child_numpy(n: int) -> dict:
     return {}
 
 
+def child_spatial(n: int) -> dict:
+    """``n`` bodies on spherical joints against KanesMethod and PyDy (benchmarks/spatial.py)."""
+    sys.path.insert(0, str(HERE.parent))
+    import spatial
+
+    out = spatial.ops(n)
+    try:
+        out.update(spatial.speed(n))
+    except ImportError as exc:  # PyDy and Cython are the bench extra: pip install -e ".[bench]"
+        out.update(speed_ratio=None, reason=str(exc))
+    return out
+
+
 def run_child(kind: str, n: int) -> dict:
     """Run one case in a fresh process: its CPU time (user + system, children included) and peak memory."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -137,11 +152,19 @@ def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
         kind, n = sys.argv[2], int(sys.argv[3])
         info = {"chain": child_chain, "ladder": child_ladder, "ngspice": child_ngspice, "pendulum": child_pendulum,
-                "numpy": child_numpy}[kind](n)
+                "numpy": child_numpy, "spatial": child_spatial}[kind](n)
         info["rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
         print(json.dumps(info))
         return
     rows = []
+    spatial = run_child("spatial", 3)
+    rows.append(("3 bodies on spherical joints: ops, ours/Kane", spatial["ours_ops"], 0.0,
+                 f"{spatial['ours_ops']} against {spatial['kane_ops']} (derived in {spatial['ours_derive_s']:.2f} s "
+                 f"against {spatial['kane_derive_s']:.2f} s)"))
+    if spatial.get("speed_ratio") is not None:
+        rows.append(("3 bodies, warm 5 s run, ours (native)", spatial["ours_s"], 0.0,
+                     f"PyDy cython {spatial['pydy_cython_s']:.4f} s; ours on the tape {spatial['ours_tape_s']:.4f} s; "
+                     f"runs differ by {spatial['max_difference']:.1e}"))
     run_child("pendulum", 6)  # compiles and caches what the second process finds
     second = run_child("pendulum", 6)
     numpy_import = min(run_child("numpy", 0)["cpu_s"] for _ in range(3))
@@ -163,8 +186,8 @@ def main() -> None:
     for name, cpu, rss, note in rows:
         print(f"{name:42s} {cpu:8.2f} {rss:8.3f}  {note}")
     print(json.dumps({
-        "spatial_ops_vs_kane": None,
-        "spatial_speed_vs_pydy_cython": None,
+        "spatial_ops_vs_kane": round(spatial["ops_ratio"], 3),
+        "spatial_speed_vs_pydy_cython": None if spatial.get("speed_ratio") is None else round(spatial["speed_ratio"], 3),
         "ladder200_speed_vs_ngspice": round(ngspice200["cpu_s"] / ours200["cpu_s"], 3),
         "ladder200_ngspice_error": ng_error,
         "ladder2000_s": round(ladder2000["cpu_s"], 2),

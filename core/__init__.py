@@ -17,7 +17,7 @@ import importlib.abc as _importlib_abc
 import importlib.util as _importlib_util
 import sys as _sys
 
-from .base.component import GROUND, Component, Contribution, Example, Load, Parameter, dot, t
+from .base.component import GROUND, Component, Contribution, Example, Load, MovingFrame, Parameter, dot, t
 from .base.domain import Context, Coordinate, Domain, DomainView, Network, Option
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
@@ -79,6 +79,7 @@ __all__ = [
     "Component",
     "Contribution",
     "Load",
+    "MovingFrame",
     "Parameter",
     "Example",
     "Domain",

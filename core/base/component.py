@@ -268,6 +268,26 @@ class Load:
     velocity: Any
 
 
+@dataclass(frozen=True)
+class MovingFrame:
+    """Velocities a component's ``T`` is written in, expressed in the axes of a frame that turns.
+
+    ``omega`` is the frame's angular velocity in its own axes (3 components);
+    each of ``velocities`` is the velocity of a point, in the same axes.  A
+    rigid body's ``T = ½ m v·v + ½ ωᵀ I ω`` is shortest in its own axes, but
+    those components are not time derivatives of anything, and Lagrange's
+    equations then carry terms from the frame's turning.  Declaring the frame
+    lets the derivation write them in closed form, ``Ω_i × ω`` for the
+    angular velocity and ``V_i × ω + Ω_i × v`` for a velocity (``Ω_i``,
+    ``V_i`` their coefficients of ``q̇_i``), instead of differentiating every
+    coefficient by every coordinate.  Optional: the equations are the same
+    without it, only larger.
+    """
+
+    omega: Any
+    velocities: tuple = ()
+
+
 @dataclass
 class Contribution:
     """What one component adds to the model (all SymPy, in terms of the context's coordinates).
@@ -277,7 +297,8 @@ class Contribution:
     linear damper); ``G``: terms of the Lagrangian linear in the velocities
     that store no energy (gyroscopic and gyrator couplings such as a moving
     coil's ``Bl·x·q̇``), so that ``L = T − V + G``; ``loads``: generalized
-    forces by virtual power.
+    forces by virtual power; ``frames``: the :class:`MovingFrame` objects
+    whose velocities ``T`` is written in, if any.
     """
 
     T: Any = 0
@@ -285,6 +306,7 @@ class Contribution:
     D: Any = 0
     G: Any = 0
     loads: list[Load] = field(default_factory=list)
+    frames: list[MovingFrame] = field(default_factory=list)
 
 
 @dataclass(frozen=True)

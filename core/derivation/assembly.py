@@ -15,7 +15,7 @@ from typing import Any
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..base.component import GROUND, Component, Contribution, Load, t
+from ..base.component import GROUND, Component, Contribution, Load, MovingFrame, t
 from ..base.domain import Context, Coordinate, DomainView, Network
 from ..errors import DomainError, LagrangianError, ModelError
 from ..base.graph import ComponentGraph
@@ -58,6 +58,11 @@ class Assembly:
         """The sum of every component's ``part`` (``"T"``, ``"V"``, ``"D"`` or ``"G"``)."""
         source = self.generic if generic else self.contributions
         return sp.Add(*(sp.sympify(getattr(c, part)) for c in source.values()))
+
+    def frame_list(self, generic: bool = False) -> list[MovingFrame]:
+        """Every component's :class:`~lagrangian.MovingFrame` declarations."""
+        source = self.generic if generic else self.contributions
+        return [frame for c in source.values() for frame in c.frames]
 
     def load_list(self, generic: bool = False) -> list[tuple[str, Load]]:
         """``(component, load)`` pairs."""
@@ -181,7 +186,8 @@ def _with_values(c: Contribution, values: Mapping) -> Contribution:
         return sp.sympify(expr).xreplace(values) if isinstance(expr, (sp.Basic, sp.MatrixBase)) else expr
 
     return Contribution(put(c.T), put(c.V), put(c.D), put(c.G),
-                        [Load(put(load.force), put(load.velocity)) for load in c.loads])
+                        [Load(put(load.force), put(load.velocity)) for load in c.loads],
+                        [MovingFrame(put(f.omega), tuple(put(v) for v in f.velocities)) for f in c.frames])
 
 
 def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
@@ -193,6 +199,14 @@ def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
         if not isinstance(load, Load):
             raise ModelError(f"{where}: loads[{i}] is not a lagrangian.Load.")
         parts += [(f"loads[{i}].force", load.force), (f"loads[{i}].velocity", load.velocity)]
+    for i, frame in enumerate(c.frames):
+        if not isinstance(frame, MovingFrame):
+            raise ModelError(f"{where}: frames[{i}] is not a lagrangian.MovingFrame.")
+        for k, vec in enumerate((frame.omega, *frame.velocities)):
+            label = f"frames[{i}]." + ("omega" if k == 0 else f"velocities[{k - 1}]")
+            if not (isinstance(vec, sp.MatrixBase) and vec.shape == (3, 1)):
+                raise ModelError(f"{where}: {label} must be a 3 × 1 SymPy Matrix (components in the frame's axes).")
+            parts.append((label, vec))
     for label, expr in parts:
         if isinstance(expr, (str, bytes)):  # text is never read as code, even from a plugin
             raise ModelError(f"{where}: {label} is text, not a SymPy expression: {expr!r:.60}.")

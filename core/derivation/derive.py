@@ -72,6 +72,8 @@ class Derivation:
         self._affine_memo: dict = {}
         self._hterm_memo: dict = {}
         self._canon_memo: dict = {}
+        self._rate_memo: dict = {}
+        self._frame_curls: dict = {}  # w → {i: g_i}, components of moving frames' vectors (:meth:`frames`)
 
     # ---- splitting T --------------------------------------------------------------------------
     def _vdep(self, e) -> bool:
@@ -201,20 +203,65 @@ class Derivation:
         return out
 
     def _h(self, A: _Affine) -> list:
-        """``J̇ q̇ + ḃ`` as a list of ``(negated, term)``."""
+        """``J̇ q̇ + ḃ`` as a list of ``(negated, term)``: the rate of ``w`` at ``q̈ = 0`` (:meth:`rate`)."""
         if A.h is None:
-            h = []
-            for j, c in A.J.items():
-                h += self._column_terms(c, j)
-            if A.b != 0:
-                h += self._column_terms(A.b, None)
-            A.h = [self._canon(term) for term in h]
+            h = self.rate(A.w)
+            A.h = [self._canon(term) for term in (h.args if h.is_Add else (h,) if h != 0 else ())]
         return A.h
+
+    def rate(self, e):
+        """``Σ_k ∂e/∂q_k q̇_k + ∂e/∂t`` (``d e/dt`` at ``q̈ = 0``) in one memoized pass over ``e``'s tree.
+
+        One pass, not a partial derivative per coordinate: the velocity of a body deep in a spatial chain is nested
+        through every joint above it, and each shared sub-expression is differentiated once."""
+        memo = self._rate_memo
+        out = memo.get(e)
+        if out is not None:
+            return out
+        deps = self.calc.deps(e)
+        if not deps or deps <= self.vset:
+            out = _ZERO
+        elif e in self.qidx:
+            out = self.v[self.qidx[e]]
+        elif e == self.t:
+            out = _ONE
+        elif e.is_Add:
+            out = sp.Add(*[self.rate(a) for a in e.args])
+        elif e.is_Mul:
+            args = e.args
+            terms = []
+            for k, a in enumerate(args):
+                da = self.rate(a)
+                if da != 0:
+                    terms.append(sp.Mul(*args[:k], da, *args[k + 1 :]))
+            out = sp.Add(*terms)
+        elif e.is_Pow and not self.calc.deps(e.args[1]):
+            base, exp = e.args
+            db = self.rate(base)
+            out = _ZERO if db == 0 else (sp.Mul(_TWO, base, db) if exp == 2 else sp.Mul(exp, sp.Pow(base, exp - 1), db))
+        elif isinstance(e, sp.sin):
+            out = sp.Mul(trig(sp.cos, e.args[0]), self.rate(e.args[0]))
+        elif isinstance(e, sp.cos):
+            out = sp.Mul(-_ONE, trig(sp.sin, e.args[0]), self.rate(e.args[0]))
+        else:
+            calc = self.calc
+            out = sp.Add(*[sp.Mul(calc.diff(e, s), self.v[self.qidx[s]]) for s in deps if s in self.qidx],
+                         calc.diff(e, self.t))
+        memo[e] = out
+        return out
 
     def _curl(self, A: _Affine) -> dict:
         """``g_i = Σ_j (∂J_i/∂q_j − ∂J_j/∂q_i) q̇_j + ∂J_i/∂t − ∂b/∂q_i`` for every ``i`` where it is not zero."""
         if A.curl is not None:
             return A.curl
+        known = self._frame_curls.get(A.w)
+        if known is None and self._frame_curls:
+            known = self._frame_curls.get(-A.w)
+            if known is not None:
+                known = {i: -g for i, g in known.items()}
+        if known is not None:
+            A.curl = known
+            return known
         calc, q, v, t = self.calc, self.q, self.v, self.t
         qdeps = {j: [self.qidx[s] for s in calc.deps(c) if s in self.qidx] for j, c in A.J.items()}
         rows = set(A.J)
@@ -251,9 +298,47 @@ class Derivation:
         return curl
 
     # ---- assembling M and f ---------------------------------------------------------------------
-    def equations(self, T, V, G, D, Q: Sequence) -> tuple[list[list], list]:
-        """``(M as rows, f)``."""
+    def frames(self, frames: Sequence) -> None:
+        """Register moving frames: ``(ω, [v, ...])``, 3-vectors in the frame's axes (:class:`~lagrangian.MovingFrame`).
+
+        The curl terms ``g_i`` of their components are then written in closed form.  With ``R`` the frame's
+        rotation, ``ω`` its angular velocity ``Rᵀ Ṙ`` and ``Ω_i = ∂ω/∂q̇_i``, the structure equation
+        ``∂Ω_i/∂q_j − ∂Ω_j/∂q_i = Ω_i × Ω_j`` gives ``g_i = Ω_i × ω``; for a velocity ``v = Rᵀ ṗ`` with
+        ``V_i = ∂v/∂q̇_i``, ``g_i = V_i × ω + Ω_i × v`` (``t`` counted as a coordinate of rate 1, so rheonomic
+        frames are covered).  A vector whose components are not affine in the velocities is left to the general
+        formula."""
+        for omega, velocities in frames:
+            Om = [self.affine(e) for e in omega]
+            if any(a is None for a in Om):
+                continue
+            self._frame_curl_add(omega, Om, omega, Om, None)
+            for vel in velocities:
+                Vs = [self.affine(e) for e in vel]
+                if all(a is not None for a in Vs):
+                    self._frame_curl_add(vel, Vs, omega, Om, True)
+
+    def _frame_curl_add(self, vec, A3, omega, Om, velocity) -> None:
+        cols = sorted(set().union(*(a.J for a in A3), *(a.J for a in Om)))
+
+        def col(As, i):
+            return [a.J.get(i, _ZERO) for a in As]
+
+        curls: list[dict] = [dict(), dict(), dict()]
+        for i in cols:
+            Vi, Oi = col(A3, i), col(Om, i)
+            g = _cross(Oi, omega) if velocity is None else [sp.Add(a, b) for a, b in zip(_cross(Vi, omega), _cross(Oi, vec))]
+            for k in range(3):
+                if g[k] != 0:
+                    curls[k][i] = g[k]
+        for k in range(3):
+            w = vec[k]
+            if w != 0 and w not in self._frame_curls:
+                self._frame_curls[w] = curls[k]
+
+    def equations(self, T, V, G, D, Q: Sequence, frames: Sequence = ()) -> tuple[list[list], list]:
+        """``(M as rows, f)``; ``frames``: see :meth:`frames`."""
         n, calc, q, v, t = self.n, self.calc, self.q, self.v, self.t
+        self.frames(frames)
         products, rest = self.split(T)
         self.products, self.rest = products, rest
         Mbuckets: list[dict] = [dict() for _ in range(n * n)]  # (i, j), i <= j: (J_i, J_j) → [coef]
@@ -414,6 +499,14 @@ class Derivation:
         for i, pi in self._rest_momenta.items():
             p[i].append(pi)
         return [sp.Add(*terms) for terms in p]
+
+
+def _cross(a: Sequence, b: Sequence) -> list:
+    """``a × b`` of two 3-vectors, without products by zero entries."""
+    def term(x, y):
+        return _ZERO if x == 0 or y == 0 else sp.Mul(x, y)
+    return [sp.Add(term(a[1], b[2]), -term(a[2], b[1])), sp.Add(term(a[2], b[0]), -term(a[0], b[2])),
+            sp.Add(term(a[0], b[1]), -term(a[1], b[0]))]
 
 
 def _coef_sum(coefs: list) -> sp.Expr:

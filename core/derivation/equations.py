@@ -97,7 +97,9 @@ class Equations:
             self.load_shares.append((name, [e.xreplace(values) for e in share] if values else share))
         constraints = [self.symbolic(c) for view in assembly.generic_views.values() for c in view.constraints]
         rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.generic_views.values()), default=10.0)
-        self._derive(T, V, G, D, Q, constraints, rate, values=values)
+        frames = [([self.symbolic(e) for e in f.omega], [[self.symbolic(e) for e in vel] for vel in f.velocities])
+                  for f in assembly.frame_list(generic=True)]
+        self._derive(T, V, G, D, Q, constraints, rate, values=values, frames=frames)
 
     @classmethod
     def from_energies(cls, coordinates, T, V, G, D, Q, constraints=(), constraint_rate: float = 10.0,
@@ -140,10 +142,10 @@ class Equations:
         self._symbolic = Rewriter(self._to_sym, self._no_acceleration)
         self._display = Rewriter(self._from_sym)
 
-    def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None, values=None) -> None:
+    def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None, values=None, frames=()) -> None:
         q, v = self.sym.q, self.sym.v
         self._derivation = derivation = Derivation(q, v, t)
-        M, f = derivation.equations(T, V, G, D, Q)
+        M, f = derivation.equations(T, V, G, D, Q, frames=frames)
         # The derivation ran on symbols (exact, and faster than on floats); the values given as numbers go in now.
         self._values = values = dict(values or {})
 

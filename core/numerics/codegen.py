@@ -293,7 +293,7 @@ class CompiledModel:
     def describe(self) -> str:
         """What evaluates the model: ``native code (<key>.so, from the cache)`` or ``the tape interpreter (…)``."""
         if self.kind == "native":
-            return f"native code ({self.path.name}{', from the cache' if self.from_cache else ', built now'})"
+            return f"native code ({self.path.name}{', from the cache' if self.from_cache else ', built for this model'})"
         matrix, _ = programs(self.numeric)
         return f"the tape interpreter ({len(matrix.code)} instructions per evaluation; nothing compiled for this model)"
 

@@ -346,14 +346,17 @@ class NumericModel:
         return v, u[: self.nI]
 
     def velocities_many(self, times: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """All generalized velocities at many states ``Y`` (columns), with one batched solve."""
+        """All generalized velocities at many states ``Y`` (columns), with one batched solve (none when every
+        coordinate is inertial: the velocities are then part of the state)."""
+        n, N = self.n, times.size
+        if not self.eq.first_order:
+            v = np.empty((n, N))
+            v[self.eq.inertial] = Y[n:]
+            return v
         if self._fast is not None:
             return self._fast.velocities_many(times, Y)
-        n, N = self.n, times.size
         v = np.empty((n, N))
         v[self.eq.inertial] = Y[n:]
-        if not self.eq.first_order:
-            return v
         if self._flat_fn is None:
             a_entries, b_entries, args, signals = self._flat_exprs
             self._flat_fn = _lambdify(args, a_entries + b_entries, signals)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from lagrangian import GROUND, Component, Contribution, Example, ModelError, Parameter, dot
+from lagrangian import GROUND, Component, Contribution, Example, ModelError, MovingFrame, Parameter, dot
 
 from .checks import _need_dim, _vec, lg_param_error
 
@@ -55,14 +55,17 @@ class _BodyBase(Component):
         if self.mass_value == 0:
             return Contribution()
         pose = view.pose(self.nodes[0])
-        v = view.velocity(f"{self.nodes[0]}.com")
+        if dim == 3 and pose.v_body is not None:
+            from .rotations import cross
+            v = pose.v_body + cross(pose.omega_body, self.com_offset(3))
+        else:
+            v = view.velocity(f"{self.nodes[0]}.com")
         I = self.inertia_matrix(dim)
         if dim == 2:
-            rot = I * pose.omega**2 / 2
-        else:
-            wb = pose.R.T * pose.omega
-            rot = (wb.T * I * wb)[0, 0] / 2
-        return Contribution(T=self.mass_value * dot(v, v) / 2 + rot)
+            return Contribution(T=self.mass_value * dot(v, v) / 2 + I * pose.omega**2 / 2)
+        wb = pose.omega_body
+        rot = (wb.T * I * wb)[0, 0] / 2
+        return Contribution(T=self.mass_value * dot(v, v) / 2 + rot, frames=[MovingFrame(wb, (v,))])
 
 
 def _points_param():

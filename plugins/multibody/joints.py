@@ -11,7 +11,7 @@ import sympy as sp
 from lagrangian import Component, Contribution, Example, ModelError, Parameter, t
 
 from .checks import _unit, _vec, lg_param_error
-from .rotations import E3, _angle_descriptions, _angle_names, _check_sequence, _euler, _rot3
+from .rotations import E3, _angle_descriptions, _angle_names, _check_sequence, _euler, _euler_body, _rot3
 
 
 class _Joint(Component):
@@ -45,6 +45,13 @@ class _Joint(Component):
         """Planar: ``(relative angle, translation in the parent frame, None)``; spatial: ``(R_rel, translation in
         the parent frame, relative angular velocity in the parent frame)``."""
         raise NotImplementedError
+
+    def relative_body_rate(self, q: list, R_rel: sp.Matrix, w_rel: sp.Matrix) -> sp.Matrix:
+        """Spatial: the relative angular velocity in the child's frame, ``R_relᵀ w_rel``; joints whose rotations
+        have a shorter form give it (a turn about an axis leaves the axis where it is)."""
+        if all(e == 0 for e in w_rel):
+            return sp.zeros(3, 1)
+        return R_rel.T * w_rel
 
     def driven(self) -> list | None:
         """Prescribed coordinate values (expressions of t) for a driven joint, else None."""
@@ -89,6 +96,9 @@ class Revolute(_Joint):
             return theta, sp.zeros(2, 1), None
         axis = _unit(_vec(self.params.get("axis"), 3, self, "axis", E3[2]), self, "axis")
         return _rot3(axis, theta), sp.zeros(3, 1), axis * theta.diff(t)
+
+    def relative_body_rate(self, q, R_rel, w_rel):
+        return w_rel  # the axis is its own image under the turn about it
 
     @classmethod
     def example(cls) -> Example:
@@ -200,6 +210,9 @@ class Spherical(_Joint):
         R, omega = _euler(self.sequence, *q)
         return R, sp.zeros(3, 1), omega
 
+    def relative_body_rate(self, q, R_rel, w_rel):
+        return _euler_body(self.sequence, *q)
+
     @classmethod
     def example(cls) -> Example:
         return Example(("ground", "top"), {"child_point": (0, 0, -1)},
@@ -221,6 +234,9 @@ class PlanarJoint(_Joint):
         if dim == 2:
             return theta, sp.Matrix([x, y]), None
         return _rot3(E3[2], theta), sp.Matrix([x, y, 0]), E3[2] * theta.diff(t)
+
+    def relative_body_rate(self, q, R_rel, w_rel):
+        return w_rel  # a turn about z leaves z where it is
 
     @classmethod
     def example(cls) -> Example:
@@ -281,6 +297,9 @@ class Free(_Joint):
             return theta, sp.Matrix([x, y]), None
         R, omega = _euler(self.sequence, *q[3:])
         return R, sp.Matrix(q[:3]), omega
+
+    def relative_body_rate(self, q, R_rel, w_rel):
+        return _euler_body(self.sequence, *q[3:])
 
     @classmethod
     def example(cls) -> Example:

@@ -12,7 +12,7 @@ from lagrangian.derive import time_derivative
 
 from .bodies import _BodyBase
 from .joints import _Joint
-from .rotations import Pose, _rot2, transform
+from .rotations import Pose, _rot2, cross, transform
 
 
 def build_kinematics(network, view) -> None:
@@ -33,7 +33,8 @@ def build_kinematics(network, view) -> None:
             if n != GROUND and n not in bodies:
                 raise UnknownNameError(f"body for joint {j.name!r}", n, bodies)
     ground_pose = Pose(sp.eye(dim), sp.zeros(dim, 1), sp.Integer(0) if dim == 2 else sp.zeros(3, 1),
-                       angle=sp.Integer(0) if dim == 2 else None)
+                       angle=sp.Integer(0) if dim == 2 else None, omega_body=None if dim == 2 else sp.zeros(3, 1),
+                       v_body=None if dim == 2 else sp.zeros(3, 1))
     view.poses[GROUND] = ground_pose
     # breadth-first from ground along joints followed parent → child: tree joints give poses, the rest close loops
     # (a joint met child-first is left to close a loop, so the order of declaration does not matter)
@@ -97,8 +98,14 @@ def _child_pose(j: _Joint, view, dim: int, parent: str, child: str, bodies) -> P
         return Pose(R, p, time_derivative(sp.sympify(angle), t), angle)
     R = pp.R * R_rel
     omega = pp.omega + pp.R * w_rel
+    # in the body's frame, joint by joint: never Rᵀ ω of two long products whose cancellation SymPy cannot see
+    carried = R_rel.T * pp.omega_body if any(e != 0 for e in pp.omega_body) else sp.zeros(3, 1)
+    omega_body = carried + j.relative_body_rate(q, R_rel, w_rel)
     p = transform(transform(pp.p, pp.R, P + d), R, -C)
-    return Pose(R, p, omega)
+    r = P + d
+    vj = pp.v_body + cross(pp.omega_body, r) + d.applyfunc(lambda e: time_derivative(e, t))
+    v_body = R_rel.T * vj - cross(omega_body, C)
+    return Pose(R, p, omega, omega_body=omega_body, v_body=v_body)
 
 
 def _closure(j: _Joint, view, dim: int, bodies) -> list[sp.Expr]:

@@ -16,12 +16,15 @@ from lagrangian.derive import trig
 @dataclass
 class Pose:
     """Rotation ``R`` (dim × dim), origin ``p`` and angular velocity ``omega`` (planar: scalar; spatial: 3-vector in
-    the fixed frame) of a body, as expressions of the coordinates and time."""
+    the fixed frame) of a body, as expressions of the coordinates and time; spatial poses also carry
+    ``omega_body``, the angular velocity in the body's own frame (``Rᵀ ω``), built joint by joint."""
 
     R: sp.Matrix
     p: sp.Matrix
     omega: Any
     angle: Any = None  # planar only
+    omega_body: Any = None  # spatial only
+    v_body: Any = None  # spatial only: the origin's velocity in the body frame
 
 
 def _rot2(phi) -> sp.Matrix:
@@ -120,3 +123,19 @@ def _euler(sequence: str, a, b, c):
     R1, R2, R3 = _rot3(e1, a), _rot3(e2, b), _rot3(e3, c)
     omega = e1 * a.diff(t) + R1 * e2 * b.diff(t) + R1 * R2 * e3 * c.diff(t)
     return R1 * R2 * R3, omega
+
+
+def _euler_body(sequence: str, a, b, c) -> sp.Matrix:
+    """The angular velocity of :func:`_euler`'s rotation in the rotated (body) frame,
+    ``Rᵀ ω = R_3ᵀ R_2ᵀ e_1 ȧ + R_3ᵀ e_2 ḃ + e_3 ċ``: each rate turned back only through the later rotations."""
+    e1, e2, e3 = (E3["xyz".index(axis)] for axis in sequence)
+    R2, R3 = _rot3(e2, b), _rot3(e3, c)
+    return R3.T * (R2.T * e1 * a.diff(t) + e2 * b.diff(t)) + e3 * c.diff(t)
+
+
+def cross(a: sp.Matrix, b: sp.Matrix) -> sp.Matrix:
+    """``a × b`` of two 3-vectors, without products by zero entries."""
+    def term(x, y):
+        return sp.Integer(0) if x == 0 or y == 0 else x * y
+    return sp.Matrix([term(a[1], b[2]) - term(a[2], b[1]), term(a[2], b[0]) - term(a[0], b[2]),
+                      term(a[0], b[1]) - term(a[1], b[0])])
