@@ -196,3 +196,52 @@ def test_a_moving_frame_that_is_not_a_3_vector_is_refused_naming_the_component()
     m.add("bad_frame", "b", "p")
     with pytest.raises(lg.ModelError, match=r"bad_frame 'b': frames\[0\]\.omega must be a 3 × 1"):
         m.mass_matrix  # noqa: B018
+
+
+def test_free_body_carrying_a_slider_matches_kane():
+    """Translations in the joints (a free joint's x, y, z; a prismatic joint along a tilted axis of a turning body)
+    enter the body-frame velocities as rates of the joint offset: checked against KanesMethod."""
+    axis, at, com_a, com_b = (0.0, 0.6, -0.8), (0.11, -0.05, 0.02), (0.02, -0.01, 0.04), (0.0, 0.03, -0.02)
+    Ia, Ib = inertia(0.013, (1.0, 0.85, 0.7), 0.15), inertia(0.0021, (0.9, 1.0, 0.75), 0.0)
+    m = lg.Model("free body with a slider", dim=3)
+    m.add("body", "a", "a", m=0.83, inertia=Ia, com=com_a)
+    m.add("body", "b", "b", m=0.057, inertia=Ib, com=com_b)
+    m.add("free", "fly", ("ground", "a"), sequence="zyx")
+    m.add("prismatic", "slide", ("a", "b"), parent_point=at, axis=axis)
+    m.add("spring", "k", ("a.origin", "b.origin"), k=37.0, rest_length=0.1)
+    m.add("gravity", "g", g=G)
+
+    T = me.dynamicsymbols._t
+    q = me.dynamicsymbols("q0:7")
+    u = me.dynamicsymbols("u0:7")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    A = N.orientnew("A", "Body", q[3:6], "zyx")
+    Oa = O.locatenew("Oa", q[0] * N.x + q[1] * N.y + q[2] * N.z)
+    Ga = Oa.locatenew("Ga", vec(A, com_a))
+    Ob = Oa.locatenew("Ob", vec(A, at) + q[6] * vec(A, axis))
+    Gb = Ob.locatenew("Gb", vec(A, com_b))
+    for point in (Oa, Ga, Ob, Gb):
+        point.set_vel(N, point.pos_from(O).dt(N))
+    stretch = Ob.pos_from(Oa).magnitude()
+    force = 37.0 * (stretch - 0.1) * Ob.pos_from(Oa).normalize()
+    bodies = [me.RigidBody("A", Ga, A, 0.83, (me.inertia(A, *flat(Ia, True)), Ga)),
+              me.RigidBody("B", Gb, A, 0.057, (me.inertia(A, *flat(Ib)), Gb))]
+    loads = [(Ga, -0.83 * G * N.z), (Gb, -0.057 * G * N.z), (Ob, -force), (Oa, force)]
+    km = me.KanesMethod(N, q, u, kd_eqs=[qi.diff(T) - ui for qi, ui in zip(q, u)])
+    km.kanes_equations(bodies, loads)
+    Q, U = sp.symbols("Q0:7"), sp.symbols("U0:7")
+    subs = {**dict(zip(u, U)), **{qi.diff(T): ui for qi, ui in zip(q, U)}}
+    M_ref = sp.lambdify((Q, U), me.msubs(km.mass_matrix, subs, dict(zip(q, Q))), "numpy")
+    f_ref = sp.lambdify((Q, U), me.msubs(km.forcing, subs, dict(zip(q, Q))), "numpy")
+    assert m.coordinate_names == ["x_fly", "y_fly", "z_fly", "alpha_fly", "beta_fly", "gamma_fly", "s_slide"]
+    numeric = compiled(m)
+    rng = np.random.default_rng(3)
+    for _ in range(6):
+        qs = rng.uniform(-1.0, 1.0, 7)
+        qs[6] = rng.uniform(0.05, 0.4)
+        us = rng.uniform(-2.0, 2.0, 7)
+        ours = numeric.rhs(0.0, np.concatenate([qs, us]))[7:]
+        theirs = np.linalg.solve(np.asarray(M_ref(qs, us), float), np.asarray(f_ref(qs, us), float).ravel())
+        assert np.max(np.abs(ours - theirs)) < 1e-9 * np.max(np.abs(theirs))
