@@ -19,9 +19,11 @@ benchmark: setup
 	.venv/bin/python benchmarks/integrators.py
 	.venv/bin/python benchmarks/rhs.py
 	.venv/bin/python benchmarks/simulate.py
+	.venv/bin/python benchmarks/spatial.py
 	.venv/bin/python benchmarks/routh.py
 	.venv/bin/python benchmarks/scenes.py
 	.venv/bin/python benchmarks/impacts.py
+	.venv/bin/python benchmarks/scale.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins
