@@ -241,12 +241,29 @@ void lg_energies(const void *ctx, long N, const double *t, const double *q, cons
 def _interpreter() -> str:
     """The C interpreter of tapes: one ``case`` per operation of :data:`lagrangian.tape.OPS`."""
     cases = "\n".join(f"        case {k}: r[c[1]] = {template}; break;" for k, (_, template) in enumerate(OPS.values()))
+    labels = ", ".join(f"&&op{k}" for k in range(len(OPS)))
+    threaded = "\n".join(f"    op{k}: {{ const double x = r[c[2]], y = r[c[3]], z = r[c[4]]; (void)y; (void)z; "
+                         f"r[c[1]] = {template}; c += 5; if (c == end) return; goto *ops[c[0]]; }}"
+                         for k, (_, template) in enumerate(OPS.values()))
     return r"""
 /* A tape (lagrangian.tape.Program): registers = inputs, constants, temporaries; rows (op, dst, x, y, z). */
 typedef struct { int nin, nconst, ninstr, nout; const double *consts; const int *code; const int *out; } lg_prog;
 /* A model as two tapes: A and b from (t, q, q'_inertial); T, V, D, L, p from (t, q, q'). */
 typedef struct { int nq, ni, nf, nm; const int *inertial, *first; lg_prog matrix, energy; } lg_tape;
 
+#if defined(__GNUC__)
+/* Direct threading (GCC and Clang's labels as values): each operation jumps straight to the next one's code, so
+   the processor predicts every jump from where it is taken, not one shared switch (1.25x on the 4,729
+   operations of three bodies on spherical joints: benchmarks/spatial.py). */
+static void run(const lg_prog *p, double *r) {
+    static const void *const ops[] = {""" + labels + r"""};
+    memcpy(r + p->nin, p->consts, p->nconst * sizeof(double));
+    const int *c = p->code, *const end = p->code + 5 * p->ninstr;
+    if (c == end) return;
+    goto *ops[c[0]];
+""" + threaded + r"""
+}
+#else
 static void run(const lg_prog *p, double *r) {
     memcpy(r + p->nin, p->consts, p->nconst * sizeof(double));
     for (const int *c = p->code, *end = p->code + 5 * p->ninstr; c < end; c += 5) {
@@ -257,6 +274,7 @@ static void run(const lg_prog *p, double *r) {
         }
     }
 }
+#endif
 
 #define ON_STACK 4096
 /* Run p on the inputs (t, a[na], b[nb]); its outputs into out. 0: done, 2: out of memory. */
