@@ -330,7 +330,8 @@ def _scene(args) -> int:
     velocity = {**velocity, **_merged(args.velocity)}
     t_end = args.t_end if args.t_end is not None else (span or 10.0)
     scene = Scene(model, args.output, t_end, tol=args.tol, initial=initial, velocity=velocity,
-                  params=_merged(args.param), points=args.points, method=args.method)
+                  params=_merged(args.param), points=args.points, method=args.method,
+                  reduce={"auto": "auto", "always": True, "never": False}[args.reduce])
     print(scene.report())
     res = scene.run()
     if args.csv:
@@ -407,6 +408,9 @@ def _parser() -> _Parser:
                        help="output times, at least 2 (default 1001)")
     scene.add_argument("--method", type=_methods(("auto", "exact"), single=True), default="DOP853",
                        help="integrator for nonlinear parts (default DOP853; see 'lagrangian integrators')")
+    scene.add_argument("--reduce", choices=("auto", "always", "never"), default="auto",
+                       help="eliminate ignorable coordinates through the Routhian: when it pays (auto, the default), "
+                            "always or never")
     scene.add_argument("--csv", help="write the outputs to this CSV file")
     return parser
 

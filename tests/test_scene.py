@@ -7,6 +7,7 @@ requested outputs), and each has a case where it must not apply.
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 
@@ -126,7 +127,7 @@ SPH = {"initial": {"theta_turn": 0.2, "theta_tilt": 0.9}, "velocity": {"theta_tu
 
 def test_ignorable_coordinates_not_asked_for_are_never_integrated():
     model = spherical()
-    scene = Scene(model, ["theta_tilt", "E"], 5, tol=1e-13, **SPH)
+    scene = Scene(model, ["theta_tilt", "E"], 5, tol=1e-13, reduce=True, **SPH)
     (part,) = scene.plan.parts
     assert part.eliminated == ["theta_turn"] and part.reconstructed == [] and part.integrated == ["theta_tilt"]
     res = scene.run()
@@ -136,9 +137,33 @@ def test_ignorable_coordinates_not_asked_for_are_never_integrated():
     assert np.max(np.abs(res["E"] - ref.E)) < 1e-10  # E needs φ̇: evaluated from ∂R/∂C
 
 
+def test_a_reduction_is_done_only_when_it_pays_and_the_report_says_why():
+    """reduce="auto": over a few swings integrating φ costs less than eliminating it, so the part is integrated
+    as it is (the report gives both estimates); over many, φ is eliminated.  Both agree with the full model."""
+    model = spherical()
+    short = Scene(model, ["theta_tilt"], 5, tol=1e-11, **SPH)
+    (part,) = short.plan.parts
+    assert part.eliminated == [] and part.integrated == ["theta_turn", "theta_tilt"]
+    assert re.search(r"theta_turn ignorable, not eliminated: integrating the part as it is costs about [0-9.e-]+ s "
+                     r"\([0-9.e+]+ evaluations of \d+ operations, counted by a pilot run\), the Routhian about "
+                     r"[0-9.e-]+ s of symbolic work \(reduce=True forces it\)", short.report())
+    ref = full_run(model, 5, SPH)
+    assert np.max(np.abs(short.run()["theta_tilt"] - ref["theta_tilt"])) < 1e-9
+    span = 3000.0
+    long = Scene(model, ["theta_tilt"], span, tol=1e-11, points=301, **SPH)
+    assert long.plan.parts[0].eliminated == ["theta_turn"]
+    ref = model.simulate(span, initial=SPH["initial"], velocity=SPH["velocity"], t_eval=np.linspace(0, span, 301), **TIGHT)
+    # over 3,000 s the two runs drift apart with the tolerance (rtol 1e-11 against 1e-13), not with the reduction
+    assert np.max(np.abs(long.run()["theta_tilt"] - ref["theta_tilt"])) < 1e-6
+    never = Scene(model, ["theta_tilt"], span, tol=1e-11, points=301, reduce=False, **SPH)
+    assert never.plan.parts[0].eliminated == [] and "(reduce=False)" in never.report()
+    with pytest.raises(lg.ModelError, match="reduce must be 'auto', True or False"):
+        Scene(model, ["theta_tilt"], 5, reduce="yes", **SPH)
+
+
 def test_ignorable_coordinates_asked_for_are_reconstructed():
     model = spherical()
-    scene = Scene(model, ["theta_turn", "theta_turn'"], 5, tol=1e-12, **SPH)
+    scene = Scene(model, ["theta_turn", "theta_turn'"], 5, tol=1e-12, reduce=True, **SPH)
     (part,) = scene.plan.parts
     assert part.reconstructed == ["theta_turn"]
     res = scene.run()
@@ -230,6 +255,27 @@ def test_zero_valued_components_vanish_with_a_note():
     assert plan.dropped == {"c": "contributes nothing (c = 0)", "F": "contributes nothing (F = 0)"}
 
 
+def test_command_line_scene_reduce_option(tmp_path):
+    source = tmp_path / "sph.py"
+    source.write_text(
+        "import lagrangian as lg\n"
+        "def build():\n"
+        "    m = lg.Model('spherical pendulum', dim=3)\n"
+        "    m.add('link', 'yoke', 'yoke')\n"
+        "    m.add('revolute', 'turn', ('ground', 'yoke'), axis=(0, 0, 1))\n"
+        "    m.add('link', 'arm', 'arm', points={'bob': (0, 0, -1)})\n"
+        "    m.add('revolute', 'tilt', ('yoke', 'arm'), axis=(1, 0, 0))\n"
+        "    m.add('mass', 'bob', 'arm.bob', m=0.3)\n"
+        "    m.add('gravity', 'g', g=9.81)\n"
+        "    return m\n"
+    )
+    proc = subprocess.run([sys.executable, "-m", "lagrangian", "scene", f"{source}:build", "-o", "theta_tilt", "--t-end", "2",
+                           "--initial", "theta_tilt=0.9", "--velocity", "theta_turn=1.7,theta_tilt=0", "--points", "11",
+                           "--reduce", "always"], capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "eliminated through the Routhian: theta_turn" in proc.stdout
+
+
 def test_command_line_scene(tmp_path):
     source = tmp_path / "machine.py"
     source.write_text(
@@ -315,7 +361,7 @@ def test_the_whole_state_given_to_a_scene_that_eliminates_and_prunes():
     velocity in the given state), the circuit pruned.  Scene at rtol 1e-12 against the full model at 1e-13 over
     about two swings: 1e-10 on the angles, 1e-10 relative on the azimuth rate (evaluated from ∂R/∂C)."""
     model = pendulums_and_circuit()
-    scene = Scene(model, ["theta_tilt1", "theta_tilt2", "theta_turn2'"], 3, tol=1e-12, **FULL)
+    scene = Scene(model, ["theta_tilt1", "theta_tilt2", "theta_turn2'"], 3, tol=1e-12, reduce=True, **FULL)
     plan = scene.plan
     assert sorted(p.coordinates for p in plan.parts) == [["theta_turn1", "theta_tilt1"], ["theta_turn2", "theta_tilt2"]]
     assert [p.eliminated for p in plan.parts] == [["theta_turn1"], ["theta_turn2"]]
@@ -410,7 +456,7 @@ def _property_test():
                              "theta_turn2": w2 * spins[1], "theta_tilt2": w2 * rates[1], "q_L1": 1e-2 * rates[2]}}
         span = 3 / w0
         scene = Scene(model, ["theta_tilt1", "theta_turn1", "theta_turn1'"], span, tol=1e-11, points=101, offer=False,
-                      **full)
+                      reduce=True, **full)
         (part,) = scene.plan.parts
         assert part.eliminated == ["theta_turn1"]
         assert {"theta_tilt2", "q_L1", "theta_turn2'"} <= set(scene.plan.unused)

@@ -76,7 +76,8 @@ def spherical_twin():
 
 def scene_spherical(v):
     """Asked θ and E from a full state: φ is eliminated (its momentum from φ̇), E stays at its start value
-    ½ m l² (θ̇₀² + φ̇₀² sin²θ₀) − m g l cos θ₀, and θ(t) is the full model's."""
+    ½ m l² (θ̇₀² + φ̇₀² sin²θ₀) − m g l cos θ₀, and θ(t) is the full model's; left to weigh the reduction
+    (``reduce="auto"``), the model given numbers decides as its symbolic twin does."""
     m, length, g = v["m"], v["length"], v["g"]
     rate = math.sqrt(g / length)
     t_end = 4 * 2 * math.pi / rate
@@ -87,12 +88,15 @@ def scene_spherical(v):
     scale = m * g * length * (1 + v["dtheta"] ** 2 + v["dphi"] ** 2)
     full = models.spherical_pendulum(m, length, g).simulate(t_end, method="DOP853", rtol=1e-12, atol=1e-14,
                                                             t_eval=np.linspace(0, t_end, 101), **state)
-    results = []
+    results, verdicts = [], []
     for who, model, params in (("numbers", models.spherical_pendulum(m, length, g), {}),
                                ("symbolic twin", spherical_twin(), {"m": m, "length": length, "g": g})):
-        scene = Scene(model, ["theta_tilt", "E"], t_end, tol=1e-10, params=params, points=101, offer=False, **state)
+        scene = Scene(model, ["theta_tilt", "E"], t_end, tol=1e-10, params=params, points=101, offer=False,
+                      reduce=True, **state)
         same([(p.integrated, p.eliminated) for p in scene.plan.parts], [(["theta_tilt"], ["theta_turn"])],
              f"the integrated and eliminated coordinates ({who})")
+        weighed = Scene(model, ["theta_tilt", "E"], t_end, tol=1e-10, params=params, points=101, offer=False, **state)
+        verdicts.append([(p.integrated, p.eliminated) for p in weighed.plan.parts])
         res = scene.run()
         theta = np.asarray(res["theta_tilt"], dtype=float)
         err = float(np.max(np.abs(theta - np.asarray(full["theta_tilt"], dtype=float))))
@@ -106,6 +110,7 @@ def scene_spherical(v):
     err = float(np.max(np.abs(results[0] - results[1])))
     if not err <= 1e-8:
         raise Mismatch(f"θ, numbers against the symbolic twin: max difference {err:.3g} rad")
+    same(verdicts[0], verdicts[1], "reduce='auto': whether to eliminate φ, numbers against the symbolic twin")
 
 
 CASES = [

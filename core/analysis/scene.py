@@ -65,12 +65,14 @@ from ..errors import ModelError, ReductionError, UnknownNameError
 from .impulse import simulate_with_impacts
 from ..model import Model
 from .routh import _depends, _drop, ignorable, reduce
-from .scene_plan import Offer, Part, ScenePlan, SceneResult, _closure, _maybe_linear, _ops, _Output
+from .scene_cost import reduction_skipped
+from .scene_plan import Offer, Part, ScenePlan, SceneResult, _closure, _maybe_linear, _ops, _Output, _with_values
 from ..numerics.simulation import InitialConditionWarning, Result, _lambdify
 
 __all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
 
 _ENERGIES = ("T", "V", "D", "E", "L")
+
 
 
 class Scene:
@@ -103,14 +105,17 @@ class Scene:
     ...): a part they act on is simulated with impacts
     (:func:`~lagrangian.impulse.simulate_with_impacts`: no reduction, no
     exact solve, as impulses change every momentum), an event on pruned
-    coordinates is dropped with a note.
+    coordinates is dropped with a note.  ``reduce``: eliminate ignorable
+    coordinates through the Routhian when it pays (``"auto"``; the report
+    gives the estimates: :mod:`lagrangian.analysis.scene_cost`), always
+    (``True``) or never (``False``).
     """
 
     def __init__(self, model: Model, outputs: Sequence[Any], t_end: float | tuple[float, float] = 10.0, *,
                  tol: float = 1e-8, initial: Mapping[str, float] | None = None, velocity: Mapping[str, float] | None = None,
                  params: Mapping[str, float] | None = None, points: int = 1001, t_eval: Sequence[float] | None = None,
                  method: str = "DOP853", offer: bool = True, progress: bool | Any = False,
-                 events: Sequence[Any] = ()):
+                 events: Sequence[Any] = (), reduce: bool | str = "auto"):
         if isinstance(outputs, (str, sp.Basic)):
             outputs = [outputs]
         if not outputs:
@@ -125,6 +130,9 @@ class Scene:
         self.velocity = dict(velocity or {})
         self.params = dict(params or {})
         self.grid = np.linspace(*self.span, points) if t_eval is None else np.asarray(t_eval, dtype=float)
+        if not any(reduce is v for v in (True, False)) and reduce != "auto":
+            raise ModelError(f"reduce must be 'auto', True or False, not {reduce!r}.")
+        self.reduce = reduce
         self.method = method
         self.offer = offer
         self.progress = progress
@@ -384,7 +392,10 @@ class Scene:
         if cyclic and len(cyclic) == len(names) and not _is_zero(sub.eq.L) and not sub.eq.L.has(t):
             return Part(names, [], cyclic, [], "uniform", "every coordinate is ignorable and L does not depend on t: "
                         "constant velocities, q = q₀ + q̇₀ (t − t₀)", sub, 0)
+        skipped = None
         if cyclic and len(cyclic) < len(names):
+            skipped = reduction_skipped(self, sub, names, cyclic)
+        if cyclic and len(cyclic) < len(names) and skipped is None:
             try:
                 red = reduce(sub, cyclic)
                 eliminated = list(cyclic)
@@ -404,6 +415,8 @@ class Scene:
             method, why = "exact", "linear time-invariant: matrix exponential, no integration error"
         else:
             method, why = self.method, f"nonlinear or time-varying: integrated at rtol {self.tol:g}"
+        if skipped:
+            why += f"; {skipped}"
         return Part(names, integrated, eliminated, reconstructed, method, why, part_model, _ops(part_model.eq))
 
     def _submodel(self, idx: list[int], minus: Mapping[str, sp.Expr] | None = None, share=None) -> DerivedModel:
@@ -545,17 +558,6 @@ class Scene:
         return model.simulate(self.span, initial=initial, velocity=velocity, method=self.method,
                               rtol=self.tol, atol=self.tol * 1e-3, **common)
 
-    def _with_values(self, expr: sp.Expr) -> sp.Expr:
-        """``expr`` with the values of its symbolic parameters from ``params`` (those of other parts not needed)."""
-        eq = self.model.eq
-        inner = set(eq.sym.q) | set(eq.sym.v) | {t}
-        free = sorted(expr.free_symbols - inner, key=str)
-        missing = sorted({s.name for s in free if s.name not in self.params})
-        if missing:
-            raise ModelError(f"the outputs need values of the symbolic parameters {', '.join(missing)}: pass them, "
-                             f"e.g. Scene(..., params={{{', '.join(f'{k!r}: ...' for k in missing)}}}).")
-        return expr.xreplace({s: sp.Float(float(self.params[s.name])) for s in free})
-
     def _inertial(self) -> set[str]:
         eq = self.model.eq
         return {eq.names[i] for i in eq.inertial}
@@ -576,7 +578,7 @@ class Scene:
                     columns[v[i]] = result.v[n] if n in result.v else None
                 if n in rates:
                     columns[v[i]] = ("rate", rates[n], part, result)
-        expr = self._with_values(expr)
+        expr = _with_values(self.model.eq, self.params, expr)
         args, data = [], []
         for s in sorted(expr.free_symbols - {t}, key=str):
             col = columns.get(s)

@@ -19,7 +19,7 @@ import sympy as sp
 
 from ..base.component import t
 from ..derivation.equations import Equations
-from ..errors import UnknownNameError
+from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..numerics.simulation import Result
 from ..numerics.tape import size
@@ -154,3 +154,14 @@ def _maybe_linear(eq: Equations) -> bool:
 def _ops(eq: Equations) -> int:
     """Operations to evaluate ``A`` and ``b`` once, every common subexpression once (the size of their tape)."""
     return size(list(eq.A) + list(eq.b))
+
+
+def _with_values(eq: Equations, params: dict, expr: sp.Expr) -> sp.Expr:
+    """``expr`` with the values of its symbolic parameters from ``params`` (those of other parts not needed)."""
+    inner = set(eq.sym.q) | set(eq.sym.v) | {t}
+    free = sorted(expr.free_symbols - inner, key=str)
+    missing = sorted({s.name for s in free if s.name not in params})
+    if missing:
+        raise ModelError(f"the outputs need values of the symbolic parameters {', '.join(missing)}: pass them, "
+                         f"e.g. Scene(..., params={{{', '.join(f'{k!r}: ...' for k in missing)}}}).")
+    return expr.xreplace({s: sp.Float(float(params[s.name])) for s in free})

@@ -107,6 +107,14 @@ class Calculus:
         return sp.diff(e, s)
 
 
+def _cross(a, b) -> list:
+    """``a × b`` of two 3-vectors, without products by zero entries."""
+    def term(x, y):
+        return _ZERO if x == 0 or y == 0 else sp.Mul(x, y)
+    return [sp.Add(term(a[1], b[2]), -term(a[2], b[1])), sp.Add(term(a[2], b[0]), -term(a[0], b[2])),
+            sp.Add(term(a[0], b[1]), -term(a[1], b[0]))]
+
+
 def trig(func, arg):
     """``func(arg)`` for ``sin`` or ``cos``, skipping SymPy's evaluation (slow, ~0.1 ms) when ``arg`` is a symbol or
     an undefined function — where it leaves the call unchanged anyway."""

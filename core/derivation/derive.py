@@ -38,7 +38,7 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, time_derivative, trig
+from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, _cross, time_derivative, trig
 from .probe import float_value
 
 __all__ = ["Calculus", "Derivation", "Rewriter", "float_value", "general", "time_derivative", "trig"]
@@ -499,14 +499,6 @@ class Derivation:
         for i, pi in self._rest_momenta.items():
             p[i].append(pi)
         return [sp.Add(*terms) for terms in p]
-
-
-def _cross(a: Sequence, b: Sequence) -> list:
-    """``a × b`` of two 3-vectors, without products by zero entries."""
-    def term(x, y):
-        return _ZERO if x == 0 or y == 0 else sp.Mul(x, y)
-    return [sp.Add(term(a[1], b[2]), -term(a[2], b[1])), sp.Add(term(a[2], b[0]), -term(a[0], b[2])),
-            sp.Add(term(a[0], b[1]), -term(a[1], b[0]))]
 
 
 def _coef_sum(coefs: list) -> sp.Expr:
