@@ -6,8 +6,12 @@ about wall time) and, under CI, derandomized so a run can be repeated.
 """
 
 import os
+import types
 
+import pytest
 from hypothesis import HealthCheck, settings
+
+import lagrangian as lg
 
 settings.register_profile(
     "default",
@@ -16,3 +20,21 @@ settings.register_profile(
 )
 settings.register_profile("ci", parent=settings.get_profile("default"), derandomize=True, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI") else "default")
+
+
+@pytest.fixture
+def registry_with():
+    """``registry_with(Component, ...)``: a registry with the installed plugins and one more, registered in-process,
+    providing the given component classes (a plugin a test writes)."""
+    def build(*classes):
+        plugin = types.ModuleType("test_plugin")
+
+        @lg.hookimpl
+        def register_component_types(register):
+            for cls in classes:
+                register(cls)
+
+        plugin.register_component_types = register_component_types
+        return lg.Registry(plugins={"test_plugin": plugin})
+
+    return build

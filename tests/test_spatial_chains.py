@@ -11,7 +11,6 @@ driven joint), with masses and inertias drawn over decades.
 from __future__ import annotations
 
 import functools
-import types
 
 import numpy as np
 import pytest
@@ -183,15 +182,8 @@ class _BadFrame(lg.Component):
         return lg.Example("p", {})
 
 
-@lg.hookimpl
-def _register_bad_frame(register):
-    register(_BadFrame)
-
-
-def test_a_moving_frame_that_is_not_a_3_vector_is_refused_naming_the_component():
-    plugin = types.ModuleType("bad_frame_plugin")
-    plugin.register_component_types = _register_bad_frame
-    m = lg.Model("bad", dim=3, registry=lg.Registry(plugins={"bad_frame_plugin": plugin}))
+def test_a_moving_frame_that_is_not_a_3_vector_is_refused_naming_the_component(registry_with):
+    m = lg.Model("bad", dim=3, registry=registry_with(_BadFrame))
     m.add("mass", "p", "p", m=1)
     m.add("bad_frame", "b", "p")
     with pytest.raises(lg.ModelError, match=r"bad_frame 'b': frames\[0\]\.omega must be a 3 × 1"):
