@@ -19,7 +19,7 @@ from sympy.core.function import AppliedUndef
 
 from ..errors import ModelError
 
-__all__ = ["Calculus", "Rewriter", "time_derivative", "trig"]
+__all__ = ["Calculus", "Rewriter", "atoms_of", "nodes", "symbols_of", "time_derivative", "trig"]
 
 _ZERO = sp.Integer(0)
 _ONE = sp.Integer(1)
@@ -105,6 +105,41 @@ class Calculus:
         elif isinstance(e, sp.cos):
             return sp.Mul(-_ONE, trig(sp.sin, e.args[0]), self.diff(e.args[0], s))
         return sp.diff(e, s)
+
+
+def nodes(exprs: Iterable) -> set:
+    """Every distinct sub-expression of ``exprs`` (expressions or matrices), each visited once.
+
+    SymPy's ``atoms`` and ``free_symbols`` visit a shared sub-expression once per occurrence: exponential in the
+    nesting depth for expressions such as a spatial chain's, where each body's velocity is nested in every body's
+    beyond it (16.5 million visits for the equations of four bodies on spherical joints, against 3,267 here).
+    Nodes that bind symbols (an integral's variable) are kept whole and not entered."""
+    seen: set = set()
+    stack = [e for x in exprs for e in (x if isinstance(x, sp.MatrixBase) else (x,))]
+    while stack:
+        e = stack.pop()
+        if e in seen:
+            continue
+        seen.add(e)
+        if e.args and not getattr(e, "bound_symbols", None):
+            stack.extend(e.args)
+    return seen
+
+
+def atoms_of(exprs: Iterable, *types) -> set:
+    """``atoms(*types)`` of ``exprs``, visiting each distinct sub-expression once (:func:`nodes`)."""
+    return {e for e in nodes(exprs) if isinstance(e, types)}
+
+
+def symbols_of(exprs: Iterable) -> set:
+    """The free symbols of ``exprs``, visiting each distinct sub-expression once (:func:`nodes`)."""
+    out: set = set()
+    for e in nodes(exprs):
+        if e.is_Symbol:
+            out.add(e)
+        elif e.args and getattr(e, "bound_symbols", None):
+            out |= e.free_symbols
+    return out
 
 
 def _cross(a, b) -> list:

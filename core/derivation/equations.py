@@ -37,6 +37,7 @@ from sympy.core.function import AppliedUndef
 
 from .assembly import Assembly
 from ..base.component import t
+from .calculus import atoms_of, symbols_of
 from .derive import Derivation, Rewriter
 from ..errors import ModelError
 from ..base.identity import is_zero
@@ -149,8 +150,12 @@ class Equations:
         # The derivation ran on symbols (exact, and faster than on floats); the values given as numbers go in now.
         self._values = values = dict(values or {})
 
+        self._put = rewrite = Rewriter(values)  # memoized: the equations share sub-expressions, xreplace revisits them
+
         def put(e):
-            return e.xreplace(values) if values else e
+            if not values:
+                return e
+            return e.applyfunc(rewrite) if isinstance(e, sp.MatrixBase) else rewrite(sp.sympify(e))
 
         M, f = sp.Matrix(M), sp.Matrix(f)
         for i, g in (quadratures or {}).items():  # q̇_i = g: a first-order row with unit rate
@@ -194,7 +199,7 @@ class Equations:
         if getattr(self, "_p", None) is None:
             self._p = sp.Matrix(self._derivation.momenta())
             if self._values:
-                self._p = self._p.xreplace(self._values)
+                self._p = self._p.applyfunc(self._put)
         return self._p
 
     def _no_acceleration(self, node) -> None:
@@ -242,7 +247,7 @@ class Equations:
     def f(self) -> sp.Matrix:
         """The forcing ``f`` of ``M q̈ = f``, with the values of parameters given as numbers in."""
         if self._f is None:
-            self._f = self._generic["f"].xreplace(self._values)
+            self._f = self._generic["f"].applyfunc(self._put)
         return self._f
 
     @property
@@ -262,8 +267,8 @@ class Equations:
             solve = [g["A"], g["b"]]
             energies = [sp.sympify(g[k]) for k in ("T", "V", "D", "L")] + [g["p"]]
             self._scan = {
-                "callables": sorted({f.func.__name__ for e in solve + energies for f in e.atoms(AppliedUndef)}),
-                "derivatives": sorted({d for e in solve for d in e.atoms(sp.Derivative)}, key=sp.default_sort_key),
+                "callables": sorted({f.func.__name__ for f in atoms_of(solve + energies, AppliedUndef)}),
+                "derivatives": sorted(atoms_of(solve, sp.Derivative), key=sp.default_sort_key),
             }
         return self._scan
 
@@ -274,7 +279,7 @@ class Equations:
         if getattr(self, "_switches", None) is None:
             g = self.generic()
             state = set(self.sym.q) | set(self.sym.v) | set(self.sym.a)
-            found = {a for e in (g["A"], g["b"]) for a in sp.Matrix(e).atoms(*SWITCHES)
+            found = {a for a in atoms_of((g["A"], g["b"]), *SWITCHES)
                      if t in a.free_symbols and not a.free_symbols & state}
             self._switches = sorted(found, key=sp.default_sort_key)
         return list(self._switches)
@@ -284,7 +289,7 @@ class Equations:
         if getattr(self, "_free", None) is None:
             g = self.generic()
             inner = set(self.sym.q) | set(self.sym.v) | set(self.sym.a) | {t}
-            free = set().union(*(sp.sympify(g[k]).free_symbols for k in ("A", "b", "T", "V", "D")))
+            free = symbols_of(sp.sympify(g[k]) for k in ("A", "b", "T", "V", "D"))
             self._free = free - inner - set(self._values)
         return set(self._free)
 
