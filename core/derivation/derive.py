@@ -19,11 +19,12 @@ directly:
     f_i  -= c (J_ai h_b + J_bi h_a) + ċ (J_ai w_b + J_bi w_a) − ∂c/∂q_i w_a w_b
             + c (g_ai w_b + g_bi w_a)
 
-with ``h = J̇ q̇ + ḃ`` and ``g_i = Σ_j (∂J_i/∂q_j − ∂J_j/∂q_i) q̇_j + ∂J_i/∂t − ∂b/∂q_i``
-(zero for ``w`` the time derivative of a position).  Entries that share the
-same Jacobian column are collected before they are built, so that ``M_ij`` of
-an ``n``-link chain is one product of columns times one sum of masses instead
-of ``n`` products.  Whatever is not of that form (and ``V``, ``G``, ``D``) goes
+with ``h = J̇ q̇ + ḃ`` (the rate of ``w`` at ``q̈ = 0``, in one pass over ``w``) and
+``g_i = Σ_j (∂J_i/∂q_j − ∂J_j/∂q_i) q̇_j + ∂J_i/∂t − ∂b/∂q_i`` (zero for ``w`` the time derivative of a
+position; in closed form for the components of a declared moving frame's vectors, :meth:`Derivation.frames`).
+Entries that share the same Jacobian column are collected before they are
+built, so that ``M_ij`` of an ``n``-link chain is one product of columns times
+one sum of masses instead of ``n`` products.  Whatever is not of that form (and ``V``, ``G``, ``D``) goes
 through the general formulas ``p = ∂L/∂q̇``, ``M = ∂p/∂q̇``,
 ``f = ∂L/∂q − (∂p/∂q) q̇ − ∂p/∂t − ∂D/∂q̇ + Q``.  Both give the same equations.
 
@@ -70,7 +71,6 @@ class Derivation:
         self.calc = Calculus([*self.q, *self.v, t])
         self._term_memo: dict = {}
         self._affine_memo: dict = {}
-        self._hterm_memo: dict = {}
         self._canon_memo: dict = {}
         self._rate_memo: dict = {}
         self._frame_curls: dict = {}  # w → {i: g_i}, components of moving frames' vectors (:meth:`frames`)
@@ -174,26 +174,6 @@ class Derivation:
         return out
 
     # ---- pieces of f ----------------------------------------------------------------------------
-    def _column_terms(self, c, j) -> list:
-        """Terms of ``(d/dt c) q̇_j`` (``c`` an entry of ``J``)."""
-        key = (c, j)
-        out = self._hterm_memo.get(key)
-        if out is None:
-            out = []
-            deps = self.calc.deps(c)
-            vj = self.v[j] if j is not None else _ONE
-            for s in sorted(deps, key=str):
-                if s in self.qidx:
-                    d = self.calc.diff(c, s)
-                    if d != 0:
-                        out.append(sp.Mul(d, self.v[self.qidx[s]], vj))
-                elif s == self.t:
-                    d = self.calc.diff(c, s)
-                    if d != 0:
-                        out.append(sp.Mul(d, vj))
-            self._hterm_memo[key] = out
-        return out
-
     def _canon(self, x) -> tuple[bool, sp.Expr]:
         """``(negated, y)`` with ``x = ±y`` and ``y`` of SymPy's canonical sign, so that ``x`` and ``-x`` share a key."""
         out = self._canon_memo.get(x)

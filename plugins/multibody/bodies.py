@@ -8,6 +8,7 @@ import sympy as sp
 from lagrangian import GROUND, Component, Contribution, Example, ModelError, MovingFrame, Parameter, dot
 
 from .checks import _need_dim, _vec, lg_param_error
+from .rotations import cross
 
 
 class _BodyBase(Component):
@@ -56,7 +57,6 @@ class _BodyBase(Component):
             return Contribution()
         pose = view.pose(self.nodes[0])
         if dim == 3 and pose.v_body is not None:
-            from .rotations import cross
             v = pose.v_body + cross(pose.omega_body, self.com_offset(3))
         else:
             v = view.velocity(f"{self.nodes[0]}.com")
