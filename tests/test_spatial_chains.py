@@ -175,19 +175,29 @@ class _BadFrame(lg.Component):
 
     def contribute(self, ctx):
         v = ctx.view.velocity(self.nodes[0])
-        return lg.Contribution(T=v[0] ** 2 / 2, frames=[lg.MovingFrame(sp.Matrix([v[0], v[1]]))])
+        return lg.Contribution(T=v[0] ** 2 / 2, frames=[self.frame(v)])
+
+    @staticmethod
+    def frame(v):
+        return lg.MovingFrame(sp.Matrix([v[0], v[1]]))
 
     @classmethod
     def example(cls):
         return lg.Example("p", {})
 
 
-def test_a_moving_frame_that_is_not_a_3_vector_is_refused_naming_the_component(registry_with):
+def test_a_moving_frame_that_is_not_a_3_vector_is_refused_naming_the_component(registry_with, monkeypatch):
     m = lg.Model("bad", dim=3, registry=registry_with(_BadFrame))
     m.add("mass", "p", "p", m=1)
     m.add("bad_frame", "b", "p")
     with pytest.raises(lg.ModelError, match=r"bad_frame 'b': frames\[0\]\.omega must be a 3 × 1"):
         m.mass_matrix  # noqa: B018
+    monkeypatch.setattr(_BadFrame, "frame", staticmethod(lambda v: lg.MovingFrame(v, v)))  # velocities: one vector
+    other = lg.Model("bad", dim=3, registry=registry_with(_BadFrame))
+    other.add("mass", "p", "p", m=1)
+    other.add("bad_frame", "b", "p")
+    with pytest.raises(lg.ModelError, match=r"bad_frame 'b': frames\[0\]\.velocities must be a tuple of 3 × 1"):
+        other.mass_matrix  # noqa: B018
 
 
 def test_free_body_carrying_a_slider_matches_kane():

@@ -74,7 +74,6 @@ __all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
 _ENERGIES = ("T", "V", "D", "E", "L")
 
 
-
 class Scene:
     """A model, the outputs asked of it, the time span and tolerance; solved by the smallest exact model.
 

@@ -202,6 +202,9 @@ def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
     for i, frame in enumerate(c.frames):
         if not isinstance(frame, MovingFrame):
             raise ModelError(f"{where}: frames[{i}] is not a lagrangian.MovingFrame.")
+        if not isinstance(frame.velocities, (tuple, list)):
+            raise ModelError(f"{where}: frames[{i}].velocities must be a tuple of 3 × 1 SymPy Matrices, not "
+                             f"{type(frame.velocities).__name__}.")
         for k, vec in enumerate((frame.omega, *frame.velocities)):
             label = f"frames[{i}]." + ("omega" if k == 0 else f"velocities[{k - 1}]")
             if not (isinstance(vec, sp.MatrixBase) and vec.shape == (3, 1)):
