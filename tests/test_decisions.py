@@ -265,3 +265,22 @@ def test_piecewise_signals_are_decided_branch_by_branch():
     assert is_zero(pulse * x - x * pulse)
     assert not is_zero(sp.Heaviside(t - 1) * x)
     assert equal(sp.Piecewise((x, t < 1), (2 * x, True)) * 0.3, sp.Piecewise((0.3 * x, t < 1), (0.6 * x, True)))
+
+
+def test_a_budget_exception_swallowed_once_still_stops_the_call():
+    """The timer's exception can be raised where Python swallows it (a gc callback) or code catches it: the
+    budget fires again until the call stops."""
+    import time
+
+    from lagrangian.base.budget import BudgetExceeded, interruptible
+
+    def stubborn():
+        try:
+            time.sleep(30)
+        except BudgetExceeded:  # as a gc callback's swallowed exception would be
+            pass
+        time.sleep(30)
+        return "ran on"
+
+    with pytest.raises(BudgetExceeded, match="budget of 0.1 s"):
+        interruptible(stubborn, seconds=0.1)

@@ -92,7 +92,14 @@ def within(fn: Callable[..., Any], *args: Any, seconds: float = DEFAULT_SECONDS,
     return value
 
 
+#: After the budget, the timer fires again every RETRY seconds until the call stops: an exception raised where
+#: Python swallows it (a garbage-collector callback, a ``__del__``; it then prints "Exception ignored in") or caught
+#: by the code under the budget would otherwise let the call run on unbounded.
+RETRY = 0.05
+
+
 def _expire(signum, frame):  # pragma: no cover - runs when the timer fires
+    signal.setitimer(signal.ITIMER_REAL, RETRY)  # disarmed by interruptible once the exception reaches it
     raise BudgetExceeded(_expire.seconds)
 
 
