@@ -388,7 +388,7 @@ class Model:
                     continue
                 # an entry of a vector, matrix or mapping: its symbol carries its value's sign, which must stay
                 entries = symbol.values() if isinstance(symbol, Mapping) else [symbol]
-                for entry in {s for e in entries for s in sp.sympify(e).free_symbols if s in given}:
+                for entry in {s for e in entries for s in sp.sympify(e, strict=True).free_symbols if s in given}:
                     value = float(given[entry])
                     if not (value > 0 if entry.is_positive else value < 0):
                         sign = "positive" if entry.is_positive else "negative"

@@ -19,7 +19,7 @@ from sympy.core.function import AppliedUndef
 
 from ..errors import ModelError
 
-__all__ = ["Calculus", "Rewriter", "atoms_of", "nodes", "symbols_of", "time_derivative", "trig"]
+__all__ = ["Calculus", "Rewriter", "atoms_of", "cross", "nodes", "symbols_of", "time_derivative", "trig"]
 
 _ZERO = sp.Integer(0)
 _ONE = sp.Integer(1)
@@ -142,8 +142,13 @@ def symbols_of(exprs: Iterable) -> set:
     return out
 
 
-def _cross(a, b) -> list:
-    """``a × b`` of two 3-vectors, without products by zero entries."""
+def cross(a, b) -> list:
+    """``a × b`` of two 3-vectors (sequences or column matrices), as a list, without products by zero entries.
+
+    >>> x, y = sp.symbols("x y")
+    >>> cross([x, 0, 0], [0, y, 0])
+    [0, 0, x*y]
+    """
     def term(x, y):
         return _ZERO if x == 0 or y == 0 else sp.Mul(x, y)
     return [sp.Add(term(a[1], b[2]), -term(a[2], b[1])), sp.Add(term(a[2], b[0]), -term(a[0], b[2])),

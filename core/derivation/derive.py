@@ -39,10 +39,10 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, _cross, time_derivative, trig
+from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, cross, time_derivative, trig
 from .probe import float_value
 
-__all__ = ["Calculus", "Derivation", "Rewriter", "float_value", "general", "time_derivative", "trig"]
+__all__ = ["Calculus", "Derivation", "Rewriter", "cross", "float_value", "general", "time_derivative", "trig"]
 
 
 # -- the derivation -------------------------------------------------------------------------------
@@ -306,7 +306,7 @@ class Derivation:
         curls: list[dict] = [dict(), dict(), dict()]
         for i in cols:
             Vi, Oi = col(A3, i), col(Om, i)
-            g = _cross(Oi, omega) if velocity is None else [sp.Add(a, b) for a, b in zip(_cross(Vi, omega), _cross(Oi, vec))]
+            g = cross(Oi, omega) if velocity is None else [sp.Add(a, b) for a, b in zip(cross(Vi, omega), cross(Oi, vec))]
             for k in range(3):
                 if g[k] != 0:
                     curls[k][i] = g[k]

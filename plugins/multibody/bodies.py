@@ -6,9 +6,9 @@ from __future__ import annotations
 import sympy as sp
 
 from lagrangian import GROUND, Component, Contribution, Example, ModelError, MovingFrame, Parameter, dot
+from lagrangian.derive import cross
 
 from .checks import _need_dim, _vec, lg_param_error
-from .rotations import cross
 
 
 class _BodyBase(Component):
@@ -57,7 +57,7 @@ class _BodyBase(Component):
             return Contribution()
         pose = view.pose(self.nodes[0])
         if dim == 3 and pose.v_body is not None:
-            v = pose.v_body + cross(pose.omega_body, self.com_offset(3))
+            v = pose.v_body + sp.Matrix(cross(pose.omega_body, self.com_offset(3)))
         else:
             v = view.velocity(f"{self.nodes[0]}.com")
         I = self.inertia_matrix(dim)

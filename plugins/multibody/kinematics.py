@@ -8,11 +8,11 @@ from collections import deque
 import sympy as sp
 
 from lagrangian import GROUND, Coordinate, ModelError, UnknownNameError, t
-from lagrangian.derive import time_derivative
+from lagrangian.derive import cross, time_derivative
 
 from .bodies import _BodyBase
 from .joints import _Joint
-from .rotations import Pose, _rot2, cross, transform
+from .rotations import Pose, _rot2, transform
 
 
 def build_kinematics(network, view) -> None:
@@ -103,8 +103,8 @@ def _child_pose(j: _Joint, view, dim: int, parent: str, child: str, bodies) -> P
     omega_body = carried + j.relative_body_rate(q, R_rel, w_rel)
     p = transform(transform(pp.p, pp.R, P + d), R, -C)
     r = P + d
-    vj = pp.v_body + cross(pp.omega_body, r) + d.applyfunc(lambda e: time_derivative(e, t))
-    v_body = R_rel.T * vj - cross(omega_body, C)
+    vj = pp.v_body + sp.Matrix(cross(pp.omega_body, r)) + d.applyfunc(lambda e: time_derivative(e, t))
+    v_body = R_rel.T * vj - sp.Matrix(cross(omega_body, C))
     return Pose(R, p, omega, omega_body=omega_body, v_body=v_body)
 
 

@@ -131,11 +131,3 @@ def _euler_body(sequence: str, a, b, c) -> sp.Matrix:
     e1, e2, e3 = (E3["xyz".index(axis)] for axis in sequence)
     R2, R3 = _rot3(e2, b), _rot3(e3, c)
     return R3.T * (R2.T * e1 * a.diff(t) + e2 * b.diff(t)) + e3 * c.diff(t)
-
-
-def cross(a: sp.Matrix, b: sp.Matrix) -> sp.Matrix:
-    """``a × b`` of two 3-vectors, without products by zero entries."""
-    def term(x, y):
-        return sp.Integer(0) if x == 0 or y == 0 else x * y
-    return sp.Matrix([term(a[1], b[2]) - term(a[2], b[1]), term(a[2], b[0]) - term(a[0], b[2]),
-                      term(a[0], b[1]) - term(a[1], b[0])])
