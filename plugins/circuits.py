@@ -179,6 +179,23 @@ class ElectricalDomain(Domain):
 
 class _Element(Component):
     domain = "electrical"
+    quantities = {"v": "voltage v_a − v_b", "i": "current from a through it to b"}
+
+    def quantity(self, ctx, name: str) -> sp.Expr:
+        """``"v"`` or ``"i"``: the branch's own rate in its formulation (current of a loop charge, voltage of a flux
+        linkage); the other from the element's law (:meth:`law`)."""
+        if name not in self.quantities:
+            return super().quantity(ctx, name)
+        own = "i" if ctx.view.formulation == "charge" else "v"
+        if name == own and self.role is None:
+            return ctx.view.current(self) if own == "i" else ctx.view.voltage(self)
+        return self.law(ctx, name)
+
+    def law(self, ctx, name: str) -> sp.Expr:
+        """The quantity ``name`` that the formulation does not give directly, from the element's law."""
+        other = "flux" if ctx.view.formulation == "charge" else "charge"
+        raise ModelError(f"{self.kind} {self.name!r}: its {'voltage' if name == 'v' else 'current'} is not a function "
+                         f"of the coordinates in the {ctx.view.formulation} formulation; use formulation={other!r}.")
 
 
 def _source(component: Component, letter: str, value: Any, ctx) -> SpiceElement:
@@ -203,13 +220,23 @@ class Inductor(_Element):
         return Contribution(V=ctx.view.flux(self) ** 2 / (2 * self.L))
 
     def spice(self, ctx) -> list[SpiceElement]:
+        return [SpiceElement("L", self.nodes, self.L, state=("i", self._current(ctx)))]
+
+    def _current(self, ctx) -> sp.Expr:
         if ctx.view.formulation == "charge":
-            i = ctx.view.current(self)
-        else:  # λ/L, plus what mutual couplings add
-            i = ctx.view.flux(self) / self.L + sum(
-                (c.current_correction(ctx, self) for c in ctx.components if hasattr(c, "current_correction")), sp.Integer(0)
-            )
-        return [SpiceElement("L", self.nodes, self.L, state=("i", i))]
+            return ctx.view.current(self)
+        # λ/L, plus what mutual couplings add
+        return ctx.view.flux(self) / self.L + sum(
+            (c.current_correction(ctx, self) for c in ctx.components if hasattr(c, "current_correction")), sp.Integer(0)
+        )
+
+    def law(self, ctx, name: str) -> sp.Expr:
+        if name == "i":
+            return self._current(ctx)
+        coupled = [c.name for c in ctx.components if hasattr(c, "current_correction") and self.name in c.params.values()]
+        if coupled:
+            return super().law(ctx, name)
+        return self.L * time_derivative(ctx.view.current(self), t)
 
     @classmethod
     def example(cls) -> Example:
@@ -232,6 +259,11 @@ class Capacitor(_Element):
         v = ctx.view.charge(self) / self.C if ctx.view.formulation == "charge" else ctx.view.voltage(self)
         return [SpiceElement("C", self.nodes, self.C, state=("v", v))]
 
+    def law(self, ctx, name: str) -> sp.Expr:
+        if name == "v":
+            return ctx.view.charge(self) / self.C
+        return self.C * time_derivative(ctx.view.voltage(self), t)
+
     @classmethod
     def example(cls) -> Example:
         return Example(("n1", "0"), {"C": 0.5}, context=[("inductor", "L", ("n1", "0"), {"L": 2})])
@@ -251,6 +283,9 @@ class Resistor(_Element):
 
     def spice(self, ctx) -> list[SpiceElement]:
         return [SpiceElement("R", self.nodes, self.R)]
+
+    def law(self, ctx, name: str) -> sp.Expr:
+        return self.R * ctx.view.current(self) if name == "v" else ctx.view.voltage(self) / self.R
 
     @classmethod
     def example(cls) -> Example:
@@ -276,6 +311,13 @@ class VoltageSource(_Element):
 
     def spice(self, ctx) -> list[SpiceElement]:
         return [_source(self, "V", self.E, ctx)]
+
+    def law(self, ctx, name: str) -> sp.Expr:
+        if name == "v":
+            return self.E
+        if ctx.view.formulation == "charge":
+            return ctx.view.current(self)
+        return super().law(ctx, name)
 
     @classmethod
     def example(cls) -> Example:
@@ -305,6 +347,13 @@ class CurrentSource(_Element):
 
     def spice(self, ctx) -> list[SpiceElement]:
         return [_source(self, "I", self.I, ctx)]
+
+    def law(self, ctx, name: str) -> sp.Expr:
+        if name == "i":
+            return self.I
+        if ctx.view.formulation == "flux":
+            return ctx.view.voltage(self)
+        return super().law(ctx, name)
 
     @classmethod
     def example(cls) -> Example:

@@ -418,6 +418,56 @@ class Component:
         view.params = {**self.params, **self._symbols}
         return view
 
+    def with_input(self, pname: str, label: str, index: int | None = None) -> tuple["Component", sp.Function]:
+        """A copy of this component whose signal parameter ``pname`` is its value plus an input ``u = ẇ``.
+
+        ``w`` is an undefined function of time named ``label``, returned with
+        the copy; the input enters the copy's contribution wherever the
+        parameter does, as the rate of ``w`` (its derivatives too, for a
+        prescribed motion; ``w`` itself where a source's integral fixes a
+        coordinate, as a voltage source does in node fluxes), so the
+        derivatives of a model's equations by ``w`` and its rates are its
+        response to that input (linearization, transfer functions).  The
+        original value stays in as the input's operating value.  ``index``
+        picks the entry of a vector parameter to drive.
+
+        >>> import lagrangian as lg
+        >>> source = lg.Model().add("voltage_source", "V1", ("n1", "0"), E=5)
+        >>> twin, w = source.with_input("E", "w_V1")
+        >>> twin.E, twin.values  # the symbol standing for 5, plus ẇ
+        (_E_V1 + Derivative(w_V1(t), t), {_E_V1: 5})
+        """
+        spec = self.parameters.get(pname)
+        if spec is None or spec.shape != "signal":
+            raise ParameterError(self.name, pname, f"{self.kind!r} has no signal parameter of that name; its signals: "
+                                 f"{', '.join(p for p, s in self.parameters.items() if s.shape == 'signal') or '(none)'}.")
+        value = self.params[pname]
+        if isinstance(value, _CallableSignal):
+            raise ParameterError(self.name, pname, "is a Python callable, which has no operating value to perturb; "
+                                 "give it as a number or a SymPy expression of t.")
+        base = self._symbols.get(pname, value)
+        w = sp.Function(_identifier(label), real=True)
+        rate = sp.Derivative(w(t), t)
+        if isinstance(base, sp.MatrixBase):
+            if index is None or not 0 <= index < len(base):
+                raise ParameterError(self.name, pname, f"is a vector of {len(base)} components: name the one to drive, "
+                                     f"as '{self.name}[0]'.")
+            base = base + sp.Matrix([rate if i == index else 0 for i in range(len(base))])
+        elif index is not None:
+            raise ParameterError(self.name, pname, f"is a scalar: drive it as '{self.name}', without an index.")
+        else:
+            base = base + rate
+        twin = object.__new__(type(self))
+        twin.__dict__.update(self.__dict__)
+        twin.params = {**self.params, pname: base}
+        twin._symbols = {k: v for k, v in self._symbols.items() if k != pname}
+        twin._inputs = {*self.inputs(), w}
+        return twin, w
+
+    def inputs(self) -> set:
+        """The input functions ``w`` that :meth:`with_input` put into this component's parameters."""
+        return self.__dict__.get("_inputs", set())
+
     def __getattr__(self, item: str) -> Any:
         params = self.__dict__.get("params")
         if params is not None and item in params:
@@ -450,6 +500,16 @@ class Component:
     def signals(self) -> dict[sp.Function, Callable[[float], float]]:
         """Python callables standing behind the component's signal parameters."""
         return {v.function: v.func for v in self.params.values() if isinstance(v, _CallableSignal)}
+
+    #: the quantities :meth:`quantity` names, with what each is (for error messages and documentation)
+    quantities: ClassVar[Mapping[str, str]] = {}
+
+    def quantity(self, ctx: Any, name: str) -> sp.Expr:
+        """A named quantity of this component (``"v"``, ``"i"`` of a circuit element: the voltage ``v_a − v_b``
+        and the current from ``a`` to ``b``) as an expression of the coordinates ``q(t)`` and their derivatives,
+        for outputs of analyses (transfer functions, impedances).  Types list theirs in :attr:`quantities`."""
+        raise ParameterError(self.name, name, f"{self.kind!r} names no such quantity; it names "
+                             f"{', '.join(f'{k} ({v})' for k, v in self.quantities.items()) or 'none'}.")
 
     def contribute(self, ctx: Any) -> Contribution:  # pragma: no cover - abstract
         """Return this component's :class:`Contribution` for the model context ``ctx``."""

@@ -524,6 +524,12 @@ def _errors(lines: Sequence[str]) -> list[str]:
     return [ln for ln in lines if re.match(r"\s*(error|doanalyses|run simulation|.*timestep too small)", ln, re.I)]
 
 
+def run_ac(text: str, probes: Mapping[str, tuple[str, ...]]) -> SpiceRun:
+    """Run a netlist's ``.ac`` analysis in ngspice; return its frequencies (as ``time``) and the probed quantities
+    (complex).  Probes and errors as for :func:`run_transient`."""
+    return _run(text, probes, complex, "frequency")
+
+
 def run_transient(net: Netlist | str, probes: Mapping[str, tuple[str, ...]] | None = None) -> SpiceRun:
     """Run the netlist's ``.tran`` in ngspice; return its time points and the probed quantities.
 
@@ -535,6 +541,11 @@ def run_transient(net: Netlist | str, probes: Mapping[str, tuple[str, ...]] | No
     """
     text = net.text if isinstance(net, Netlist) else net
     probes = dict(net.probes if probes is None and isinstance(net, Netlist) else probes or {})
+    return _run(text, probes, float, "time")
+
+
+def _run(text: str, probes: Mapping[str, tuple[str, ...]], dtype, axis: str) -> SpiceRun:
+    """Load ``text`` into ngspice, run its analysis, read the ``axis`` vector and the probes as ``dtype``."""
     with _LOCK, _quiet_pyspice():
         ng = _shared()
         ng.clear_output()
@@ -553,7 +564,7 @@ def run_transient(net: Netlist | str, probes: Mapping[str, tuple[str, ...]] | No
             msgs = _errors(ng._stderr)
             if msgs:
                 raise NgspiceError("ngspice failed: " + " | ".join(msgs))
-            vectors = {name.lower(): np.asarray(vec._data, dtype=float) for name, vec in ng.plot(None, ng.last_plot).items()}
+            vectors = {name.lower(): np.asarray(vec._data, dtype=dtype) for name, vec in ng.plot(None, ng.last_plot).items()}
         except Exception as exc:
             if isinstance(exc, LagrangianError):
                 raise
@@ -563,7 +574,7 @@ def run_transient(net: Netlist | str, probes: Mapping[str, tuple[str, ...]] | No
                 ng.remove_circuit()
             with contextlib.suppress(Exception):
                 ng.destroy()
-    time = vectors.pop("time")
+    time = np.real(vectors.pop(axis))
 
     def read(probe: tuple[str, ...]) -> np.ndarray:
         kind, *names = probe

@@ -133,7 +133,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
             seen[c.name] = dname
             coordinates.append(c)
 
-    allowed = {c.function.func for c in coordinates}
+    allowed = {c.function.func for c in coordinates} | {u for comp in components for u in comp.inputs()}
     signals: dict[sp.Function, Any] = {}
     for comp in components:
         signals.update(comp.signals())

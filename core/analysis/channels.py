@@ -1,0 +1,175 @@
+"""Inputs and outputs of a linearization: which components drive it, which quantities it reports.
+
+An input is a component with a signal parameter (a source, a force, a
+torque, a prescribed motion), named ``"V1"``, ``"F.F"`` or ``"F[0]"`` (one
+entry of a vector); :func:`_with_inputs` gives a copy of the model in which
+each input's parameter carries the rate of an input function ``w(t)``
+(:meth:`lagrangian.Component.with_input`).  An output is a coordinate
+(``"x_p"``, ``"x_p'"``, ``"x_p''"``), a quantity a component names
+(``"v(C1)"``, ``"i(L1)"``: :meth:`lagrangian.Component.quantity`) or a
+SymPy expression of the coordinates; :func:`_outputs` linearizes each into
+rows by power of ``s``.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from typing import Any
+
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+from ..base.component import t
+from ..base.domain import Context
+from ..errors import ModelError, UnknownNameError
+from ..model import Model
+
+_BRANCH = re.compile(r"^\s*([A-Za-z]\w*)\s*\(\s*([^()\s]+)\s*\)\s*$")
+_PRIMES = re.compile(r"^(.*?)('{0,2})$")
+_INPUT = re.compile(r"^\s*([^.\[\]\s]+)(?:\.(\w+))?(?:\[(\d+)\])?\s*$")
+
+
+def _label(output: Any) -> str:
+    return output if isinstance(output, str) else str(output)
+
+
+def _with_inputs(model: Model, inputs: Sequence[str] | None) -> tuple[Model, dict[Any, tuple[str, int, Any]]]:
+    """A copy of ``model`` whose input components carry ``u(t)``; ``channels`` maps each input function to
+    ``(name, column, operating value)``."""
+    components = model.components
+    if inputs is None:  # every source and load (a joint's free angle is no input)
+        inputs = [c.name for c in components.values()
+                  if _signal_of(c) is not None and c.params.get(_signal_of(c)) is not None
+                  and not isinstance(c.params[_signal_of(c)], sp.MatrixBase)]
+    elif isinstance(inputs, str):
+        inputs = [inputs]
+    chosen: dict[str, tuple[str, int | None, str]] = {}
+    for item in inputs:
+        if not isinstance(item, str):
+            raise ModelError(f"inputs are component names (or 'name.param', 'name[0]'), got {item!r}.")
+        spec = _INPUT.match(item)
+        if spec is None:
+            raise ModelError(f"input {item!r} is not a component name, 'name.param' or 'name[index]'.")
+        name, pname, index = spec.group(1), spec.group(2) or "", spec.group(3)
+        comp = model.component(name)
+        pname = pname or _signal_of(comp)
+        if pname is not None and comp.params.get(pname) is None:
+            raise ModelError(f"{comp.kind} {name!r} has no value for {pname!r} to drive (a free joint): give it one "
+                             f"(0 for a joint held at its reference) to make it an input.")
+        if pname is None:
+            signals = [c.name for c in components.values() if _signal_of(c) is not None]
+            raise ModelError(f"{comp.kind} {name!r} has no signal parameter to drive; components that do: "
+                             f"{', '.join(signals) or '(none)'}.")
+        if name in chosen:
+            raise ModelError(f"input {name!r} is listed twice.")
+        chosen[name] = (pname, None if index is None else int(index), item.strip())
+    twin = Model(model.name, registry=model.registry, **model._options)
+    twin._graph.declared = list(model._graph.declared)
+    channels: dict[Any, tuple[str, int, Any]] = {}
+    for comp in components.values():
+        if comp.name in chosen:
+            pname, index, label = chosen[comp.name]
+            original = comp.params[pname]
+            comp, function = comp.with_input(pname, f"w_{comp.name}", index)
+            channels[function] = (label, len(channels), original if index is None else original[index])
+        twin._graph.add(comp)
+    return twin, channels
+
+
+def _signal_of(comp) -> str | None:
+    signals = [p for p, spec in comp.parameters.items() if spec.shape == "signal"]
+    return signals[0] if len(signals) == 1 else None
+
+
+def _atoms(exprs, channels) -> set:
+    """The applications ``u(t)`` and derivatives of input functions in ``exprs`` (every undefined function when
+    ``channels`` is empty)."""
+    found = set()
+    for e in exprs:
+        e = sp.sympify(e)
+        for d in e.atoms(sp.Derivative):
+            if isinstance(d.expr, AppliedUndef) and (not channels or d.expr.func in channels):
+                found.add(d)
+        for a in e.atoms(AppliedUndef):
+            if not channels or a.func in channels:
+                found.add(a)
+    return found
+
+
+def _channel(expr, channels) -> tuple[int, int]:
+    if isinstance(expr, sp.Derivative):
+        return expr.derivative_count, channels[expr.expr.func][1]
+    return 0, channels[expr.func][1]
+
+
+def _outputs(twin: Model, eq, outputs, usym, channels, at_point):
+    """Rows ``Cq_k`` (by power of s) and ``Dw_k`` (by derivative of the input function ``w``: ``Dw_k`` multiplies
+    ``s^(k−1) u``) of each output, and its value at the point."""
+    names = eq.names
+    n = len(names)
+    exprs = [_output_expr(twin, eq, o) for o in (outputs if outputs is not None else names)]
+    q, v, a = list(eq.sym.q), list(eq.sym.v), list(eq.sym.a)
+    to_sym: dict[Any, Any] = {}
+    for c, qs, vs, as_ in zip(eq.coordinates, q, v, a):
+        f = c.function
+        to_sym[sp.Derivative(f, (t, 2))] = as_
+        to_sym[sp.Derivative(f, t)] = vs
+        to_sym[f] = qs
+    rows_q = [sp.zeros(len(exprs), n) for _ in range(3)]
+    rows_u = [sp.zeros(len(exprs), len(channels)) for _ in range(2)]
+    y0 = {}
+    for r, (label, expr) in enumerate(exprs):
+        e = sp.sympify(expr)
+        e = e.xreplace({d: to_sym[d] for d in e.atoms(sp.Derivative) if d in to_sym})
+        e = e.xreplace({f: to_sym[f] for f in e.atoms(AppliedUndef) if f in to_sym})
+        e = e.xreplace({a: sp.Integer(0) for a in e.atoms(AppliedUndef) if a.func in channels and a.args != (t,)})
+        ins = {}
+        for d in e.atoms(sp.Derivative):
+            if isinstance(d.expr, AppliedUndef) and d.expr.func in channels:
+                col, k = channels[d.expr.func][1], d.derivative_count
+                ins[d] = (usym(col, k), col, k)
+        e = e.xreplace({d: sym for d, (sym, _, _) in ins.items()})
+        bare = {a: (usym(channels[a.func][1], 0), channels[a.func][1], 0) for a in e.atoms(AppliedUndef) if a.func in channels}
+        e = e.xreplace({d: sym for d, (sym, _, _) in bare.items()})
+        ins.update(bare)
+        left = e.atoms(sp.Derivative) | e.atoms(AppliedUndef)
+        if left:
+            raise ModelError(f"output {label!r} depends on {sorted(map(str, left))[0]}, which is neither a "
+                             f"coordinate, its first two derivatives, nor an input.")
+        free = e.free_symbols
+        for j in range(n):
+            for k, syms in enumerate((q, v, a)):
+                if syms[j] in free:
+                    rows_q[k][r, j] = at_point(sp.diff(e, syms[j]))
+        for sym, col, k in ins.values():  # the k-th derivative of w is s^(k−1) u: rows_u[k] (rows_u[0]: u/s)
+            while k >= len(rows_u):
+                rows_u.append(sp.zeros(len(exprs), len(channels)))
+            rows_u[k][r, col] += at_point(sp.diff(e, sym))
+        rest = {x: sp.Integer(0) for x in free & (set(v) | set(a))}
+        rest.update({sym: sp.Integer(0) for sym, _, _ in ins.values()})
+        y0[label] = at_point(e.xreplace(rest))
+    while len(rows_q) > 1 and all(x == 0 for x in rows_q[-1]):
+        rows_q.pop()
+    return rows_q, rows_u, y0
+
+
+def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
+    """``(label, expression in q(t) and derivatives)`` of one output."""
+    names = eq.names
+    if isinstance(output, sp.Basic):
+        return str(output), output
+    if not isinstance(output, str):
+        raise ModelError(f"outputs are coordinate names, quantities such as 'v(C1)', or SymPy expressions; got {output!r:.80}.")
+    branch = _BRANCH.match(output)
+    if branch:
+        quantity, name = branch.groups()
+        comp = model.component(name)
+        view = model.assembly.views.get(comp.domain)
+        ctx = Context(view, model.assembly.views, model.options, list(model.components.values()))
+        return output, comp.quantity(ctx, quantity.lower())
+    base, primes = _PRIMES.match(output.strip()).groups()
+    if base not in names:
+        raise UnknownNameError("output (a coordinate, with ' for its rate)", base, names)
+    f = eq.coordinates[names.index(base)].function
+    return output, f if not primes else sp.Derivative(f, (t, len(primes)))

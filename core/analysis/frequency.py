@@ -1,0 +1,425 @@
+"""The frequency domain: transfer functions, impedances, frequency response and normal modes.
+
+Everything here works on the linearization of a model about an operating
+point (:func:`linearize`, in :mod:`lagrangian.analysis.linearize`), in
+Laplace form: ``H(s) = (Σ Cq_k s^k) X(s) + Σ D_k s^k`` with ``X`` solving
+``[[M s² + C s + K, −Φ_qᵀ], [Φ_q, 0]] X = [Σ B_k s^k; 0]``.  Loop
+constraints stay exact, inputs may enter through their derivatives (a
+prescribed motion through a damper), and nothing is inverted that need not
+be.
+
+- :func:`transfer_function`: ``H(s)`` between one input and one output, as a
+  SymPy rational function (exact in the parameters' symbols for a symbolic
+  model), with its poles, zeros and DC gain;
+- :func:`impedance`: the driving-point impedance seen by a source;
+- :func:`frequency_response`: ``H(j 2π f)`` for every input and output on a
+  frequency grid (:func:`decades` makes SPICE's ``.ac dec`` grid), with Bode
+  and Nyquist charts;
+- :func:`modes`: natural frequencies, damping ratios and mode shapes.
+
+A series RLC driven by a voltage source: its current over the source
+voltage is ``s C / (L C s² + R C s + 1)``.
+
+>>> import sympy as sp
+>>> import lagrangian as lg
+>>> from lagrangian.frequency import transfer_function, modes
+>>> m = lg.Model("rlc")
+>>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+>>> _ = m.add("resistor", "R1", ("in", "a"), R=sp.Symbol("R", positive=True))
+>>> _ = m.add("inductor", "L1", ("a", "b"), L=sp.Symbol("L", positive=True))
+>>> _ = m.add("capacitor", "C1", ("b", "0"), C=sp.Symbol("C", positive=True))
+>>> H = transfer_function(m, "V1", "i(L1)")
+>>> H.expr
+C*s/(C*L*s**2 + C*R*s + 1)
+>>> m2 = lg.Model("lc")
+>>> _ = m2.add("inductor", "L1", ("a", "0"), L=7e-3)
+>>> _ = m2.add("capacitor", "C1", ("a", "0"), C=2.2e-6)
+>>> round(float(modes(m2).frequencies[0]), 3)     # 1 / (2π √(LC)) Hz
+1282.507
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ..errors import ModelError, UnknownNameError
+from ..model import Model
+from .linearize import LinearModel, linearize, s
+from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
+
+__all__ = ["FrequencyResponse", "Modes", "TransferFunction", "decades", "frequency_response", "impedance",
+           "linearize", "modes", "s", "transfer_function"]
+
+#: Largest number of unknowns for which a transfer function is solved in exact arithmetic with SymPy.
+SYMBOLIC_MAX = 8
+
+
+def decades(start: float, stop: float, points: int = 20) -> np.ndarray:
+    """Frequencies from ``start`` to ``stop`` (Hz), ``points`` per decade, as SPICE's ``.ac dec``.
+
+    >>> decades(1, 100, 2).round(3).tolist()
+    [1.0, 3.162, 10.0, 31.623, 100.0]
+    """
+    try:
+        start, stop, points = float(start), float(stop), int(points)
+    except (TypeError, ValueError):
+        raise ModelError(f"decades takes two frequencies and a count, got {start!r}, {stop!r}, {points!r}.") from None
+    if not (0 < start < stop < math.inf) or points < 1:
+        raise ModelError(f"decades needs 0 < start < stop (finite) and points ≥ 1, got {start!r}, {stop!r}, {points!r}.")
+    count = int(math.floor(points * math.log10(stop / start) + 1e-9)) + 1
+    return start * 10 ** (np.arange(count) / points)
+
+
+def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
+    """``H(s)`` (len(s) × outputs × inputs) by batched solves of the Laplace-form system."""
+    _numeric(lin, "a numeric response")
+    n, N, ni = len(lin.coordinates), lin.size, len(lin.inputs)
+    out = np.empty((len(svals), len(lin.outputs), ni), dtype=complex)
+    chunk = max(1, int(2e7 // max(N * N, 1)))
+    m = lin.Phi.shape[0]
+    for lo in range(0, len(svals), chunk):
+        sv = svals[lo:lo + chunk][:, None, None]
+        P = np.zeros((len(sv), N, N), dtype=complex)
+        P[:, :n, :n] = lin.M * sv**2 + lin.C * sv + lin.K
+        if m:
+            P[:, :n, n:] = -lin.Phi.T
+            P[:, n:, :n] = lin.Phi
+        rhs = np.zeros((len(sv), N, ni), dtype=complex)
+        rhs[:, :n, :] = sum(b * sv**k for k, b in enumerate(lin.B))
+        if np.any(lin.Bi):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rhs[:, :n, :] += lin.Bi / sv
+        try:
+            X = np.linalg.solve(P, rhs)
+        except np.linalg.LinAlgError:
+            X = _singular_solve(P, rhs)
+        Cq = sum(c * sv**k for k, c in enumerate(lin.Cq))
+        D = sum(d * sv**k for k, d in enumerate(lin.D))
+        if np.any(lin.Di):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                D = D + lin.Di / sv
+        out[lo:lo + chunk] = Cq @ X[:, :n, :] + D
+    return out
+
+
+def _singular_solve(P: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve frequency by frequency, with ``inf`` where the system is singular (a pole on the grid)."""
+    X = np.empty_like(rhs)
+    for i in range(len(P)):
+        try:
+            X[i] = np.linalg.solve(P[i], rhs[i])
+        except np.linalg.LinAlgError:
+            X[i] = np.inf
+    return X
+
+
+# ---------------------------------------------------------------------------
+# Transfer functions
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class TransferFunction:
+    """``H(s)`` from one input to one output of a linearized model (``inverse``: ``1/H``, for impedances).
+
+    Call it with ``s`` values (complex) for numbers; :attr:`expr` is the
+    rational function, :meth:`poles`, :meth:`zeros` and :attr:`dc_gain`
+    describe it.
+    """
+
+    linear: LinearModel
+    input: str
+    output: str
+    inverse: bool = False
+    _expr: Any = field(default=None, repr=False)
+
+    def __repr__(self) -> str:
+        what = f"1 / ({self.output} / {self.input})" if self.inverse else f"{self.output} / {self.input}"
+        return f"<TransferFunction {what} of {self.linear.model!r}>"
+
+    def _pick(self) -> LinearModel:
+        lin = self.linear
+        i, o = lin.inputs.index(self.input), lin.outputs.index(self.output)
+        return LinearModel(**{**lin.__dict__, "inputs": [self.input], "outputs": [self.output],
+                              "B": [b[:, i:i + 1] for b in lin.B], "Bi": lin.Bi[:, i:i + 1], "Di": lin.Di[o:o + 1, i:i + 1],
+                              "Cq": [c[o:o + 1, :] for c in lin.Cq],
+                              "D": [d[o:o + 1, i:i + 1] for d in lin.D]})
+
+    def __call__(self, svals) -> np.ndarray | complex:
+        scalar = np.ndim(svals) == 0
+        sv = np.atleast_1d(np.asarray(svals, dtype=complex))
+        H = _solve(self._pick(), sv)[:, 0, 0]
+        if self.inverse:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                H = 1 / H
+        return complex(H[0]) if scalar else H
+
+    @property
+    def expr(self) -> sp.Expr:
+        """``H(s)`` as a SymPy rational function of :data:`s`, in lowest terms.
+
+        Solved in exact arithmetic (the parameters' symbols, or the binary
+        values of their floating-point numbers as rationals, so factors that
+        cancel cancel exactly) for at most :data:`SYMBOLIC_MAX` unknowns;
+        with numbers its coefficients are then floats, the denominator
+        monic.  A larger numeric model's comes from its poles, zeros and
+        gain, with coinciding pole–zero pairs cancelled."""
+        if self._expr is None:
+            if self.linear.size <= SYMBOLIC_MAX or self.linear.symbolic:
+                self._expr = self._exact()
+            else:
+                self._expr = self._from_roots()
+        return self._expr
+
+    def _exact(self) -> sp.Expr:
+        lin = self._pick()
+        if lin.size > SYMBOLIC_MAX:
+            raise ModelError(f"model {lin.model!r}: a symbolic transfer function of {lin.size} unknowns is beyond "
+                             f"{SYMBOLIC_MAX}; give the parameters values (params=) for a numeric one.")
+        if not lin.symbolic:  # the floats' exact binary values: what cancels, cancels exactly
+            lin = _rational(lin)
+        P, rhs = lin.pencil(s)
+        X = sp.Matrix(P).LUsolve(sp.Matrix(rhs))
+        Cq, D = lin.output_rows(s)
+        n = len(lin.coordinates)
+        H = sp.cancel(sp.together((sp.Matrix(Cq) * X[:n, :] + sp.Matrix(D))[0, 0]))
+        if self.inverse:
+            H = sp.cancel(1 / H)
+        if self.linear.symbolic:
+            return sp.factor(H)
+        num, den = sp.fraction(H)
+        num, den = sp.Poly(num, s), sp.Poly(den, s)
+        lead = den.LC()
+        return (sp.Poly([sp.Float(c / lead) for c in num.all_coeffs()], s).as_expr()
+                / sp.Poly([sp.Float(c / lead) for c in den.all_coeffs()], s).as_expr())
+
+    def _from_roots(self) -> sp.Expr:
+        z, p = _cancel(self.zeros(), self.poles(), _scale(self.linear))
+        w0 = _scale(self.linear)
+        probe = complex(0.173 * w0, 0.911 * w0)
+        value = complex(self(probe))
+        gain = value * np.prod([probe - x for x in p]) / np.prod([probe - x for x in z])
+        if abs(gain.imag) <= 1e-8 * abs(gain):
+            gain = gain.real
+        num = np.real_if_close(np.poly(z) * gain, tol=1e6) if len(z) else np.array([gain])
+        den = np.real_if_close(np.poly(p), tol=1e6) if len(p) else np.array([1.0])
+        poly = (lambda c: sum(sp.Float(x) * s ** (len(c) - 1 - i) if np.isreal(x) else sp.sympify(complex(x)) * s ** (len(c) - 1 - i)
+                              for i, x in enumerate(c)))
+        return poly(np.atleast_1d(num)) / poly(np.atleast_1d(den))
+
+    def poles(self) -> np.ndarray:
+        """The finite poles (rad/s, complex), sorted by magnitude: the eigenvalues of the linearization (its
+        invariant zeros for an inverse)."""
+        return self._roots(not self.inverse)
+
+    def zeros(self) -> np.ndarray:
+        """The finite invariant zeros (rad/s, complex), sorted by magnitude: where the system matrix
+        ``[[A − sE, B], [C, D]]`` of a descriptor realization loses rank (the poles, for an inverse)."""
+        return self._roots(self.inverse)
+
+    def _roots(self, poles: bool) -> np.ndarray:
+        lin = self._pick()
+        _numeric(lin, "poles" if poles else "zeros")
+        return _eigenvalues(_descriptor(lin, with_io=not poles), _scale(lin))
+
+    @property
+    def dc_gain(self) -> float | complex:
+        """``H(0)``; ``inf`` where a pole sits at ``s = 0`` (a free mass, a capacitor with no path to ground)."""
+        if self.linear.symbolic:
+            return sp.limit(self.expr, s, 0)
+        if self.linear.size <= SYMBOLIC_MAX:
+            num, den = sp.fraction(self.expr)
+            n0, d0 = complex(num.subs(s, 0)), complex(den.subs(s, 0))
+            if d0 == 0:  # an exact zero of the denominator (the coefficients are exact up to this point)
+                return math.inf if n0 != 0 else float(sp.limit(self.expr, s, 0))
+            value = n0 / d0
+            return value.real if abs(value.imag) <= 1e-12 * abs(value) else value
+        with np.errstate(all="ignore"):
+            if not (np.any(self._pick().Bi) or np.any(self._pick().Di)):
+                value = complex(self(0.0))
+            else:  # u/s terms: the limit s → 0, extrapolated from three points along the real axis
+                eps = 1e-4 * _scale(self.linear)
+                h1, h2, h4 = (complex(self(eps / k)) for k in (1, 2, 4))
+                growing = abs(h4) > 3 * abs(h2) > 9 * abs(h1)  # like 1/s: a pole at s = 0
+                value = complex("inf") if growing else (8 * h4 - 6 * h2 + h1) / 3
+        if not np.isfinite(value):
+            return math.inf
+        return value.real if abs(value.imag) <= 1e-12 * abs(value) else value
+
+
+def transfer_function(system: Model | LinearModel, input: str, output: Any, **kwargs: Any) -> TransferFunction:
+    """``H(s)`` from ``input`` (a source or load component) to ``output`` (a coordinate, ``"v(C1)"``, ...).
+
+    ``kwargs`` go to :func:`linearize` (``at``, ``params``, ``time``, ``symbolic``).
+    """
+    lin = _linear(system, [input], [output], kwargs)
+    return TransferFunction(lin, lin.inputs[0] if isinstance(system, Model) else input,
+                            lin.outputs[0] if isinstance(system, Model) else str(output))
+
+
+def impedance(system: Model, source: str, **kwargs: Any) -> TransferFunction:
+    """The driving-point impedance ``Z(s)`` the circuit presents to ``source``.
+
+    For a voltage source it is ``E / i`` with ``i`` the current the source
+    delivers (out of its ``a`` terminal into the circuit); for a current
+    source, the voltage across the circuit between the nodes it drives
+    over its current.  Mechanical impedance is the same with a force as
+    the source and the driven point's velocity as the output.
+    """
+    comp = system.component(source)
+    if comp.kind == "voltage_source":
+        lin = linearize(system, inputs=[source], outputs=[f"i({source})"], **kwargs)
+        lin = _negated(lin)
+        return TransferFunction(lin, lin.inputs[0], lin.outputs[0], inverse=True)
+    if comp.kind == "current_source":
+        lin = _negated(linearize(system, inputs=[source], outputs=[f"v({source})"], **kwargs))
+        return TransferFunction(lin, lin.inputs[0], lin.outputs[0])
+    if comp.kind == "force":
+        node = comp.nodes[0]
+        velocity = [nm for nm in system.coordinate_names if nm == f"x_{node}"]
+        if not velocity:
+            raise ModelError(f"force {source!r}: its node {node!r} has no coordinate of its own; give the output "
+                             f"with transfer_function(model, {source!r}, <velocity>).")
+        lin = linearize(system, inputs=[source], outputs=[f"x_{node}'"], **kwargs)
+        return TransferFunction(lin, lin.inputs[0], lin.outputs[0], inverse=True)
+    raise ModelError(f"impedance takes a voltage source, a current source or a force; {source!r} is a {comp.kind}.")
+
+
+def _cancel(zeros: np.ndarray, poles: np.ndarray, w0: float, tol: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
+    """Zeros and poles with the pairs that coincide (within ``tol`` of ``w0`` or of their size) removed: modes the
+    input does not reach or the output does not see."""
+    zeros, poles = list(zeros), list(poles)
+    for z in list(zeros):
+        near = [i for i, p in enumerate(poles) if abs(p - z) <= tol * max(w0, abs(z))]
+        if near:
+            poles.pop(near[0])
+            zeros.remove(z)
+    return np.array(zeros, dtype=complex), np.array(poles, dtype=complex)
+
+
+def _rational(lin: LinearModel) -> LinearModel:
+    """``lin`` with every matrix in exact rationals (each float's own binary value)."""
+    def exact(a):
+        return sp.Matrix(a.shape[0], a.shape[1], [sp.Rational(float(x)) for x in np.ravel(a)])
+
+    return LinearModel(**{**lin.__dict__, "symbolic": True, "M": exact(lin.M), "C": exact(lin.C), "K": exact(lin.K),
+                          "Phi": exact(lin.Phi), "B": [exact(b) for b in lin.B], "Bi": exact(lin.Bi),
+                          "Cq": [exact(c) for c in lin.Cq], "D": [exact(d) for d in lin.D], "Di": exact(lin.Di)})
+
+
+def _negated(lin: LinearModel) -> LinearModel:
+    return LinearModel(**{**lin.__dict__, "Cq": [-c for c in lin.Cq], "D": [-d for d in lin.D], "Di": -lin.Di})
+
+
+# ---------------------------------------------------------------------------
+# Frequency response
+# ---------------------------------------------------------------------------
+
+
+@dataclass
+class FrequencyResponse:
+    """``H(j 2π f)`` of every output to every input (``H[output, input]`` over :attr:`frequencies`, Hz)."""
+
+    model: str
+    frequencies: np.ndarray
+    inputs: list[str]
+    outputs: list[str]
+    H: np.ndarray  # outputs × inputs × frequencies
+    notes: list[str] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        return (f"<FrequencyResponse of {self.model!r}: {len(self.outputs)} output(s) × {len(self.inputs)} input(s), "
+                f"{len(self.frequencies)} frequencies {self.frequencies[0]:g}–{self.frequencies[-1]:g} Hz>")
+
+    def __getitem__(self, key) -> np.ndarray:
+        """``resp["v(C1)"]`` (the only input) or ``resp["v(C1)", "V1"]``: the complex response."""
+        out, inp = key if isinstance(key, tuple) else (key, None)
+        o = self._index(self.outputs, out, "output")
+        if inp is None:
+            if len(self.inputs) != 1:
+                raise ModelError(f"this response has inputs {self.inputs}: name one, as resp[{out!r}, {self.inputs[0]!r}].")
+            i = 0
+        else:
+            i = self._index(self.inputs, inp, "input")
+        return self.H[o, i]
+
+    @staticmethod
+    def _index(names: list[str], name: Any, what: str) -> int:
+        key = str(name)
+        if key not in names:
+            raise UnknownNameError(what, key, names)
+        return names.index(key)
+
+    def magnitude_db(self, output: Any, input: str | None = None) -> np.ndarray:
+        """``20 log10 |H|``."""
+        with np.errstate(divide="ignore"):
+            return 20 * np.log10(np.abs(self[output, input] if input else self[output]))
+
+    def phase_deg(self, output: Any, input: str | None = None) -> np.ndarray:
+        """The phase of ``H`` in degrees, unwrapped along the frequency grid."""
+        return np.degrees(np.unwrap(np.angle(self[output, input] if input else self[output])))
+
+    def plot(self, kind: str = "bode", *, outputs: Sequence[Any] | None = None, input: str | None = None,
+             path: str | None = None):
+        """A Bode chart (magnitude in dB and phase against log frequency) or a Nyquist chart; returns the matplotlib
+        Figure and writes it to ``path`` (PNG) when given."""
+        import matplotlib
+
+        if path is not None:
+            matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        if kind not in ("bode", "nyquist"):
+            raise ModelError(f"kind is 'bode' or 'nyquist', not {kind!r}.")
+        chosen = [str(o) for o in (outputs or self.outputs)]
+        inp = input or self.inputs[0]
+        if kind == "bode":
+            fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+            for o in chosen:
+                ax_m.semilogx(self.frequencies, self.magnitude_db(o, inp), label=f"{o} / {inp}")
+                ax_p.semilogx(self.frequencies, self.phase_deg(o, inp), label=f"{o} / {inp}")
+            ax_m.set_ylabel("|H| (dB)")
+            ax_p.set_ylabel("phase (°)")
+            ax_p.set_xlabel("frequency (Hz)")
+            ax_m.legend(fontsize=8)
+            for ax in (ax_m, ax_p):
+                ax.grid(True, which="both", alpha=0.3)
+        else:
+            fig, ax = plt.subplots(figsize=(6, 6))
+            for o in chosen:
+                H = self[o, inp]
+                ax.plot(H.real, H.imag, label=f"{o} / {inp}")
+                ax.plot(H.real, -H.imag, "--", alpha=0.4)
+            ax.plot([-1], [0], "r+")
+            ax.set_xlabel("Re H")
+            ax.set_ylabel("Im H")
+            ax.axis("equal")
+            ax.legend(fontsize=8)
+            ax.grid(True, alpha=0.3)
+        fig.suptitle(f"{self.model}: frequency response")
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=110)
+        return fig
+
+
+def frequency_response(system: Model | LinearModel, frequencies: Any, *, inputs: Sequence[str] | None = None,
+                       outputs: Sequence[Any] | None = None, **kwargs: Any) -> FrequencyResponse:
+    """``H(j 2π f)`` at ``frequencies`` (Hz) for every input and output (see :func:`linearize` for both and for
+    ``kwargs``)."""
+    f = np.atleast_1d(np.asarray(frequencies, dtype=float)) if not isinstance(frequencies, str) else None
+    if f is None or f.ndim != 1 or not len(f) or not np.all(np.isfinite(f)) or np.any(f < 0):
+        raise ModelError(f"frequencies are a 1-D sequence of finite, non-negative numbers (Hz), got {frequencies!r:.80}.")
+    lin = _linear(system, inputs, outputs, kwargs)
+    H = _solve(lin, 2j * np.pi * f)
+    notes = []
+    if not np.all(np.isfinite(H)):
+        bad = f[~np.all(np.isfinite(H), axis=(1, 2))]
+        notes.append(f"not finite at {len(bad)} frequencies (a pole on the grid, first at {bad[0]:g} Hz)")
+    return FrequencyResponse(lin.model, f, list(lin.inputs), list(lin.outputs), np.moveaxis(H, 0, -1), notes)

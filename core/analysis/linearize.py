@@ -1,0 +1,471 @@
+"""Linearization of a model about an operating point, in second-order (Laplace) form.
+
+About a state where the model is at rest (``q = q₀``, ``q̇ = 0``, the inputs
+at their operating values, ``t = t₀``), small motions ``δq`` obey
+
+    M δq̈ + C δq̇ + K δq − Φ_qᵀ δλ = (Σ_k B_k s^k + Bi/s) u,      Φ_q δq = 0
+
+with ``M`` the mass matrix at the point, ``C = −∂f/∂q̇``,
+``K = −∂f/∂q − ∂(Φ_qᵀ λ₀)/∂q`` (``f`` the forcing of ``M q̈ = f``, ``λ₀`` the
+loop-closure multipliers holding the point), ``B_k`` the coefficients
+of the inputs' ``k``-th time derivatives (a prescribed motion drives a
+damper through its velocity: ``B = c s + k``) and ``Bi`` that of their
+integral (a voltage source fixes a node's flux linkage to ``∫E dt``).  An
+input is a source or load component: its signal parameter becomes its
+value plus ``u = ẇ`` (:meth:`lagrangian.Component.with_input`), so ``u``
+enters exactly where the parameter does.  Outputs are coordinates (``"x_p"``, a rate
+``"x_p'"``, an acceleration ``"x_p''"``), quantities components name
+(``"v(C1)"``, ``"i(L1)"``) or SymPy expressions of the coordinates; each is
+a row ``y = Σ_k (Cq_k δq + D_k u) s^k``.
+
+The Laplace form keeps loop constraints exact (the multipliers are
+unknowns, not stabilized) and first-order coordinates (a zero row of ``M``)
+as they are; :meth:`LinearModel.state_space` gives ``ẋ = A x + B u``,
+``y = C x + D u`` where one exists.  A model whose parameters are symbols
+without values is linearized symbolically (SymPy matrices), the same
+structure as with numbers.
+
+>>> import lagrangian as lg
+>>> from lagrangian.frequency import linearize
+>>> m = lg.Model("msd")
+>>> _ = m.add("mass", "m", "p", m=0.3)
+>>> _ = m.add("spring", "k", ("ground", "p"), k=40.0)
+>>> _ = m.add("damper", "c", ("ground", "p"), c=0.5)
+>>> _ = m.add("force", "F", "p", F=0)
+>>> lin = linearize(m, inputs=["F"], outputs=["x_p"])
+>>> lin.M, lin.C, lin.K, lin.B[0]
+(array([[0.3]]), array([[0.5]]), array([[40.]]), array([[1.]]))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+from sympy.core.function import AppliedUndef
+
+from ..base.component import t
+from ..base.identity import is_zero
+from ..errors import ModelError, UnknownNameError
+from ..model import Model
+from .channels import _atoms, _channel, _label, _outputs, _with_inputs
+
+__all__ = ["LinearModel", "linearize", "s"]
+
+#: The Laplace variable of transfer functions.
+s = sp.Symbol("s")
+
+
+@dataclass
+class LinearModel:
+    """The linearization ``M δq̈ + C δq̇ + K δq − Φ_qᵀ δλ = (Σ_k B_k s^k + Bi/s) u``, ``Φ_q δq = 0``, outputs
+    ``y = Σ_k (Cq_k δq + D_k u) s^k + Di u/s``.
+
+    Matrices are NumPy arrays, or SymPy matrices when ``symbolic``.  ``B``,
+    ``Cq`` and ``D`` are lists indexed by the power of ``s``; ``Bi`` is the
+    coefficient of ``u/s``, nonzero for a source whose integral fixes a
+    coordinate (a voltage source in node fluxes), and ``Di`` the same in the
+    outputs (an inductor's current there).  ``at`` is the
+    operating point (coordinate values), ``y0`` the outputs there, ``u0``
+    the inputs' operating values, ``time`` the instant ``t₀``.
+    """
+
+    model: str
+    coordinates: list[str]
+    inputs: list[str]
+    outputs: list[str]
+    M: Any
+    C: Any
+    K: Any
+    Phi: Any
+    B: list
+    Bi: Any
+    Cq: list
+    D: list
+    Di: Any
+    symbolic: bool
+    at: dict[str, Any] = field(default_factory=dict)
+    u0: dict[str, Any] = field(default_factory=dict)
+    y0: dict[str, Any] = field(default_factory=dict)
+    time: float = 0.0
+    first_order: list[str] = field(default_factory=list)
+    parameters: list[sp.Symbol] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        kind = "symbolic" if self.symbolic else "numeric"
+        return (f"<LinearModel of {self.model!r}: {len(self.coordinates)} coordinates, {self.Phi.shape[0]} constraints, "
+                f"inputs {self.inputs}, outputs {self.outputs}, {kind}>")
+
+    @property
+    def size(self) -> int:
+        """Unknowns of the Laplace-domain solve: coordinates plus multipliers."""
+        return len(self.coordinates) + self.Phi.shape[0]
+
+    def pencil(self, s_value) -> tuple[Any, Any]:
+        """The system matrix ``[[M s² + C s + K, −Φ_qᵀ], [Φ_q, 0]]`` and right-hand side ``[Σ B_k s^k; 0]`` at
+        ``s_value`` (a number, or :data:`s` for the symbolic form)."""
+        P = self.M * s_value**2 + self.C * s_value + self.K
+        rhs = sum((b * s_value**k for k, b in enumerate(self.B)), self.B[0] * 0)
+        if not _zero_matrix(self.Bi):
+            rhs = rhs + self.Bi / s_value
+        m = self.Phi.shape[0]
+        if not m:
+            return P, rhs
+        if self.symbolic or isinstance(s_value, sp.Basic):
+            Phi = sp.Matrix(self.Phi)
+            top = sp.Matrix(P).row_join(-Phi.T)
+            return top.col_join(Phi.row_join(sp.zeros(m, m))), sp.Matrix(rhs).col_join(sp.zeros(m, len(self.inputs)))
+        top = np.hstack([P, -self.Phi.T])
+        bottom = np.hstack([self.Phi, np.zeros((m, m))])
+        return np.vstack([top, bottom]), np.vstack([rhs, np.zeros((m, len(self.inputs)))])
+
+    def output_rows(self, s_value) -> tuple[Any, Any]:
+        """``Σ_k Cq_k s^k`` (outputs × coordinates) and ``Σ_k D_k s^k`` (outputs × inputs) at ``s_value``."""
+        Cq = sum((c * s_value**k for k, c in enumerate(self.Cq)), self.Cq[0] * 0)
+        D = sum((d * s_value**k for k, d in enumerate(self.D)), self.D[0] * 0)
+        if not _zero_matrix(self.Di):
+            D = D + self.Di / s_value
+        return Cq, D
+
+    def state_space(self) -> tuple[Any, Any, Any, Any, list[str]]:
+        """``(A, B, C, D, states)`` of ``ẋ = A x + B u``, ``y = C x + D u`` with ``x = (δq, δq̇ of the inertial
+        coordinates)``.
+
+        Raises :class:`~lagrangian.errors.ModelError` when the model has no
+        such form here: loop constraints (its coordinates are not
+        independent), inputs that enter through their derivatives (a
+        prescribed motion: use the transfer function, which takes ``s``
+        exactly), or outputs that need the acceleration of a first-order
+        coordinate.
+        """
+        if self.Phi.shape[0]:
+            raise ModelError(f"model {self.model!r} has loop-closure constraints: its coordinates are not independent, "
+                             f"so it has no state-space form in them. Its transfer functions and frequency response "
+                             f"keep the constraints exactly (lagrangian.frequency.transfer_function).")
+        if not (_zero_matrix(self.Bi) and _zero_matrix(self.Di)):
+            raise ModelError(f"model {self.model!r}: inputs {', '.join(self.inputs)} fix a coordinate through their "
+                             f"integral (a voltage source in node fluxes), so ẋ = A x + B u has no B; use the transfer "
+                             f"function, or the other formulation.")
+        if any(not _zero_matrix(b) for b in self.B[1:]):
+            raise ModelError(f"model {self.model!r}: inputs {', '.join(self.inputs)} enter through their time "
+                             f"derivatives (a prescribed motion driving a damper or a mass), so ẋ = A x + B u has no "
+                             f"B; use its transfer function, in which s u is exact.")
+        lib = sp if self.symbolic else None
+        n = len(self.coordinates)
+        first = [self.coordinates.index(c) for c in self.first_order]
+        inertial = [i for i in range(n) if i not in first]
+        # the unknowns (q̈ of the inertial coordinates, q̇ of the first-order ones): W w = B u − K q − C_I v
+        W = _cols(self.M, inertial, lib).row_join(_cols(self.C, first, lib)) if lib else np.hstack(
+            [self.M[:, inertial], self.C[:, first]])
+        rhs_x = (-self.K).row_join(-_cols(self.C, inertial, lib)) if lib else np.hstack([-self.K, -self.C[:, inertial]])
+        if lib:
+            sol = W.LUsolve(rhs_x.row_join(self.B[0]))
+        else:
+            _check_regular(W, self.model)
+            sol = np.linalg.solve(W, np.hstack([rhs_x, self.B[0]]))
+        nx = n + len(inertial)
+        Wx, Wu = sol[:, :nx], sol[:, nx:]
+        A = sp.zeros(nx, nx) if lib else np.zeros((nx, nx))
+        B = sp.zeros(nx, len(self.inputs)) if lib else np.zeros((nx, len(self.inputs)))
+        for p, i in enumerate(inertial):
+            A[i, n + p] = 1
+            A[n + p, :] = Wx[p, :]
+            B[n + p, :] = Wu[p, :]
+        for r, i in enumerate(first):
+            A[i, :] = Wx[len(inertial) + r, :]
+            B[i, :] = Wu[len(inertial) + r, :]
+        # outputs: q, q̇ = A[:n] x + B[:n] u, q̈ of inertial ones = A[n:] x + B[n:] u
+        Cq = list(self.Cq) + [self.Cq[0] * 0] * (3 - len(self.Cq))
+        D = list(self.D) + [self.D[0] * 0] * (3 - len(self.D))
+        if len(self.D) > 1 and any(not _zero_matrix(d) for d in self.D[1:]):
+            raise ModelError(f"model {self.model!r}: outputs {', '.join(self.outputs)} depend on the inputs' "
+                             f"derivatives; use the transfer function.")
+        for j in first:
+            if not _zero_matrix(Cq[2][:, j]):
+                raise ModelError(f"model {self.model!r}: an output needs the acceleration of first-order coordinate "
+                                 f"{self.coordinates[j]!r}, which the state does not carry; use the transfer function.")
+        sel = (lambda M, cols: _cols(M, cols, lib)) if lib else (lambda M, cols: M[:, cols])
+        acc = A[n:, :] if lib else A[n:]
+        C_out = Cq[0].row_join(sp.zeros(Cq[0].rows, len(inertial))) if lib else np.hstack(
+            [Cq[0], np.zeros((Cq[0].shape[0], len(inertial)))])
+        C_out = C_out + Cq[1] * A[:n, :] + sel(Cq[2], inertial) * acc if lib else (
+            C_out + Cq[1] @ A[:n] + sel(Cq[2], inertial) @ acc)
+        D_out = D[0] + Cq[1] * B[:n, :] + sel(Cq[2], inertial) * B[n:, :] if lib else (
+            D[0] + Cq[1] @ B[:n] + sel(Cq[2], inertial) @ B[n:])
+        states = list(self.coordinates) + [f"{self.coordinates[i]}'" for i in inertial]
+        return A, B, C_out, D_out, states
+
+
+def _cols(M: sp.Matrix, cols: list[int], lib) -> sp.Matrix:
+    return M.extract(list(range(M.rows)), cols)
+
+
+def _zero_matrix(M) -> bool:
+    if isinstance(M, sp.MatrixBase):
+        return all(is_zero(e) for e in M)
+    return not np.any(M)
+
+
+def _check_regular(W: np.ndarray, model: str) -> None:
+    if W.size and np.linalg.cond(W) > 1e14:
+        raise ModelError(f"model {model!r}: the matrix of accelerations and first-order rates is singular at this "
+                         f"point, so the linearization has no state-space form here.")
+
+
+# ---------------------------------------------------------------------------
+# Building the linearization
+# ---------------------------------------------------------------------------
+
+
+def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequence[str] | None = None,
+              outputs: Sequence[Any] | None = None, params: Mapping[str, Any] | None = None, time: float = 0.0,
+              symbolic: bool | None = None, tol: float = 1e-8) -> LinearModel:
+    """Linearize ``model`` about the operating point ``at`` (coordinate values; zeros by default), at rest.
+
+    ``inputs``: names of components with a signal parameter (sources,
+    forces, torques, prescribed motions), or ``"name.param"``; every such
+    component by default.  ``outputs``: coordinate names (``"x_p"``,
+    ``"x_p'"``, ``"x_p''"``), component quantities (``"v(C1)"``,
+    ``"i(V1)"``) or SymPy expressions of the coordinates; every coordinate
+    by default.  ``params``: values of symbolic parameters.  ``symbolic``:
+    keep parameters without values as symbols (the default when there are
+    such); otherwise every parameter must have a value.  ``time``: the
+    instant ``t₀`` of a model whose equations depend on time.
+
+    The point must be an equilibrium: a :class:`~lagrangian.errors.ModelError`
+    names the coordinates that would accelerate there (beyond ``tol`` of the
+    forces' scale) and by how much.
+    """
+    if not isinstance(model, Model):
+        raise ModelError(f"linearize takes a lagrangian.Model, got {type(model).__name__}.")
+    params = dict(params or {})
+    if not np.isfinite(float(time)):
+        raise ModelError(f"time must be a finite number, got {time!r}.")
+    time = float(time)
+    twin, channels = _with_inputs(model, inputs)
+    eq = twin.eq
+    names = eq.names
+    q, v = list(eq.sym.q), list(eq.sym.v)
+    n = len(q)
+    values = _parameter_values(twin, params, symbolic)
+    is_symbolic = any(not isinstance(x, (int, float)) for x in values.values()) or bool(_unvalued(twin, values))
+    if symbolic is False and is_symbolic:
+        missing = sorted(p.name for p in _unvalued(twin, values))
+        raise ModelError(f"model {model.name!r} has symbolic parameters without values: {', '.join(missing)}. "
+                         f"Give them in params=, or linearize symbolically (symbolic=True).")
+    point = _operating_point(model, names, at, is_symbolic)
+    g = eq._generic
+    M_g, f_g, Phi_g = g["M"], g["f"], g["constraints"]
+    # inputs: u(t) and its derivatives as plain symbols
+    u_syms: dict[Any, tuple[int, int]] = {}  # the symbol standing for the k-th derivative of input col → (col, k)
+    symbol_of: dict[tuple[int, int], sp.Symbol] = {}
+
+    def usym(col: int, k: int) -> sp.Symbol:
+        if (col, k) not in symbol_of:
+            symbol_of[col, k] = sym = sp.Dummy(f"u{col}_{k}", real=True)
+            u_syms[sym] = (col, k)
+        return symbol_of[col, k]
+
+    replace: dict[Any, Any] = {}
+    order = 0
+    for expr in _atoms(list(f_g) + list(M_g) + list(g["constraints"]), channels):
+        if isinstance(expr, AppliedUndef) and expr.args != (t,):
+            replace[expr] = sp.Integer(0)  # w(0), from integrating a source over [0, t]: w is 0 at the point
+            continue
+        k, col = _channel(expr, channels)
+        replace[expr] = usym(col, k)
+        order = max(order, k)
+    calc = eq._derivation.calc
+    f_u = f_g.xreplace(replace) if replace else f_g
+    M_u = M_g.xreplace(replace) if replace else M_g
+    subs = {**{qs: point[nm] for qs, nm in zip(q, names)}, **{vs: sp.Integer(0) for vs in v},
+            **{us: sp.Integer(0) for us in u_syms}, t: sp.Float(time) if time else sp.Integer(0)}
+    subs.update({sym: (sp.Float(val) if isinstance(val, float) else val) for sym, val in values.items()})
+
+    def at_point(expr):
+        out = sp.sympify(expr).xreplace(subs)
+        return out if is_symbolic else _number(out, model.name)
+
+    def matrix(rows, cols, entry):
+        out = sp.zeros(rows, cols)
+        for i in range(rows):
+            for j in range(cols):
+                out[i, j] = entry(i, j)
+        return out
+
+    unsupported = [str(a.func) for a in _atoms(list(f_u) + list(M_u), ()) if isinstance(a, AppliedUndef)]
+    if unsupported:
+        raise ModelError(f"model {model.name!r}: signals given as Python callables ({', '.join(sorted(set(unsupported)))}) "
+                         f"have no operating value to linearize about; give them as numbers or SymPy expressions of t.")
+    free = [set(sp.sympify(e).free_symbols) for e in f_u]
+    f0 = sp.Matrix([at_point(e) for e in f_u])
+    M0 = matrix(n, n, lambda i, j: at_point(M_u[i, j]))
+    C0 = matrix(n, n, lambda i, j: -at_point(calc.diff(f_u[i], v[j])) if v[j] in free[i] else sp.Integer(0))
+    K0 = matrix(n, n, lambda i, j: -at_point(calc.diff(f_u[i], q[j])) if q[j] in free[i] else sp.Integer(0))
+    # the k-th derivative of w is s^(k−1) u: B_(k−1), or Bi (u/s) for w itself
+    n_in = len(channels)
+    channels_by_col = {c[1]: c[0] for c in channels.values()}
+    Bw = [sp.zeros(n, n_in) for _ in range(max(order, 1) + 1)]
+    for us, (col, k) in u_syms.items():
+        for i in range(n):
+            if us in free[i]:
+                Bw[k][i, col] += at_point(sp.diff(f_u[i], us))  # calc differentiates by q, v and t only
+    m = len(Phi_g)
+    Phi_u = Phi_g.xreplace(replace) if (m and replace) else Phi_g
+    driven = sorted({channels_by_col[u_syms[x][0]] for c in Phi_u for x in sp.sympify(c).free_symbols if x in u_syms})
+    if driven:
+        raise ModelError(f"model {model.name!r}: inputs {', '.join(driven)} move a closed kinematic loop (they enter its "
+                         f"closure constraints); linearizing about them is not supported. Drive the loop with a force "
+                         f"or torque instead.")
+    Jq = matrix(m, n, lambda k, j: at_point(calc.diff(Phi_u[k], q[j]))) if m else sp.zeros(0, n)
+    if m:
+        residual = [at_point(c) for c in Phi_u]
+        _check_closure(model.name, residual, is_symbolic, tol)
+        lam0 = _multipliers(model.name, f0, Jq, is_symbolic, names, tol, K0, point)
+        for k in range(m):
+            if is_zero(lam0[k]) if is_symbolic else lam0[k] == 0:
+                continue
+            for i in range(n):
+                for j in range(n):
+                    K0[i, j] -= lam0[k] * at_point(calc.diff(calc.diff(Phi_u[k], q[i]), q[j]))
+    else:
+        _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point)
+    Cq, Dw, y0 = _outputs(twin, eq, outputs, usym, channels, at_point)
+    first = [names[i] for i in eq.first_order]
+    if is_symbolic:
+        conv = (lambda x: sp.Matrix(x))
+    else:
+        def conv(x):
+            return np.array(x.tolist(), dtype=float).reshape(x.shape)
+    return LinearModel(
+        model=model.name, coordinates=list(names), inputs=[c[0] for c in channels.values()],
+        outputs=[_label(o) for o in (outputs if outputs is not None else names)],
+        M=conv(M0), C=conv(C0), K=conv(K0), Phi=conv(Jq), B=[conv(b) for b in Bw[1:]], Bi=conv(Bw[0]),
+        Cq=[conv(c) for c in Cq], D=[conv(d) for d in Dw[1:]], Di=conv(Dw[0]), symbolic=is_symbolic, at=dict(point), time=time,
+        u0={c[0]: c[2] for c in channels.values()}, y0=y0, first_order=first,
+        parameters=sorted(_unvalued(twin, values), key=lambda p: p.name),
+    )
+
+
+def _number(expr, model: str) -> float:
+    try:
+        value = float(expr)
+    except TypeError:
+        raise ModelError(f"model {model!r}: {expr} does not evaluate to a number at the operating point "
+                         f"(a parameter without a value?).") from None
+    if not np.isfinite(value):
+        raise ModelError(f"model {model!r}: the equations are not finite at this operating point ({expr}): "
+                         f"a singular configuration; linearize about another point.")
+    return value
+
+
+def _parameter_values(model: Model, params: Mapping[str, Any], symbolic: bool | None) -> dict[sp.Symbol, Any]:
+    """The parameters' values: those given as numbers, and ``params`` by name."""
+    by_name: dict[str, list[sp.Symbol]] = {}
+    for sym in list(model.parameters) + list(model.assembly.values):
+        by_name.setdefault(sym.name, []).append(sym)
+    values: dict[sp.Symbol, Any] = {sym: float(val) for sym, val in model.assembly.values.items()}
+    for key, val in params.items():
+        if key not in by_name:
+            raise UnknownNameError("parameter", key, by_name)
+        if isinstance(val, sp.Basic) and not val.is_number:
+            entry = val
+        else:
+            try:
+                entry = float(val)
+            except (TypeError, ValueError):
+                raise ModelError(f"parameter {key!r} must be a number, got {val!r:.80}.") from None
+            if not np.isfinite(entry):
+                raise ModelError(f"parameter {key!r} must be finite, got {val!r:.80}.")
+        for sym in by_name[key]:
+            values[sym] = entry
+    return values
+
+
+def _unvalued(model: Model, values: Mapping[sp.Symbol, Any]) -> set:
+    return {p for p in model.parameters if p not in values}
+
+
+def _operating_point(model: Model, names: list[str], at: Mapping[str, Any] | None, symbolic: bool) -> dict:
+    point = {nm: sp.Integer(0) for nm in names}
+    if at is None:
+        return point
+    if not isinstance(at, Mapping):
+        raise ModelError(f"at= is a mapping of coordinate names to values, got {type(at).__name__}.")
+    for key, val in at.items():
+        if key not in point:
+            raise UnknownNameError("coordinate", key, names)
+        if isinstance(val, sp.Basic) and not val.is_number:
+            point[key] = val
+            continue
+        try:
+            x = float(val)
+        except (TypeError, ValueError):
+            raise ModelError(f"at[{key!r}] must be a number, got {val!r:.80}.") from None
+        if not np.isfinite(x):
+            raise ModelError(f"at[{key!r}] must be finite, got {val!r:.80}.")
+        point[key] = sp.Float(x) if x else sp.Integer(0)
+    return point
+
+
+def _scale(K0, M0, point, names) -> float:
+    K = np.abs(np.array(K0.tolist(), dtype=float)) if K0.shape[0] else np.zeros((0, 0))
+    x = max([abs(float(point[nm])) for nm in names] + [1.0])
+    return float(K.max() * x) if K.size else 1.0
+
+
+def _check_rest(model: str, f0, names, symbolic: bool, tol: float, K0, M0, point) -> None:
+    if symbolic:
+        moving = [nm for nm, e in zip(names, f0) if not is_zero(e)]
+        if moving:
+            i = names.index(moving[0])
+            raise ModelError(f"model {model!r} is not at rest at this operating point: the equation of {moving[0]!r} "
+                             f"has a net force {f0[i]} there. Give at= an equilibrium.")
+        return
+    residual = np.abs(np.array([float(e) for e in f0]))
+    scale = _scale(K0, M0, point, names)
+    bad = [nm for nm, r in zip(names, residual) if r > tol * max(scale, 1e-300)]
+    if bad:
+        worst = int(np.argmax(residual))
+        raise ModelError(f"model {model!r} is not at rest at this operating point: the net force on {', '.join(bad)} "
+                         f"is {residual[worst]:.3g} (against a stiffness scale of {scale:.3g}). Give at= an "
+                         f"equilibrium (the coordinates' values where the forces balance).")
+
+
+def _check_closure(model: str, residual, symbolic: bool, tol: float) -> None:
+    if symbolic:
+        if any(not is_zero(r) for r in residual):
+            raise ModelError(f"model {model!r}: the operating point does not close the model's kinematic loops "
+                             f"(Φ = {residual}). Give at= a point that satisfies them.")
+        return
+    worst = max((abs(r) for r in residual), default=0.0)
+    if worst > tol:
+        raise ModelError(f"model {model!r}: the operating point does not close the model's kinematic loops "
+                         f"(|Φ| = {worst:.3g}). Give at= a point that satisfies them.")
+
+
+def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, point):
+    """The multipliers ``λ₀`` with ``f₀ + Φ_qᵀ λ₀ = 0``, or an error when none holds the point at rest."""
+    if symbolic:
+        JT = Jq.T
+        lam = (JT.T * JT).LUsolve(-JT.T * f0)
+        rest = f0 + JT * lam
+        if any(not is_zero(r) for r in rest):
+            raise ModelError(f"model {model!r} is not at rest at this operating point: the loop constraints cannot "
+                             f"balance the net forces {list(rest)}. Give at= an equilibrium.")
+        return list(lam)
+    J = np.array(Jq.tolist(), dtype=float)
+    f = np.array([float(e) for e in f0])
+    lam, *_ = np.linalg.lstsq(J.T, -f, rcond=None)
+    rest = f + J.T @ lam
+    scale = max(_scale(K0, None, point, names), float(np.abs(f).max(initial=0.0)))
+    if np.abs(rest).max(initial=0.0) > tol * max(scale, 1e-300):
+        i = int(np.argmax(np.abs(rest)))
+        raise ModelError(f"model {model!r} is not at rest at this operating point: a net force {rest[i]:.3g} on "
+                         f"{names[i]!r} that the loop constraints do not balance. Give at= an equilibrium.")
+    return [sp.Float(x) for x in lam]
+
+

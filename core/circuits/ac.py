@@ -1,0 +1,185 @@
+"""Compare a model's frequency response with ngspice's AC analysis.
+
+The circuit is written as a SPICE netlist (:func:`lagrangian.spice.netlist`),
+its input source given ``AC 1`` and its operating value as ``DC``, and run
+with ``.ac dec`` in ngspice through PySpice.  Ours is the exact Laplace-domain
+response of the model linearized about the same point
+(:func:`lagrangian.frequency.frequency_response`), evaluated at ngspice's own
+frequencies.  Both are exact linear algebra, so they agree to rounding: the
+report gives per output the largest relative difference of the complex
+responses, and of magnitude (dB) and phase (degrees), and both wall times;
+:meth:`ACComparison.chart` draws both responses with their difference
+underneath.
+
+>>> import lagrangian as lg
+>>> m = lg.Model("rc")
+>>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+>>> _ = m.add("resistor", "R1", ("in", "out"), R=2.2e3)
+>>> _ = m.add("capacitor", "C1", ("out", "0"), C=47e-9)
+>>> cmp = compare_ac_with_ngspice(m, input="V1", start=10, stop=1e6, points=10)   # doctest: +SKIP
+>>> cmp.worst_rel < 1e-9                                                          # doctest: +SKIP
+True
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from ..analysis.frequency import frequency_response
+from ..base.component import t
+from ..errors import ModelError
+from ..model import Model
+from .spice import _fmt, netlist, run_ac
+
+__all__ = ["ACComparison", "OutputError", "compare_ac_with_ngspice"]
+
+
+@dataclass
+class OutputError:
+    """Agreement on one output: the largest relative difference of the complex responses, of their magnitudes
+    (dB) and of their phases (degrees)."""
+
+    label: str
+    max_rel: float
+    max_db: float
+    max_deg: float
+
+
+@dataclass
+class ACComparison:
+    """The outcome of :func:`compare_ac_with_ngspice`; ``print(cmp.table())`` for the report."""
+
+    model: str
+    input: str
+    netlist: str
+    frequencies: np.ndarray
+    ours: dict[str, np.ndarray]
+    spice: dict[str, np.ndarray]
+    rows: list[OutputError]
+    ours_s: float
+    ngspice_s: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def worst_rel(self) -> float:
+        """The largest relative difference over all outputs."""
+        return max(r.max_rel for r in self.rows)
+
+    def table(self) -> str:
+        f = self.frequencies
+        lines = [f"{self.model}: response to {self.input}, {f.size} frequencies {f[0]:g}–{f[-1]:g} Hz",
+                 f"  {'output':16} {'max rel diff':>13} {'max |dB| diff':>14} {'max phase diff (°)':>19}"]
+        for r in self.rows:
+            lines.append(f"  {r.label:16} {r.max_rel:13.3e} {r.max_db:14.3e} {r.max_deg:19.3e}")
+        lines.append(f"  wall time: ngspice {self.ngspice_s * 1e3:.1f} ms; ours {self.ours_s * 1e3:.1f} ms "
+                     f"(linearized, derived and solved)")
+        return "\n".join(lines)
+
+    def chart(self, path: str | Path) -> Path:
+        """Write a PNG: each output's two magnitude responses overlaid, their relative difference underneath."""
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        n = len(self.rows)
+        fig, axes = plt.subplots(2, n, figsize=(4.2 * n + 1, 6), squeeze=False, sharex=True, constrained_layout=True)
+        for k, r in enumerate(self.rows):
+            top, bottom = axes[0][k], axes[1][k]
+            with np.errstate(divide="ignore"):
+                top.semilogx(self.frequencies, 20 * np.log10(np.abs(self.ours[r.label])), lw=2.2, label="lagrangian")
+                top.semilogx(self.frequencies, 20 * np.log10(np.abs(self.spice[r.label])), "--", lw=1.2, label="ngspice")
+            top.set_title(f"{r.label} / {self.input}", fontsize=9)
+            top.set_ylabel("|H| (dB)")
+            top.grid(True, which="both", alpha=0.3)
+            diff = np.abs(self.ours[r.label] - self.spice[r.label]) / np.maximum(np.abs(self.spice[r.label]), 1e-300)
+            bottom.loglog(self.frequencies, np.maximum(diff, 1e-18), color="C3")
+            bottom.set_title(f"relative difference, max {r.max_rel:.1e}", fontsize=9)
+            bottom.set_xlabel("frequency (Hz)")
+            bottom.grid(True, which="both", alpha=0.3)
+        axes[0][0].legend(fontsize=8)
+        fig.suptitle(self.table().splitlines()[0])
+        out = Path(path)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(out, dpi=110)
+        plt.close(fig)
+        return out
+
+
+def compare_ac_with_ngspice(model: Model, *, input: str, outputs: Sequence[str] | None = None, start: float = 1.0,
+                            stop: float = 1e6, points: int = 20, params: Mapping[str, float] | None = None,
+                            at: Mapping[str, float] | None = None) -> ACComparison:
+    """Run ngspice's ``.ac dec points start stop`` on ``model`` driven at ``input``; compare with ours.
+
+    ``outputs`` are ``"v(X)"`` (any two-terminal element) and ``"i(X)"``
+    (inductors and voltage sources, whose currents ngspice reports);
+    every capacitor voltage and inductor current by default.  ``params``
+    gives symbolic parameters their values; ``at`` the operating point
+    (coordinate values) for a model that is not linear.
+    """
+    comp = model.component(input)
+    if comp.kind not in ("voltage_source", "current_source"):
+        raise ModelError(f"the input of an AC comparison is a voltage or current source; {input!r} is a {comp.kind}.")
+    for name, value in (("start", start), ("stop", stop)):
+        if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+            raise ModelError(f"{name} must be a positive frequency in Hz, got {value!r}.")
+    if not start < stop or not isinstance(points, int) or isinstance(points, bool) or points < 1:
+        raise ModelError(f"need start < stop and points ≥ 1 per decade, got {start!r}, {stop!r}, {points!r}.")
+    net = netlist(model, params=params, t_end=1.0)
+    element = next(name for name, owner in net.elements.items() if owner == input)
+    subs = {sym: sp.Float(v) for sym, v in model._values(params or {}).items()}
+    signal = comp.params["E" if comp.kind == "voltage_source" else "I"]
+    try:
+        dc = float(sp.sympify(signal).xreplace({t: 0}).xreplace(subs))
+    except (TypeError, sp.SympifyError):
+        raise ModelError(f"source {input!r}: its value at t = 0 is not a number; give it as a number or an "
+                         f"expression of t.") from None
+    lines = []
+    for line in net.text.splitlines():
+        head = line.split()
+        if head and head[0] == element:
+            line = f"{head[0]} {head[1]} {head[2]} DC {_fmt(dc)} AC 1"
+        elif line.startswith(".tran"):
+            line = f".ac dec {points} {_fmt(float(start))} {_fmt(float(stop))}"
+        lines.append(line)
+    labels = list(outputs) if outputs is not None else [k for k in net.probes if "." not in k]
+    probes = {label: _probe(model, net, label) for label in labels}
+    run = run_ac("\n".join(lines), probes)
+    began = _time.perf_counter()
+    resp = frequency_response(model, run.time, inputs=[input], outputs=labels, params=params, at=at)
+    ours_s = _time.perf_counter() - began
+    ours = {label: resp[label] for label in labels}
+    rows = []
+    for label in labels:
+        a, b = ours[label], run.quantities[label]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rel = np.abs(a - b) / np.abs(b)
+            db = np.abs(20 * np.log10(np.abs(a) / np.abs(b)))
+        deg = np.abs(np.degrees(np.angle(a / b)))
+        rows.append(OutputError(label, float(np.nanmax(rel)), float(np.nanmax(db)), float(np.nanmax(deg))))
+    return ACComparison(model.name, input, "\n".join(lines), run.time, ours, run.quantities, rows, ours_s, run.wall,
+                        list(resp.notes))
+
+
+def _probe(model: Model, net, label: str) -> tuple[str, ...]:
+    """The ngspice vector(s) of an output ``v(X)`` or ``i(X)``."""
+    label = str(label).strip()
+    if len(label) < 4 or label[1] != "(" or label[-1] != ")" or label[0] not in "vi":
+        raise ModelError(f"an AC comparison's outputs are 'v(X)' or 'i(X)' of a component X, got {label!r}.")
+    comp = model.component(label[2:-1])
+    if len(comp.nodes) != 2:
+        raise ModelError(f"{comp.kind} {comp.name!r} has {len(comp.nodes)} terminals; compare a two-terminal element.")
+    if label[0] == "v":
+        return ("v", *(net.nodes[n] for n in comp.nodes))
+    element = [name for name, owner in net.elements.items() if owner == comp.name]
+    if comp.kind not in ("inductor", "voltage_source") or len(element) != 1:
+        raise ModelError(f"ngspice reports the currents of inductors and voltage sources; {comp.name!r} is a "
+                         f"{comp.kind}: compare its voltage, v({comp.name}).")
+    return ("i", element[0])

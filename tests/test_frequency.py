@@ -1,0 +1,339 @@
+"""The frequency domain: linearization, transfer functions, impedances, frequency response and modes.
+
+Expected values come from closed forms (series and parallel RLC, transmissibility, coupled LC tanks, a
+parallelogram linkage, hand-derived H(s)) and from sympy.physics.mechanics' Linearizer.
+"""
+
+import numpy as np
+import pytest
+import sympy as sp
+import sympy.physics.mechanics as me
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import lagrangian as lg
+from lagrangian.frequency import (decades, frequency_response, impedance, linearize, modes, s, transfer_function)
+
+G = 9.81
+
+
+def decade(lo, hi):
+    """A value drawn log-uniformly between ``lo`` and ``hi``."""
+    return st.floats(np.log10(lo), np.log10(hi)).map(lambda e: float(f"{10 ** e:.4g}"))
+
+
+def series_rlc(R, L, C, formulation="charge"):
+    m = lg.Model("series rlc", formulation=formulation)
+    m.add("voltage_source", "V1", ("in", "0"), E=0)
+    m.add("resistor", "R1", ("in", "a"), R=R)
+    m.add("inductor", "L1", ("a", "b"), L=L)
+    m.add("capacitor", "C1", ("b", "0"), C=C)
+    return m
+
+
+def relative(a, b):
+    return np.max(np.abs(np.asarray(a) - np.asarray(b)) / np.abs(np.asarray(b)))
+
+
+def roots_distance(found, expected):
+    """Largest distance, relative to the root's size, from each expected root to the nearest found one (the
+    same count required): round-off may order a conjugate pair either way."""
+    found, expected = np.asarray(found), np.asarray(expected)
+    assert len(found) == len(expected), (found, expected)
+    return max((np.min(np.abs(found - r)) / abs(r) for r in expected), default=0.0)
+
+
+# -- closed forms -----------------------------------------------------------------------------------------
+
+
+def test_series_rlc_transfer_functions_and_impedance_are_the_hand_forms_in_symbols():
+    R, L, C = sp.symbols("R L C", positive=True)
+    m = series_rlc(R, L, C)
+    den = L * C * s**2 + R * C * s + 1
+    assert sp.simplify(transfer_function(m, "V1", "i(L1)").expr - C * s / den) == 0
+    assert sp.simplify(transfer_function(m, "V1", "v(C1)").expr - 1 / den) == 0
+    assert sp.simplify(transfer_function(m, "V1", "v(L1)").expr - L * C * s**2 / den) == 0
+    assert sp.simplify(impedance(m, "V1").expr - (R + L * s + 1 / (C * s))) == 0
+
+
+@settings(max_examples=25)
+@given(decade(0.1, 1e4), decade(1e-6, 1.0), decade(1e-9, 1e-3))
+def test_series_rlc_impedance_poles_and_zeros_match_the_closed_form(R, L, C):
+    m = series_rlc(R, L, C)
+    Z = impedance(m, "V1")
+    w = 1 / np.sqrt(L * C) * np.array([0.01, 0.3, 1.0, 7.0, 300.0])
+    assert relative(Z(1j * w), R + 1j * w * L + 1 / (1j * w * C)) < 1e-9
+    H = transfer_function(m, "V1", "v(C1)")
+    roots = np.roots([L * C, R * C, 1])
+    assert roots_distance(H.poles(), roots) < 1e-7
+    assert len(H.zeros()) == 0 and H.dc_gain == pytest.approx(1.0, rel=1e-9)
+    assert Z.dc_gain == np.inf and np.abs(Z.poles()).max() < 1e-9 * np.abs(roots).min()
+    # node fluxes: the source fixes a flux linkage to ∫E dt (its integral enters); the same transfer function
+    flux = transfer_function(series_rlc(R, L, C, "flux"), "V1", "v(C1)")
+    assert relative(flux(1j * w), H(1j * w)) < 1e-9
+    assert flux.dc_gain == pytest.approx(1.0, rel=1e-9)
+    num, den = sp.fraction(flux.expr)
+    assert sp.degree(den, s) == 2 and sp.degree(num, s) == 0  # the flux gauge's pole at 0 cancels exactly
+
+
+@settings(max_examples=25)
+@given(decade(1.0, 1e4), decade(1e-5, 1.0), decade(1e-9, 1e-3))
+def test_parallel_rlc_impedance_seen_by_a_current_source_in_both_formulations(R, L, C):
+    w = 1 / np.sqrt(L * C) * np.array([0.02, 0.5, 1.0, 2.0, 50.0])
+    closed = 1 / (1 / R + 1j * w * C + 1 / (1j * w * L))
+    for formulation in ("flux", "charge"):
+        m = lg.Model("parallel rlc", formulation=formulation)
+        m.add("current_source", "I1", ("0", "n"), I=0)
+        m.add("resistor", "R1", ("n", "0"), R=R)
+        m.add("inductor", "L1", ("n", "0"), L=L)
+        m.add("capacitor", "C1", ("n", "0"), C=C)
+        if formulation == "charge":  # the current source's voltage is not a function of loop charges
+            with pytest.raises(lg.ModelError, match="formulation='flux'"):
+                impedance(m, "I1")
+            continue
+        assert relative(impedance(m, "I1")(1j * w), closed) < 1e-9
+
+
+@settings(max_examples=25)
+@given(decade(0.01, 100.0), decade(0.1, 1e5), st.floats(0.005, 3.0))
+def test_transmissibility_of_a_base_excited_mass_spring_damper(mass, k, zeta):
+    c = 2 * zeta * np.sqrt(k * mass)
+    m = lg.Model("isolator")
+    m.add("prescribed_motion", "base", "b", position=0)
+    m.add("mass", "m", "p", m=mass)
+    m.add("spring", "k", ("b", "p"), k=k)
+    m.add("damper", "c", ("b", "p"), c=c)
+    wn = np.sqrt(k / mass)
+    f = decades(wn / 2 / np.pi / 100, wn / 2 / np.pi * 100, 10)
+    r = 2 * np.pi * f / wn
+    closed = np.sqrt(1 + (2 * zeta * r) ** 2) / np.sqrt((1 - r**2) ** 2 + (2 * zeta * r) ** 2)
+    resp = frequency_response(m, f, inputs=["base"], outputs=["x_p"])
+    assert relative(np.abs(resp["x_p"]), closed) < 1e-9
+    with pytest.raises(lg.ModelError, match="derivatives"):
+        linearize(m, inputs=["base"]).state_space()  # the base drives the damper through its velocity
+
+
+@settings(max_examples=20)
+@given(decade(1e-6, 1.0), decade(1e-12, 1e-3), st.floats(0.01, 0.95))
+def test_normal_modes_of_two_inductively_coupled_lc_tanks(L, C, k):
+    closed = np.sort(1 / np.sqrt(np.array([1 + k, 1 - k]) * L * C))
+    for formulation in ("charge", "flux"):
+        m = lg.Model("coupled tanks", formulation=formulation)
+        for i in (1, 2):
+            m.add("inductor", f"L{i}", (f"n{i}", "0"), L=L)
+            m.add("capacitor", f"C{i}", (f"n{i}", "0"), C=C)
+        m.add("coupling", "K1", inductor1="L1", inductor2="L2", k=k)
+        found = modes(m)
+        assert relative(found.omega, closed) < 1e-9
+        assert np.all(np.abs(found.damping) < 1e-9)
+        assert np.allclose(np.abs(found.shapes), 1.0, rtol=1e-9)  # in phase and in antiphase
+
+
+def test_parallelogram_linkage_swings_as_its_closed_form_through_its_loop_constraints():
+    """Two equal cranks (uniform rods m_c, L) and a coupler (m_p) that translates: ω² = g (m_c + m_p) / (L (2/3 m_c + m_p))."""
+    mc, mp, L, d = 0.35, 0.8, 0.6, 1.1
+    m = lg.Model("parallelogram", dim=2)
+    m.add("rod", "crank", "crank", m=mc, length=L)
+    m.add("rod", "coupler", "coupler", m=mp, length=d)
+    m.add("rod", "rocker", "rocker", m=mc, length=L)
+    m.add("revolute", "A", ("ground", "crank"), absolute=True)
+    m.add("revolute", "B", ("crank", "coupler"), parent_point=(L, 0), absolute=True)
+    m.add("revolute", "D", ("ground", "rocker"), parent_point=(d, 0), absolute=True)
+    m.add("revolute", "C", ("coupler", "rocker"), parent_point=(d, 0), child_point=(L, 0))
+    m.add("gravity", "g", g=G)
+    assert len(m.eq.constraints) == 2
+    hanging = {"theta_A": -np.pi / 2, "theta_B": 0.0, "theta_D": -np.pi / 2}
+    found = modes(m, at=hanging)
+    assert len(found.omega) == 1
+    assert found.omega[0] == pytest.approx(np.sqrt(G * (mc + mp) / (L * (2 / 3 * mc + mp))), rel=1e-10)
+    with pytest.raises(lg.ModelError, match="constraints"):
+        linearize(m, hanging).state_space()
+    with pytest.raises(lg.ModelError, match="kinematic loops"):
+        linearize(m, {**hanging, "theta_B": 0.2})
+
+
+def test_symbolic_transfer_function_of_a_two_mass_chain_equals_the_hand_derived_one():
+    m1, m2, k1, k2, c2 = sp.symbols("m1 m2 k1 k2 c2", positive=True)
+    m = lg.Model("two masses")
+    m.add("mass", "M1", "p1", m=m1)
+    m.add("mass", "M2", "p2", m=m2)
+    m.add("spring", "K1", ("ground", "p1"), k=k1)
+    m.add("spring", "K2", ("p1", "p2"), k=k2)
+    m.add("damper", "C2", ("p1", "p2"), c=c2)
+    m.add("force", "F", "p2", F=0)
+    # (m1 s² + c2 s + k1 + k2) X1 − (c2 s + k2) X2 = 0;  −(c2 s + k2) X1 + (m2 s² + c2 s + k2) X2 = F
+    a, b, c = m1 * s**2 + c2 * s + k1 + k2, c2 * s + k2, m2 * s**2 + c2 * s + k2
+    det = a * c - b**2
+    assert sp.simplify(transfer_function(m, "F", "x_p2").expr - a / det) == 0
+    assert sp.simplify(transfer_function(m, "F", "x_p1").expr - b / det) == 0
+    assert sp.simplify(transfer_function(m, "F", "x_p1''").expr - s**2 * b / det) == 0
+
+
+@settings(max_examples=15)
+@given(decade(0.05, 20.0), decade(0.05, 20.0), decade(1.0, 1e4), decade(1e-3, 10.0))
+def test_a_model_given_numbers_and_its_symbolic_twin_linearize_alike(m1, m2, k, c):
+    def build(values):
+        m = lg.Model("chain")
+        m.add("mass", "M1", "p1", m=values[0])
+        m.add("mass", "M2", "p2", m=values[1])
+        m.add("spring", "K", ("p1", "p2"), k=values[2])
+        m.add("spring", "K0", ("ground", "p1"), k=values[2])
+        m.add("damper", "C", ("ground", "p2"), c=values[3])
+        m.add("force", "F", "p1", F=0)
+        return m
+
+    names = sp.symbols("m1 m2 k c", positive=True)
+    numeric = linearize(build([m1, m2, k, c]), inputs=["F"], outputs=["x_p2", "x_p1'"])
+    symbolic = linearize(build(names), inputs=["F"], outputs=["x_p2", "x_p1'"])
+    assert symbolic.symbolic and not numeric.symbolic
+    given = dict(zip(names, (m1, m2, k, c)))
+    for mine, theirs in ((numeric.M, symbolic.M), (numeric.C, symbolic.C), (numeric.K, symbolic.K),
+                         (numeric.B[0], symbolic.B[0]), (numeric.Cq[1], symbolic.Cq[1])):
+        assert np.allclose(mine, np.array(theirs.subs(given), dtype=float), rtol=1e-12, atol=0)
+    valued = linearize(build(names), inputs=["F"], outputs=["x_p2", "x_p1'"], params={"m1": m1, "m2": m2, "k": k, "c": c})
+    assert not valued.symbolic and np.allclose(valued.K, numeric.K, rtol=1e-14)
+
+
+# -- against sympy.physics.mechanics ----------------------------------------------------------------------
+
+
+def kane_cart_double_pendulum(Mc, m1, L1, m2, L2):
+    x, q1, q2 = me.dynamicsymbols("x q1 q2")
+    u0, u1, u2 = me.dynamicsymbols("u0 u1 u2")
+    F = me.dynamicsymbols("F")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P0 = O.locatenew("P0", x * N.x)
+    P0.set_vel(N, u0 * N.x)
+    A1 = N.orientnew("A1", "Axis", (q1, N.z))
+    A1.set_ang_vel(N, u1 * N.z)
+    A2 = N.orientnew("A2", "Axis", (q2, N.z))
+    A2.set_ang_vel(N, u2 * N.z)
+    P1 = P0.locatenew("P1", L1 * A1.x)
+    P1.v2pt_theory(P0, N, A1)
+    P2 = P1.locatenew("P2", L2 * A2.x)
+    P2.v2pt_theory(P1, N, A2)
+    particles = [me.Particle("cart", P0, Mc), me.Particle("b1", P1, m1), me.Particle("b2", P2, m2)]
+    loads = [(P0, F * N.x - Mc * G * N.y), (P1, -m1 * G * N.y), (P2, -m2 * G * N.y)]
+    km = me.KanesMethod(N, q_ind=[x, q1, q2], u_ind=[u0, u1, u2], kd_eqs=[x.diff() - u0, q1.diff() - u1, q2.diff() - u2])
+    km.kanes_equations(particles, loads)
+    return km, (x, q1, q2, u0, u1, u2)
+
+
+@pytest.mark.parametrize("side", [-1, 1], ids=["hanging", "inverted"])
+def test_cart_with_a_double_pendulum_linearizes_as_sympy_mechanics_linearizer(side):
+    angle = side * np.pi / 2
+    Mc, m1, L1, m2, L2 = 1.7, 0.4, 0.8, 0.25, 0.55
+    m = lg.Model("cart double pendulum", dim=2)
+    m.add("body", "cart", "cart", m=Mc, inertia=0.1)
+    m.add("prismatic", "rail", ("ground", "cart"))
+    m.add("link", "a1", "a1", points={"tip": (L1, 0)})
+    m.add("link", "a2", "a2", points={"tip": (L2, 0)})
+    m.add("revolute", "j1", ("cart", "a1"), absolute=True)
+    m.add("revolute", "j2", ("a1", "a2"), parent_point=(L1, 0), absolute=True)
+    m.add("mass", "b1", "a1.tip", m=m1)
+    m.add("mass", "b2", "a2.tip", m=m2)
+    m.add("force", "F", "cart", F=(0, 0))
+    m.add("gravity", "g", g=G)
+    lin = linearize(m, {"theta_j1": angle, "theta_j2": angle}, inputs=["F[0]"], outputs=["s_rail"])
+    A, B, C, D, states = lin.state_space()
+    assert states[:3] == ["s_rail", "theta_j1", "theta_j2"]
+    km, (x, q1, q2, u0, u1, u2) = kane_cart_double_pendulum(Mc, m1, L1, m2, L2)
+    op = {x: 0, q1: side * sp.pi / 2, q2: side * sp.pi / 2, u0: 0, u1: 0, u2: 0}  # exact: floats leave u̇ terms
+    Ak, Bk = km.to_linearizer().linearize(op_point=op, A_and_B=True, simplify=False)
+    Ak, Bk = np.array(Ak.evalf(), dtype=float), np.array(Bk.evalf(), dtype=float)
+    # the same coordinates (cart position, absolute angles): the same matrices
+    assert np.allclose(A, Ak, rtol=1e-12, atol=1e-12 * np.abs(Ak).max())
+    assert np.allclose(B, Bk, rtol=1e-12, atol=1e-12 * np.abs(Bk).max())
+    H = transfer_function(lin, "F[0]", "s_rail")
+    for w in (0.3, 2.0, 11.0):
+        theirs = np.linalg.solve(1j * w * np.eye(6) - Ak, Bk)[0, 0]
+        assert H(1j * w) == pytest.approx(theirs, rel=1e-10)
+    assert np.allclose(np.sort_complex(np.linalg.eigvals(A)), np.sort_complex(np.linalg.eigvals(Ak)), atol=1e-9)
+
+
+# -- state space, outputs, errors -------------------------------------------------------------------------
+
+
+def test_state_space_of_a_mass_spring_damper_and_of_a_first_order_circuit():
+    m = lg.Model("msd")
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("ground", "p"), k=40.0)
+    m.add("damper", "c", ("ground", "p"), c=0.5)
+    m.add("force", "F", "p", F=0)
+    A, B, C, D, states = linearize(m, inputs=["F"], outputs=["x_p", "x_p'", "x_p''"]).state_space()
+    assert states == ["x_p", "x_p'"]
+    assert np.allclose(A, [[0, 1], [-40 / 0.3, -0.5 / 0.3]], rtol=1e-14)
+    assert np.allclose(B, [[0], [1 / 0.3]], rtol=1e-14)
+    assert np.allclose(C, [[1, 0], [0, 1], [-40 / 0.3, -0.5 / 0.3]], rtol=1e-14)
+    assert np.allclose(D, [[0], [0], [1 / 0.3]], rtol=1e-14)
+    rc = lg.Model("rc")
+    rc.add("voltage_source", "V1", ("in", "0"), E=5)
+    rc.add("resistor", "R1", ("in", "a"), R=2.2e3)
+    rc.add("capacitor", "C1", ("a", "0"), C=4.7e-6)
+    lin = linearize(rc, at={"q_R1": 5 * 4.7e-6}, inputs=["V1"], outputs=["v(C1)"])
+    assert lin.first_order == ["q_R1"] and lin.y0["v(C1)"] == pytest.approx(5.0, rel=1e-12)
+    A, B, C, D, _ = lin.state_space()
+    tau = 2.2e3 * 4.7e-6
+    assert A[0, 0] == pytest.approx(-1 / tau, rel=1e-12) and (C @ B)[0, 0] == pytest.approx(1 / tau, rel=1e-12)
+
+
+def test_a_point_that_is_not_an_equilibrium_is_refused_naming_the_coordinate():
+    m = lg.Model("pendulum", dim=2)
+    m.add("rod", "r", "r", m=0.3, length=0.7)
+    m.add("revolute", "j", ("ground", "r"), absolute=True)
+    m.add("gravity", "g", g=G)
+    with pytest.raises(lg.ModelError, match=r"not at rest.*theta_j"):
+        linearize(m, {"theta_j": -1.0})
+    bottom = modes(m, at={"theta_j": -np.pi / 2})
+    assert bottom.omega[0] == pytest.approx(np.sqrt(3 * G / (2 * 0.7)), rel=1e-12)  # a rod: ω² = 3g / 2l
+    top = modes(m, at={"theta_j": np.pi / 2})
+    assert top.eigenvalues.real.max() == pytest.approx(bottom.omega[0], rel=1e-12)  # unstable: a real positive root
+
+
+def test_bad_names_and_values_get_clear_errors():
+    m = series_rlc(10.0, 7e-3, 2.2e-6)
+    with pytest.raises(lg.UnknownNameError, match="V2"):
+        linearize(m, inputs=["V2"])
+    with pytest.raises(lg.ModelError, match="signal"):
+        linearize(m, inputs=["R1"])
+    with pytest.raises(lg.UnknownNameError, match="q_L2"):
+        linearize(m, outputs=["q_L2"])
+    with pytest.raises(lg.ParameterError, match="no such quantity"):
+        linearize(m, outputs=["w(R1)"])
+    with pytest.raises(lg.UnknownNameError, match="q_x"):
+        linearize(m, at={"q_x": 1.0})
+    with pytest.raises(lg.ModelError, match="finite"):
+        linearize(m, at={"q_L1": float("nan")})
+    with pytest.raises(lg.ModelError, match="frequencies"):
+        frequency_response(m, "1k")
+    with pytest.raises(lg.ModelError, match="decades"):
+        decades(100, 10)
+    symbolic = series_rlc(*sp.symbols("R L C", positive=True))
+    with pytest.raises(lg.ModelError, match="params="):
+        modes(symbolic)
+    with pytest.raises(lg.ModelError, match="vector"):
+        linearize(lg_force_2d(), inputs=["F"])
+
+
+def lg_force_2d():
+    m = lg.Model("plane", dim=2)
+    m.add("mass", "m", "p", m=1.0)
+    m.add("spring", "k", ("ground", "p"), k=1.0)
+    m.add("force", "F", "p", F=(0, 0))
+    return m
+
+
+def test_frequency_response_charts_are_written(tmp_path):
+    m = series_rlc(10.0, 7e-3, 2.2e-6)
+    resp = frequency_response(m, decades(10, 1e5, 20), outputs=["v(C1)", "i(L1)"])
+    assert resp.H.shape == (2, 1, len(resp.frequencies))
+    peak = resp.frequencies[np.argmax(np.abs(resp["i(L1)"]))]
+    assert peak == pytest.approx(1 / (2 * np.pi * np.sqrt(7e-3 * 2.2e-6)), rel=0.06)  # the grid's resolution
+    for kind in ("bode", "nyquist"):
+        path = tmp_path / f"{kind}.png"
+        resp.plot(kind, path=str(path))
+        assert path.stat().st_size > 10_000
+    modes(m).plot(path=str(tmp_path / "modes.png"))
+    assert (tmp_path / "modes.png").stat().st_size > 10_000
