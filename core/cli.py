@@ -12,6 +12,11 @@ SPICE netlist (``.cir``, ``.net``, ``.sp``, ``.spice``: its ``.tran`` and
 ``.ic`` are used) or a Python file ``file.py[:name]`` whose ``name`` (default
 ``model``, else ``build``) is a model or a function returning one.  It
 prints the plan and writes the outputs as CSV (``--csv``).
+``lagrangian ac SOURCE [--input NAME] [--output OUT ...]`` prints the
+small-signal frequency response (see :mod:`lagrangian.frequency`) of a
+netlist (its ``.ac`` line and ``AC`` sources, as ngspice's ``.ac``) or of a
+model, writes it as CSV (``--csv``) and a Bode chart (``--chart``), and
+with ``--ngspice`` compares it with ngspice's.
 ``lagrangian --version`` prints the installed version.
 
 Errors are one line on standard error, ``lagrangian: error: <message>``,
@@ -50,11 +55,16 @@ from pathlib import Path
 from .numerics.bench import run as run_benchmarks
 from .errors import LagrangianError, ModelError, UnknownNameError
 from .model import Model
+from .analysis.frequency import frequency_response, sweep
+from .circuits.ac import compare_ac_with_ngspice
 from .circuits.netlist import read_netlist_file
 from .plugin.registry import default_registry
 from .analysis.scene import Scene
 
 __all__ = ["main"]
+
+#: File suffixes read as SPICE netlists.
+_NETLISTS = (".cir", ".net", ".sp", ".spice", ".ckt")
 
 #: Exit status of a command whose standard output was closed early (128 + SIGPIPE).
 EXIT_BROKEN_PIPE = 141
@@ -285,7 +295,7 @@ def _load_model(source: str):
     if file.is_dir():
         raise ModelError(f"scene source {path!r} is a directory: give a netlist file or a Python file (file.py[:name]).")
     try:
-        if file.suffix.lower() in (".cir", ".net", ".sp", ".spice", ".ckt"):
+        if file.suffix.lower() in _NETLISTS:
             imported = read_netlist_file(file)
             span = (imported.tran.start, imported.tran.stop) if imported.tran else None
             return imported.model, imported.initial, imported.velocity, span
@@ -351,6 +361,69 @@ def _scene(args) -> int:
     return 0
 
 
+def _ac(args) -> int:
+    import csv
+
+    import numpy as np
+
+    for option, path in (("--csv", args.csv), ("--chart", args.chart)):
+        problem = path and _output_problem(option, path, directory=False)
+        if problem:
+            return _fail(problem)
+    path = args.source.partition(":")[0] if not Path(args.source).exists() else args.source
+    net = read_netlist_file(path) if Path(path).suffix.lower() in _NETLISTS and Path(path).is_file() else None
+    model = net.model if net is not None else _load_model(args.source)[0]
+    deck = net.ac if net is not None and net.ac is not None else None
+    kind = args.sweep or (deck.kind if deck else "dec")
+    start = args.start or (deck.start if deck else 1.0)
+    stop = args.stop or (deck.stop if deck else 1e6)
+    points = args.points or (deck.points if deck else 20)
+    if not start < stop:
+        return _fail(f"--start {start:g} Hz must be below --stop {stop:g} Hz.")
+    frequencies = sweep(kind, points, start, stop)
+    kwargs = {"params": _merged(args.param), "at": _merged(args.at) or None}
+    if net is not None and args.input is None:
+        resp = net.frequency_response(args.output, frequencies, **kwargs)
+    else:
+        inputs = [args.input] if args.input else None
+        resp = frequency_response(model, frequencies, inputs=inputs, outputs=args.output, **kwargs)
+        if len(resp.inputs) != 1:
+            return _fail(f"model {model.name!r} has {len(resp.inputs)} inputs ({', '.join(resp.inputs) or 'none'}): "
+                         f"choose one with --input.")
+    print(f"{resp.model}: response to {resp.inputs[0]}, {len(frequencies)} frequencies "
+          f"{frequencies[0]:g}–{frequencies[-1]:g} Hz ({kind})")
+    print(f"  {'output':16} {'|H| at start':>13} {'peak |H|':>11} {'at (Hz)':>11} {'|H| at stop':>12}")
+    for label in resp.outputs:
+        mag = np.abs(resp[label])
+        k = int(np.argmax(mag))
+        print(f"  {label:16} {mag[0]:13.6g} {mag[k]:11.6g} {frequencies[k]:11.6g} {mag[-1]:12.6g}")
+    for note in resp.notes:
+        print(f"  note: {note}")
+    if args.csv:
+        try:
+            with open(args.csv, "w", newline="") as fh:
+                writer = csv.writer(fh)
+                writer.writerow(["frequency_hz", *[f"{o} {part}" for o in resp.outputs for part in ("dB", "deg")]])
+                columns = [c for o in resp.outputs for c in (resp.magnitude_db(o), resp.phase_deg(o))]
+                for row in np.column_stack([frequencies, *columns]):
+                    writer.writerow([repr(float(x)) for x in row])
+        except OSError as exc:
+            return _fail(_write_failure("--csv", args.csv, exc))
+        print(f"written: {args.csv}")
+    if args.chart:
+        try:
+            resp.plot("bode", path=args.chart)
+        except OSError as exc:
+            return _fail(_write_failure("--chart", args.chart, exc))
+        print(f"written: {args.chart}")
+    if args.ngspice:
+        cmp = compare_ac_with_ngspice(net if net is not None else model, input=args.input or (
+            None if net is not None else resp.inputs[0]), outputs=resp.outputs, start=start, stop=stop, points=points,
+            sweep=kind, params=kwargs["params"], at=kwargs["at"])
+        print(cmp.table())
+    return 0
+
+
 # ---------------------------------------------------------------------------
 # The parser and main
 # ---------------------------------------------------------------------------
@@ -412,6 +485,24 @@ def _parser() -> _Parser:
                        help="eliminate ignorable coordinates through the Routhian: when it pays (auto, the default), "
                             "always or never")
     scene.add_argument("--csv", help="write the outputs to this CSV file")
+    ac = sub.add_parser("ac", help="small-signal frequency response of a netlist or model (ngspice's .ac)")
+    ac.add_argument("source", help="a netlist (.cir/.net/.sp/.spice: its .ac line and AC sources) or file.py[:name]")
+    ac.add_argument("--input", "-i", help="the source, force or prescribed motion that drives (default: the "
+                                            "netlist's AC sources, or the model's only source)")
+    ac.add_argument("--output", "-o", action="append",
+                    help="an output: v(node), v(element), i(element), a coordinate or its rate (x'); repeat for more "
+                         "(default: every node voltage of a netlist, every coordinate of a model)")
+    ac.add_argument("--sweep", choices=("dec", "oct", "lin"), help="grid: per decade, per octave or linear (default: "
+                                                                    "the .ac line's, else dec)")
+    ac.add_argument("--points", type=_whole(1, "points per decade or octave, or in all for lin"),
+                    help="points per decade or octave, or in all (default: the .ac line's, else 20)")
+    ac.add_argument("--start", type=_positive("a start frequency in Hz", "10"), help="start frequency, Hz")
+    ac.add_argument("--stop", type=_positive("a stop frequency in Hz", "1e6"), help="stop frequency, Hz")
+    ac.add_argument("--param", action="append", type=_pairs, help="parameter values name=value[,name=value]")
+    ac.add_argument("--at", action="append", type=_pairs, help="operating point: coordinate values name=value[,...]")
+    ac.add_argument("--csv", help="write magnitude (dB) and phase (°) per output to this CSV file")
+    ac.add_argument("--chart", help="write a Bode chart to this PNG file")
+    ac.add_argument("--ngspice", action="store_true", help="also run ngspice's .ac and print the differences")
     return parser
 
 
@@ -424,7 +515,7 @@ def _run(argv: list[str] | None) -> int:
             return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_USAGE)
         if args.command is None:
             parser.print_usage(sys.stderr)
-            print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene "
+            print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac "
                   "(see 'lagrangian --help')", file=sys.stderr)
             return EXIT_USAGE
         registry = default_registry()
@@ -432,6 +523,8 @@ def _run(argv: list[str] | None) -> int:
             return _bench(args, registry)
         if args.command == "scene":
             return _scene(args)
+        if args.command == "ac":
+            return _ac(args)
         text = {"plugins": registry.describe, "kinds": lambda: _kinds(registry),
                 "integrators": lambda: _integrators(registry)}
         print(text[args.command]())

@@ -81,3 +81,38 @@ def test_impacts_follow_the_closed_forms_and_come_to_rest(tmp_path):
     ratios = [float(x) for x in re.findall(r"omega after/before = (\S+)", out)]
     assert len(ratios) == 5 and all(abs(r + 0.8) < 1e-9 for r in ratios)
     assert (tmp_path / "impacts.png").read_bytes().startswith(b"\x89PNG")
+
+
+# -- the frequency domain ---------------------------------------------------------------------------------
+
+
+def test_loudspeaker_impedance_three_ways_agree_with_the_closed_form(tmp_path):
+    out = run("loudspeaker_impedance.py", "--out", str(tmp_path / "z.png"), cwd=tmp_path)
+    diffs = [float(x) for x in re.findall(r"max \|Z/Z_closed − 1\| = (\S+)", out)]
+    assert len(diffs) == 3 and max(diffs) < 1e-9  # Lagrangian, mechanical view, ngspice's equivalent circuit
+    peak = float(re.search(r"\|Z\(f_s\)\| from the Lagrangian = (\S+) Ω", out).group(1))
+    ws = (2000.0 / 0.02) ** 0.5  # at f_s the cone's impedance is c: |Z| = |Re + Bl²/c + j ωs Le|
+    assert peak == pytest.approx(abs(6.0 + 7.0**2 / 1.5 + 1j * ws * 0.5e-3), rel=1e-6)
+    assert (tmp_path / "z.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_isolator_transmissibility_matches_the_closed_form(tmp_path):
+    out = run("isolator_transmissibility.py", "--out", str(tmp_path / "t.png"), cwd=tmp_path)
+    assert float(re.search(r"max relative difference from the closed form: (\S+)", out).group(1)) < 1e-12
+    crossings = [float(x) for x in re.findall(r"\|T\| at r = √2: (\S+);", out)]
+    assert len(crossings) == 4 and all(abs(c - 1) < 1e-12 for c in crossings)  # every damping crosses 1 at r = √2
+
+
+def test_ladder_filter_bode_is_butterworth_and_agrees_with_ngspice(tmp_path):
+    out = run("ladder_filter_bode.py", "--out", str(tmp_path / "b.png"), cwd=tmp_path)
+    assert float(re.search(r"closed form − 1 at the load: (\S+)", out).group(1)) < 1e-9
+    assert float(re.search(r"\): (\S+) dB from the passband", out).group(1)) == pytest.approx(-3.0103, abs=1e-4)
+    assert float(re.search(r"roll-off .*: (\S+) dB per decade", out).group(1)) == pytest.approx(-100, abs=0.01)
+    assert float(re.search(r"worst relative difference (\S+)", out).group(1)) < 1e-9
+
+
+def test_coupled_tanks_modes_are_the_closed_form_in_both_formulations(tmp_path):
+    out = run("coupled_tanks_modes.py", "--out", str(tmp_path / "c.png"), cwd=tmp_path)
+    diffs = [float(x) for x in re.findall(r"max rel\. difference (\S+)\)", out)]
+    assert len(diffs) == 2 and max(diffs) < 1e-12
+    assert out.count("(+1.000, +1.000), (+1.000, -1.000)") == 2

@@ -308,7 +308,7 @@ def test_bad_names_and_values_get_clear_errors():
         linearize(m, at={"q_L1": float("nan")})
     with pytest.raises(lg.ModelError, match="frequencies"):
         frequency_response(m, "1k")
-    with pytest.raises(lg.ModelError, match="decades"):
+    with pytest.raises(lg.ModelError, match="dec sweep needs 0 < start < stop"):
         decades(100, 10)
     symbolic = series_rlc(*sp.symbols("R L C", positive=True))
     with pytest.raises(lg.ModelError, match="params="):

@@ -527,7 +527,7 @@ BASE = "title\nV1 a 0 1\nR1 a b 1\n{line}\nC1 b 0 1\n.end\n"  # the line under t
         ("E1 b 0 a 0 2", "E1.*voltage-controlled voltage source"),
         ("G1 b 0 a 0 1m", "G1.*voltage-controlled current source"),
         ("B1 b 0 V=1", "B1.*behavioural"),
-        ("V2 b 0 AC 1", "V2.*AC-only"),
+        ("V2 b 0 AC 1 x", "V2.*unexpected 'x'"),
         ("V2 b 0 PWL(0 0 1 1)", "V2.*PWL"),
         ("V2 b 0 EXP(0 1)", "V2.*EXP"),
         ("R2 b 0 {rval}", "R2.*parameter expressions"),
@@ -535,7 +535,9 @@ BASE = "title\nV1 a 0 1\nR1 a b 1\n{line}\nC1 b 0 1\n.end\n"  # the line under t
         (".subckt filter a b", r"\.subckt"),
         (".param rval=1k", r"\.param"),
         (".include models.lib", r"\.include"),
-        (".ac dec 10 1 1k", "only transient"),
+        (".noise v(b) V1 dec 10 1 1k", "only transient.*small-signal"),
+        (".ac dec 10 1k 1", "fstart ≤ fstop"),
+        (".ac log 10 1 1k", "dec\\|oct\\|lin"),
     ],
 )
 def test_unsupported_input_is_refused_naming_the_line_and_what_is_supported(line, words):

@@ -6,7 +6,9 @@ entry of a vector); :func:`_with_inputs` gives a copy of the model in which
 each input's parameter carries the rate of an input function ``w(t)``
 (:meth:`lagrangian.Component.with_input`).  An output is a coordinate
 (``"x_p"``, ``"x_p'"``, ``"x_p''"``), a quantity a component names
-(``"v(C1)"``, ``"i(L1)"``: :meth:`lagrangian.Component.quantity`) or a
+(``"v(C1)"``, ``"i(L1)"``: :meth:`lagrangian.Component.quantity`), a circuit
+node's voltage to ground (``"v(n3)"``: the element voltages along a path to
+ground) or a
 SymPy expression of the coordinates; :func:`_outputs` linearizes each into
 rows by power of ``s``.
 """
@@ -17,10 +19,11 @@ import re
 from collections.abc import Sequence
 from typing import Any
 
+import networkx as nx
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..base.component import t
+from ..base.component import GROUND, t
 from ..base.domain import Context
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -164,12 +167,37 @@ def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
     branch = _BRANCH.match(output)
     if branch:
         quantity, name = branch.groups()
+        if name not in model.components and quantity.lower() == "v" and name in model.nodes:
+            return output, _node_voltage(model, name)
         comp = model.component(name)
-        view = model.assembly.views.get(comp.domain)
-        ctx = Context(view, model.assembly.views, model.options, list(model.components.values()))
-        return output, comp.quantity(ctx, quantity.lower())
+        return output, comp.quantity(_context(model, comp), quantity.lower())
     base, primes = _PRIMES.match(output.strip()).groups()
     if base not in names:
         raise UnknownNameError("output (a coordinate, with ' for its rate)", base, names)
     f = eq.coordinates[names.index(base)].function
     return output, f if not primes else sp.Derivative(f, (t, len(primes)))
+
+
+def _context(model: Model, comp) -> Context:
+    view = model.assembly.views.get(comp.domain)
+    return Context(view, model.assembly.views, model.options, list(model.components.values()))
+
+
+def _node_voltage(model: Model, node: str) -> sp.Expr:
+    """The voltage of circuit node ``node`` to ground: the element voltages along a path of two-terminal elements
+    that name theirs (``v_a − v_b``, with the sign of the direction walked)."""
+    graph = nx.Graph()
+    for comp in model.components.values():
+        if len(comp.nodes) == 2 and "v" in comp.quantities:
+            a, b = comp.nodes
+            graph.add_edge(a, b, component=comp)
+    if node not in graph or GROUND not in graph or not nx.has_path(graph, node, GROUND):
+        raise ModelError(f"node {node!r} has no path of circuit elements to ground, so it has no voltage to report; "
+                         f"give a voltage across an element, 'v(<element>)'.")
+    path = nx.shortest_path(graph, node, GROUND)
+    total = sp.Integer(0)
+    for a, b in zip(path, path[1:]):
+        comp = graph.edges[a, b]["component"]
+        v = comp.quantity(_context(model, comp), "v")
+        total += v if comp.nodes == (a, b) else -v
+    return total

@@ -54,26 +54,51 @@ from .linearize import LinearModel, linearize, s
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
 
 __all__ = ["FrequencyResponse", "Modes", "TransferFunction", "decades", "frequency_response", "impedance",
-           "linearize", "modes", "s", "transfer_function"]
+           "linearize", "modes", "s", "sweep", "transfer_function"]
 
 #: Largest number of unknowns for which a transfer function is solved in exact arithmetic with SymPy.
 SYMBOLIC_MAX = 8
 
 
 def decades(start: float, stop: float, points: int = 20) -> np.ndarray:
-    """Frequencies from ``start`` to ``stop`` (Hz), ``points`` per decade, as SPICE's ``.ac dec``.
+    """Frequencies from ``start`` to ``stop`` (Hz), ``points`` per decade, as ngspice's ``.ac dec`` makes them
+    (:func:`sweep`).
 
     >>> decades(1, 100, 2).round(3).tolist()
     [1.0, 3.162, 10.0, 31.623, 100.0]
     """
+    return sweep("dec", points, start, stop)
+
+
+def sweep(kind: str, points: int, start: float, stop: float) -> np.ndarray:
+    """The frequencies of ngspice's ``.ac kind points start stop`` (its ``acan.c``): for ``"dec"``,
+    ``floor(points × decades)`` equal ratios from ``start`` to ``stop``, both included; for ``"oct"``, the ratio
+    ``2^(1/points)`` from ``start`` while not past ``stop``; for ``"lin"``, ``points`` equally spaced.
+
+    >>> sweep("dec", 7, 3, 20e3)[:3].round(4).tolist()    # 26 steps of (20000/3)^(1/26)
+    [3.0, 4.2092, 5.9057]
+    >>> sweep("lin", 3, 10, 30).tolist()
+    [10.0, 20.0, 30.0]
+    """
     try:
-        start, stop, points = float(start), float(stop), int(points)
-    except (TypeError, ValueError):
-        raise ModelError(f"decades takes two frequencies and a count, got {start!r}, {stop!r}, {points!r}.") from None
-    if not (0 < start < stop < math.inf) or points < 1:
-        raise ModelError(f"decades needs 0 < start < stop (finite) and points ≥ 1, got {start!r}, {stop!r}, {points!r}.")
-    count = int(math.floor(points * math.log10(stop / start) + 1e-9)) + 1
-    return start * 10 ** (np.arange(count) / points)
+        start, stop = float(start), float(stop)
+        whole = int(points) if float(points) == int(points) else None
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"a sweep takes a count and two frequencies, got {points!r}, {start!r}, {stop!r}.") from None
+    if kind not in ("dec", "oct", "lin"):
+        raise ModelError(f"a sweep is 'dec', 'oct' or 'lin', not {kind!r}.")
+    if not (0 < start <= stop < math.inf) or whole is None or whole < 1 or (kind != "lin" and start == stop):
+        raise ModelError(f"a {kind} sweep needs 0 < start < stop (finite) and a whole number of points ≥ 1, "
+                         f"got {start!r}, {stop!r}, {points!r}.")
+    if kind == "lin":
+        return np.linspace(start, stop, whole) if whole > 1 else np.array([start])
+    span = math.log(stop / start)
+    steps = int(math.floor(whole * span / math.log(10.0 if kind == "dec" else 2.0) + 1e-9))
+    if kind == "oct":  # a ratio of 2^(1/points) from start, up to stop
+        return start * 2.0 ** (np.arange(steps + 1) / whole)
+    if steps < 1:
+        return np.array([start])
+    return start * np.exp(span * np.arange(steps + 1) / steps)
 
 
 def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
@@ -200,7 +225,7 @@ class TransferFunction:
                 / sp.Poly([sp.Float(c / lead) for c in den.all_coeffs()], s).as_expr())
 
     def _from_roots(self) -> sp.Expr:
-        z, p = _cancel(self.zeros(), self.poles(), _scale(self.linear))
+        z, p = self._roots()
         w0 = _scale(self.linear)
         probe = complex(0.173 * w0, 0.911 * w0)
         value = complex(self(probe))
@@ -214,19 +239,35 @@ class TransferFunction:
         return poly(np.atleast_1d(num)) / poly(np.atleast_1d(den))
 
     def poles(self) -> np.ndarray:
-        """The finite poles (rad/s, complex), sorted by magnitude: the eigenvalues of the linearization (its
-        invariant zeros for an inverse)."""
-        return self._roots(not self.inverse)
+        """The finite poles of ``H`` (rad/s, complex), sorted by magnitude.
+
+        A mode that the input does not reach or the output does not see
+        cancels against a zero and is not a pole of ``H`` (the drift of a
+        loop charge, seen only through its rate).  Up to
+        :data:`SYMBOLIC_MAX` unknowns they are the roots of the exact
+        rational function's denominator; beyond, the generalized eigenvalues
+        of the linearization's pencil, less those matched by an invariant
+        zero.
+        """
+        return self._roots()[1]
 
     def zeros(self) -> np.ndarray:
-        """The finite invariant zeros (rad/s, complex), sorted by magnitude: where the system matrix
-        ``[[A − sE, B], [C, D]]`` of a descriptor realization loses rank (the poles, for an inverse)."""
-        return self._roots(self.inverse)
+        """The finite zeros of ``H`` (rad/s, complex), sorted by magnitude, as :meth:`poles`: the roots of the
+        numerator, or the invariant zeros (where ``[[A − sE, B], [C, D]]`` loses rank) less those matched by a
+        pole."""
+        return self._roots()[0]
 
-    def _roots(self, poles: bool) -> np.ndarray:
+    def _roots(self) -> tuple[np.ndarray, np.ndarray]:
         lin = self._pick()
-        _numeric(lin, "poles" if poles else "zeros")
-        return _eigenvalues(_descriptor(lin, with_io=not poles), _scale(lin))
+        _numeric(lin, "poles and zeros")
+        if lin.size <= SYMBOLIC_MAX:
+            num, den = sp.fraction(self.expr)
+            return _sorted(_poly_roots(num)), _sorted(_poly_roots(den))
+        w0 = _scale(lin)
+        z = _eigenvalues(_descriptor(lin, with_io=True), w0)
+        p = _eigenvalues(_descriptor(lin, with_io=False), w0)
+        z, p = _cancel(z, p, w0)
+        return (p, z) if self.inverse else (z, p)
 
     @property
     def dc_gain(self) -> float | complex:
@@ -301,6 +342,22 @@ def _cancel(zeros: np.ndarray, poles: np.ndarray, w0: float, tol: float = 1e-7) 
             poles.pop(near[0])
             zeros.remove(z)
     return np.array(zeros, dtype=complex), np.array(poles, dtype=complex)
+
+
+def _poly_roots(expr: sp.Expr) -> np.ndarray:
+    """The roots of a polynomial in :data:`s` with number coefficients; a factor ``s^k`` gives ``k`` exact zeros."""
+    coeffs = [complex(c) for c in sp.Poly(expr, s).all_coeffs()]
+    k = 0
+    while len(coeffs) > 1 and coeffs[-1] == 0:  # exact zeros: the coefficients come from exact arithmetic
+        coeffs.pop()
+        k += 1
+    roots = np.roots(coeffs) if len(coeffs) > 1 else np.zeros(0, dtype=complex)
+    return np.concatenate([roots.astype(complex), np.zeros(k, dtype=complex)])
+
+
+def _sorted(roots: np.ndarray) -> np.ndarray:
+    roots = np.where(np.abs(roots.imag) <= 1e-12 * np.abs(roots), roots.real + 0j, roots)
+    return roots[np.lexsort((roots.imag, np.abs(roots)))]
 
 
 def _rational(lin: LinearModel) -> LinearModel:

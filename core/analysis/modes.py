@@ -79,7 +79,6 @@ def _descriptor(lin: LinearModel, with_io: bool) -> tuple[np.ndarray, np.ndarray
     integral = with_io and bool(np.any(lin.Bi) or np.any(lin.Di))
     coeffs = ([lin.Bi] if integral else []) + list(lin.B)
     outs = ([lin.Di] if integral else []) + list(lin.D)
-    shift = 1 if integral else 0
     order = max(len(coeffs), len(outs)) - 1
     iq, iv, ia, il, iw = 0, n, 2 * n, 3 * n, 3 * n + m
     N = iw + (order + 2 if with_io else 0)

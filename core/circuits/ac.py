@@ -7,7 +7,9 @@ response of the model linearized about the same point
 (:func:`lagrangian.frequency.frequency_response`), evaluated at ngspice's own
 frequencies.  Both are exact linear algebra, so they agree to rounding: the
 report gives per output the largest relative difference of the complex
-responses, and of magnitude (dB) and phase (degrees), and both wall times;
+responses (relative to the response, or to :data:`FLOOR` of its peak in a
+stop band deeper than that), and of magnitude (dB) and phase (degrees)
+where the response is above that floor, and both wall times;
 :meth:`ACComparison.chart` draws both responses with their difference
 underneath.
 
@@ -27,7 +29,6 @@ import time as _time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -36,9 +37,13 @@ from ..analysis.frequency import frequency_response
 from ..base.component import t
 from ..errors import ModelError
 from ..model import Model
+from .netlist import ImportedNetlist
 from .spice import _fmt, netlist, run_ac
 
 __all__ = ["ACComparison", "OutputError", "compare_ac_with_ngspice"]
+
+#: Differences are relative to the response, or to this fraction of its peak where the response is smaller.
+FLOOR = 1e-12
 
 
 @dataclass
@@ -66,6 +71,8 @@ class ACComparison:
     ours_s: float
     ngspice_s: float
     notes: list[str] = field(default_factory=list)
+    #: seconds ngspice took to load the deck, before its analysis (``ngspice_s``)
+    ngspice_load_s: float = 0.0
 
     @property
     def worst_rel(self) -> float:
@@ -78,8 +85,8 @@ class ACComparison:
                  f"  {'output':16} {'max rel diff':>13} {'max |dB| diff':>14} {'max phase diff (°)':>19}"]
         for r in self.rows:
             lines.append(f"  {r.label:16} {r.max_rel:13.3e} {r.max_db:14.3e} {r.max_deg:19.3e}")
-        lines.append(f"  wall time: ngspice {self.ngspice_s * 1e3:.1f} ms; ours {self.ours_s * 1e3:.1f} ms "
-                     f"(linearized, derived and solved)")
+        lines.append(f"  wall time: ngspice {self.ngspice_s * 1e3:.1f} ms (+{self.ngspice_load_s * 1e3:.1f} ms loading "
+                     f"the deck); ours {self.ours_s * 1e3:.1f} ms (derived, linearized and solved)")
         return "\n".join(lines)
 
     def chart(self, path: str | Path) -> Path:
@@ -113,17 +120,44 @@ class ACComparison:
         return out
 
 
-def compare_ac_with_ngspice(model: Model, *, input: str, outputs: Sequence[str] | None = None, start: float = 1.0,
-                            stop: float = 1e6, points: int = 20, params: Mapping[str, float] | None = None,
+def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | None = None,
+                            outputs: Sequence[str] | None = None, start: float | None = None,
+                            stop: float | None = None, points: int | None = None, sweep: str | None = None,
+                            params: Mapping[str, float] | None = None,
                             at: Mapping[str, float] | None = None) -> ACComparison:
-    """Run ngspice's ``.ac dec points start stop`` on ``model`` driven at ``input``; compare with ours.
+    """Run ngspice's ``.ac sweep points start stop`` on a model or an imported netlist driven at ``input``;
+    compare with ours.
 
-    ``outputs`` are ``"v(X)"`` (any two-terminal element) and ``"i(X)"``
-    (inductors and voltage sources, whose currents ngspice reports);
-    every capacitor voltage and inductor current by default.  ``params``
-    gives symbolic parameters their values; ``at`` the operating point
-    (coordinate values) for a model that is not linear.
+    ``sweep`` is ``"dec"`` (default), ``"oct"`` or ``"lin"``; ``start`` and
+    ``stop`` in Hz (default 1 Hz to 1 MHz), ``points`` per decade or octave,
+    or in all (default 20).  An imported netlist gives its own: its ``.ac``
+    line and its one AC source.  ``outputs`` are ``"v(X)"`` (any
+    two-terminal element), ``"v(node)"`` (a node's voltage) and ``"i(X)"``
+    (inductors and voltage sources, whose currents ngspice reports); every
+    capacitor voltage and inductor current by default.  ``params`` gives
+    symbolic parameters their values; ``at`` the operating point (coordinate
+    values) for a model that is not linear.
     """
+    model = system.model if isinstance(system, ImportedNetlist) else system
+    if isinstance(system, ImportedNetlist):
+        if input is None:
+            if len(system.ac_sources) != 1:
+                raise ModelError(f"netlist {system.title!r} has {len(system.ac_sources)} AC sources "
+                                 f"({', '.join(system.ac_sources) or 'none'}): name the input, input='V1'.")
+            input = next(iter(system.ac_sources))
+        if system.ac is not None:
+            sweep = sweep or system.ac.kind
+            start = system.ac.start if start is None else start
+            stop = system.ac.stop if stop is None else stop
+            points = system.ac.points if points is None else points
+    if input is None:
+        raise ModelError("name the input source of the AC comparison: input='V1'.")
+    sweep = sweep or "dec"
+    start = 1.0 if start is None else start
+    stop = 1e6 if stop is None else stop
+    points = 20 if points is None else points
+    if sweep not in ("dec", "oct", "lin"):
+        raise ModelError(f"sweep is 'dec', 'oct' or 'lin', not {sweep!r}.")
     comp = model.component(input)
     if comp.kind not in ("voltage_source", "current_source"):
         raise ModelError(f"the input of an AC comparison is a voltage or current source; {input!r} is a {comp.kind}.")
@@ -131,7 +165,7 @@ def compare_ac_with_ngspice(model: Model, *, input: str, outputs: Sequence[str] 
         if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
             raise ModelError(f"{name} must be a positive frequency in Hz, got {value!r}.")
     if not start < stop or not isinstance(points, int) or isinstance(points, bool) or points < 1:
-        raise ModelError(f"need start < stop and points ≥ 1 per decade, got {start!r}, {stop!r}, {points!r}.")
+        raise ModelError(f"need start < stop and a whole number of points ≥ 1, got {start!r}, {stop!r}, {points!r}.")
     net = netlist(model, params=params, t_end=1.0)
     element = next(name for name, owner in net.elements.items() if owner == input)
     subs = {sym: sp.Float(v) for sym, v in model._values(params or {}).items()}
@@ -147,7 +181,7 @@ def compare_ac_with_ngspice(model: Model, *, input: str, outputs: Sequence[str] 
         if head and head[0] == element:
             line = f"{head[0]} {head[1]} {head[2]} DC {_fmt(dc)} AC 1"
         elif line.startswith(".tran"):
-            line = f".ac dec {points} {_fmt(float(start))} {_fmt(float(stop))}"
+            line = f".ac {sweep} {points} {_fmt(float(start))} {_fmt(float(stop))}"
         lines.append(line)
     labels = list(outputs) if outputs is not None else [k for k in net.probes if "." not in k]
     probes = {label: _probe(model, net, label) for label in labels}
@@ -159,21 +193,30 @@ def compare_ac_with_ngspice(model: Model, *, input: str, outputs: Sequence[str] 
     rows = []
     for label in labels:
         a, b = ours[label], run.quantities[label]
+        # relative to the response's own size, but not below FLOOR of its peak: where the response is that far
+        # down (a deep stop band), both sides' rounding is relative to the peak
+        floor = FLOOR * np.max(np.abs(b), initial=0.0)
+        seen = np.abs(b) > floor
         with np.errstate(divide="ignore", invalid="ignore"):
-            rel = np.abs(a - b) / np.abs(b)
-            db = np.abs(20 * np.log10(np.abs(a) / np.abs(b)))
-        deg = np.abs(np.degrees(np.angle(a / b)))
-        rows.append(OutputError(label, float(np.nanmax(rel)), float(np.nanmax(db)), float(np.nanmax(deg))))
+            rel = np.abs(a - b) / np.maximum(np.abs(b), floor)
+            db = np.abs(20 * np.log10(np.abs(a[seen]) / np.abs(b[seen])))
+            deg = np.abs(np.degrees(np.angle(a[seen] / b[seen])))
+        rows.append(OutputError(label, float(np.nanmax(rel, initial=0.0)), float(np.nanmax(db, initial=0.0)),
+                                float(np.nanmax(deg, initial=0.0))))
     return ACComparison(model.name, input, "\n".join(lines), run.time, ours, run.quantities, rows, ours_s, run.wall,
-                        list(resp.notes))
+                        list(resp.notes), run.load)
 
 
 def _probe(model: Model, net, label: str) -> tuple[str, ...]:
     """The ngspice vector(s) of an output ``v(X)`` or ``i(X)``."""
     label = str(label).strip()
     if len(label) < 4 or label[1] != "(" or label[-1] != ")" or label[0] not in "vi":
-        raise ModelError(f"an AC comparison's outputs are 'v(X)' or 'i(X)' of a component X, got {label!r}.")
-    comp = model.component(label[2:-1])
+        raise ModelError(f"an AC comparison's outputs are 'v(X)' or 'i(X)' of a component X, or 'v(node)'; "
+                         f"got {label!r}.")
+    name = label[2:-1]
+    if label[0] == "v" and name not in model.components and name in net.nodes:
+        return ("v", net.nodes[name])
+    comp = model.component(name)
     if len(comp.nodes) != 2:
         raise ModelError(f"{comp.kind} {comp.name!r} has {len(comp.nodes)} terminals; compare a two-terminal element.")
     if label[0] == "v":

@@ -3,7 +3,8 @@
 :func:`_parse` splits the text into logical lines (comments removed,
 continuations joined) and tokens, and reads each line into an element
 (``R``, ``L``, ``C``, ``K``, ``V``, ``I`` with their values, ``ic=`` and source
-specifications) or a dot command (``.tran`` into a :class:`Transient`, ``.ic``,
+specifications) or a dot command (``.tran`` into a :class:`Transient`, ``.ac``
+into an :class:`ACSweep`, ``.ic``,
 ``.options``, ``.title``, ``.end``); :func:`parse_number` reads SPICE's numbers
 with their scale suffixes.  Whatever is not supported is refused here with a
 :class:`~lagrangian.errors.ModelError` naming the line, listing :data:`SUPPORTED`.
@@ -18,13 +19,14 @@ from typing import Any
 
 import numpy as np
 
+from ..analysis.frequency import sweep
 from ..errors import ModelError
 
 #: What the reader understands, quoted in its error messages.
 SUPPORTED = (
     "R, L, C (linear; ic= on L and C), K (coupled inductors), independent V and I sources "
-    "(a DC value, DC x, SIN(...), PULSE(...)); dot commands .tran, .ic, .options, .title, .end "
-    "(.print, .plot, .save and .probe are ignored)"
+    "(a DC value, DC x, SIN(...), PULSE(...), AC mag [phase]); dot commands .tran, .ac dec|oct|lin, .ic, .options, "
+    ".title, .end (.print, .plot, .save and .probe are ignored)"
 )
 
 _UNSUPPORTED_ELEMENTS = {
@@ -50,7 +52,7 @@ _UNSUPPORTED_ELEMENTS = {
     "z": "a MESFET",
 }
 _IGNORED_COMMANDS = {".print", ".plot", ".save", ".probe"}
-_ANALYSES = {".ac", ".dc", ".op", ".noise", ".tf", ".sens", ".pz", ".disto", ".four", ".sp", ".pss", ".meas", ".measure"}
+_ANALYSES = {".dc", ".op", ".noise", ".tf", ".sens", ".pz", ".disto", ".four", ".sp", ".pss", ".meas", ".measure"}
 _WAVEFORMS = {"sin": (2, 6), "pulse": (2, 8)}
 _OTHER_WAVEFORMS = {"exp", "pwl", "sffm", "am", "trnoise", "trrandom", "distof1", "distof2", "port"}
 
@@ -106,6 +108,28 @@ class Transient:
         return np.minimum(grid, self.stop)
 
 
+@dataclass(frozen=True)
+class ACSweep:
+    """The ``.ac`` line: ``kind`` (``"dec"``, ``"oct"`` or ``"lin"``), ``points`` (per decade, per octave, or in
+    all), ``start`` and ``stop`` frequencies in Hz."""
+
+    kind: str
+    points: int
+    start: float
+    stop: float
+
+    @property
+    def frequencies(self) -> np.ndarray:
+        """ngspice's frequencies for this sweep (:func:`lagrangian.frequency.sweep`).
+
+        >>> ACSweep("dec", 2, 1.0, 100.0).frequencies.round(3).tolist()
+        [1.0, 3.162, 10.0, 31.623, 100.0]
+        >>> ACSweep("lin", 3, 10.0, 30.0).frequencies.tolist()
+        [10.0, 20.0, 30.0]
+        """
+        return sweep(self.kind, self.points, self.start, self.stop)
+
+
 @dataclass
 class _Element:
     letter: str
@@ -115,6 +139,7 @@ class _Element:
     value: Any = None  # a number, or (waveform, [args]) for sources
     ic: float | None = None
     refs: tuple[str, ...] = ()  # inductor names of a K element
+    ac: tuple[float, float] | None = None  # a source's AC magnitude and phase (degrees)
 
     def where(self) -> str:
         return f"netlist line {self.line} ({self.name})"
@@ -125,6 +150,7 @@ class _Parsed:
     title: str = ""
     elements: list[_Element] = field(default_factory=list)
     tran: Transient | None = None
+    ac: ACSweep | None = None
     node_ic: dict[str, float] = field(default_factory=dict)
     options: dict[str, Any] = field(default_factory=dict)
 
@@ -248,15 +274,16 @@ def _element(number: int, tokens: list[str]) -> _Element:
             allowed = " (only ic=... is supported)" if letter in "lc" else ""
             raise ModelError(f"{where}: unsupported {quantity} parameters {' '.join(extra)!r}{allowed}. Supported: {SUPPORTED}.")
         return element
-    element.value = _source(rest, where)
+    element.value, element.ac = _source(rest, where)
     return element
 
 
-def _source(tokens: list[str], where: str) -> tuple[str, list[float]]:
-    """``("dc", [value])`` or ``(waveform, [arguments])`` from the tokens after a source's nodes."""
+def _source(tokens: list[str], where: str) -> tuple[tuple[str, list[float]], tuple[float, float] | None]:
+    """``("dc", [value])`` or ``(waveform, [arguments])`` from the tokens after a source's nodes, and the AC
+    magnitude and phase (degrees) when given.  An AC-only source is 0 in a transient, as in SPICE."""
     dc: float | None = None
     wave: tuple[str, list[float]] | None = None
-    ac = False
+    ac: tuple[float, float] | None = None
     i = 0
     while i < len(tokens):
         word = tokens[i].lower()
@@ -266,11 +293,13 @@ def _source(tokens: list[str], where: str) -> tuple[str, list[float]]:
             dc = _number(tokens[i + 1], where, "the DC value")
             i += 2
         elif word == "ac":
-            ac = True
             i += 1
-            for _ in range(2):  # magnitude and phase, both optional
+            values = []
+            for _ in range(2):  # magnitude (default 1) and phase in degrees (default 0)
                 if i < len(tokens) and _NUMBER.match(tokens[i]):
+                    values.append(_number(tokens[i], where, "the AC magnitude or phase"))
                     i += 1
+            ac = (values[0] if values else 1.0, values[1] if len(values) > 1 else 0.0)
         elif word in _WAVEFORMS:
             i, args = _arguments(tokens, i + 1, where, word)
             low, high = _WAVEFORMS[word]
@@ -285,13 +314,8 @@ def _source(tokens: list[str], where: str) -> tuple[str, list[float]]:
         else:
             raise ModelError(f"{where}: unexpected {tokens[i]!r} in the source specification. Supported: {SUPPORTED}.")
     if wave is not None:
-        return wave
-    if dc is None and ac:
-        raise ModelError(
-            f"{where}: an AC-only source (small-signal analysis) has no transient value; give it a DC value or a "
-            f"SIN/PULSE waveform. Supported: {SUPPORTED}."
-        )
-    return ("dc", [dc or 0.0])
+        return wave, ac
+    return ("dc", [dc or 0.0]), ac
 
 
 def _arguments(tokens: list[str], i: int, where: str, word: str) -> tuple[int, list[float]]:
@@ -325,6 +349,19 @@ def _directive(deck: _Parsed, number: int, head: str, tokens: list[str]) -> None
         if not (step > 0 and stop > start >= 0) or (max_step is not None and max_step <= 0):
             raise ModelError(f"{where}: need tstep > 0, tstop > tstart ≥ 0 and tmax > 0, got {' '.join(tokens)!r}.")
         deck.tran = Transient(step, stop, start, max_step, uic)
+    elif head == ".ac":
+        if len(tokens) != 4 or tokens[0].lower() not in ("dec", "oct", "lin"):
+            raise ModelError(f"{where}: expected '.ac dec|oct|lin points fstart fstop', got {' '.join(tokens)!r}. "
+                             f"Supported: {SUPPORTED}.")
+        count = _number(tokens[1], where, "the number of points")
+        start, stop = (_number(tok, where, "a frequency") for tok in tokens[2:])
+        if count != int(count) or count < 1 or not 0 < start <= stop:
+            raise ModelError(f"{where}: need a whole number of points ≥ 1 and 0 < fstart ≤ fstop, got "
+                             f"{' '.join(tokens)!r}. Supported: {SUPPORTED}.")
+        if tokens[0].lower() != "lin" and start == stop:
+            raise ModelError(f"{where}: a dec or oct sweep needs fstart < fstop, got {' '.join(tokens)!r}. "
+                             f"Supported: {SUPPORTED}.")
+        deck.ac = ACSweep(tokens[0].lower(), int(count), start, stop)
     elif head == ".ic":
         i = 0
         while i < len(tokens):
@@ -358,6 +395,7 @@ def _directive(deck: _Parsed, number: int, head: str, tokens: list[str]) -> None
     elif head in _IGNORED_COMMANDS:
         pass
     elif head in _ANALYSES:
-        raise ModelError(f"{where}: only transient analysis (.tran) is supported. Supported: {SUPPORTED}.")
+        raise ModelError(f"{where}: only transient (.tran) and small-signal (.ac) analyses are supported. "
+                         f"Supported: {SUPPORTED}.")
     else:
         raise ModelError(f"{where}: the dot command {head!r} is not supported. Supported: {SUPPORTED}.")

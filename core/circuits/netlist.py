@@ -18,11 +18,14 @@ What is read
   inductors, ``0 < k ≤ 1``: kind ``coupling``, in either formulation; see
   ``lagrangian.plugins.coupled_inductors``), independent ``V`` and ``I`` sources with a
   DC value (``5``, ``DC 5``), ``SIN(vo va freq td theta phase)`` or
-  ``PULSE(v1 v2 td tr tf pw per np)``.  An ``AC`` specification next to a
-  transient one is ignored (it belongs to AC analysis); when a source has
-  both a DC value and a waveform, the waveform is used, as SPICE does in a
-  transient analysis.
-- ``.tran tstep tstop [tstart [tmax]] [uic]``, ``.ic v(node)=value ...``,
+  ``PULSE(v1 v2 td tr tf pw per np)``; when a source has both a DC value
+  and a waveform, the waveform is used, as SPICE does in a transient
+  analysis.
+- ``AC mag [phase]`` on a source marks it as an input of the small-signal
+  analysis (:meth:`ImportedNetlist.frequency_response`, ``ac_sources``); an
+  AC-only source is 0 in a transient, as in SPICE.
+- ``.ac dec|oct|lin points fstart fstop`` (``ac``: its frequencies),
+  ``.tran tstep tstop [tstart [tmax]] [uic]``, ``.ic v(node)=value ...``,
   ``.options ...`` (stored, not used), ``.title``, ``.end`` (nothing after it
   is read) and the output directives ``.print``, ``.plot``, ``.save``,
   ``.probe`` (ignored).
@@ -32,8 +35,8 @@ What is read
 - Node ``0`` (and ``gnd``) is the ground.
 
 Anything else (semiconductors, subcircuits, controlled and behavioural
-sources, switches, transmission lines, PWL/EXP/SFFM/AM waveforms, AC-only
-sources, ``.param`` expressions, analyses other than ``.tran``) is refused
+sources, switches, transmission lines, PWL/EXP/SFFM/AM waveforms,
+``.param`` expressions, analyses other than ``.tran`` and ``.ac``) is refused
 with a :class:`~lagrangian.errors.ModelError` naming the line and the
 element, and listing what is supported.
 
@@ -104,6 +107,7 @@ Transient(step=1e-05, stop=0.002, start=0.0, max_step=None, uic=True)
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -111,16 +115,18 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from ..base.component import t
+from ..analysis.frequency import FrequencyResponse, frequency_response
+from ..base.component import GROUND, t
 from ..base.domain import Context
 from ..errors import LagrangianError, ModelError, ParameterError
 from ..model import Model
 from ..numerics.simulation import Result
 from ..plugin.registry import Registry
-from .deck import SUPPORTED, Transient, _Element, _Parsed, _parse, parse_number
+from .deck import SUPPORTED, ACSweep, Transient, _Element, _Parsed, _parse, parse_number
 from .initial_state import _initial_state, _initial_values
 
-__all__ = ["ImportedNetlist", "Transient", "NetlistWarning", "read_netlist", "read_netlist_file", "parse_number", "SUPPORTED"]
+__all__ = ["ImportedNetlist", "Transient", "ACSweep", "NetlistWarning", "read_netlist", "read_netlist_file", "parse_number",
+           "SUPPORTED"]
 
 
 class NetlistWarning(UserWarning):
@@ -147,6 +153,31 @@ class ImportedNetlist:
     title: str = ""
     options: dict[str, Any] = field(default_factory=dict)
     lines: dict[str, int] = field(default_factory=dict)
+    ac: ACSweep | None = None
+    ac_sources: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+    def frequency_response(self, outputs: Sequence[str] | None = None, frequencies: Any = None,
+                           **kwargs: Any) -> FrequencyResponse:
+        """The small-signal response at ``frequencies`` (Hz; by default the ``.ac`` sweep's) to the deck's AC
+        sources, each at its ``AC`` magnitude and phase, added as SPICE's ``.ac`` does.
+
+        ``outputs`` are node voltages ``"v(n3)"``, element quantities
+        ``"v(C1)"``, ``"i(L1)"`` or coordinates; every node voltage by
+        default.  ``kwargs`` go to :func:`lagrangian.frequency.linearize`.
+        """
+        if not self.ac_sources:
+            raise ModelError(f"netlist {self.title!r} has no AC source: give one an 'AC 1' specification.")
+        if frequencies is None:
+            if self.ac is None:
+                raise ModelError(f"netlist {self.title!r} has no .ac line: give frequency_response() the frequencies.")
+            frequencies = self.ac.frequencies
+        if outputs is None:
+            outputs = [f"v({node})" for node in self.model.nodes if node != GROUND]
+        names = list(self.ac_sources)
+        resp = frequency_response(self.model, frequencies, inputs=names, outputs=outputs, **kwargs)
+        weights = np.array([mag * np.exp(1j * np.radians(phase)) for mag, phase in self.ac_sources.values()])
+        combined = np.einsum("oif,i->of", resp.H, weights)[:, None, :]
+        return FrequencyResponse(resp.model, resp.frequencies, [" + ".join(names)], resp.outputs, combined, resp.notes)
 
     def simulate(self, t_end: float | tuple[float, float] | None = None, **kwargs: Any) -> Result:
         """``model.simulate`` from the netlist's initial state; by default over the ``.tran`` span, on its output grid.
@@ -251,6 +282,8 @@ def read_netlist(
         title=deck.title,
         options=deck.options,
         lines={e.name: e.line for e in deck.elements},
+        ac=deck.ac,
+        ac_sources={e.name: e.ac for e in deck.elements if e.ac is not None},
     )
 
 

@@ -147,12 +147,14 @@ class Netlist:
 
 @dataclass
 class SpiceRun:
-    """Output of one ngspice transient: time points and the netlist's state quantities on them."""
+    """Output of one ngspice analysis: time points (frequencies, for ``.ac``) and the quantities probed on them."""
 
     time: np.ndarray
     quantities: dict[str, np.ndarray]
     wall: float
     messages: list[str] = field(default_factory=list)
+    #: seconds ngspice took to load (parse and set up) the netlist, before ``wall``
+    load: float = 0.0
 
 
 # -- expressions and waveforms -------------------------------------------------------------------
@@ -550,7 +552,9 @@ def _run(text: str, probes: Mapping[str, tuple[str, ...]], dtype, axis: str) -> 
         ng = _shared()
         ng.clear_output()
         try:
+            loading = _time.perf_counter()
             ng.load_circuit(text)
+            load = _time.perf_counter() - loading
             bad = _errors(ng._stderr) + _errors(ng._stdout)
             if bad:
                 raise NgspiceError("ngspice rejected the netlist: " + " | ".join(bad))
@@ -559,7 +563,9 @@ def _run(text: str, probes: Mapping[str, tuple[str, ...]], dtype, axis: str) -> 
                 ng.run()
             except Exception as exc:
                 msgs = _errors(ng._stderr) + _errors(ng._stdout)
-                raise NgspiceError("ngspice failed: " + (" | ".join(msgs) or str(exc))) from None
+                notes = all(line.strip().lower().startswith("note:") for line in ng._stderr)
+                if msgs or not notes:  # PySpice fails a run on any line on stderr, ngspice's notes included
+                    raise NgspiceError("ngspice failed: " + (" | ".join(msgs) or str(exc))) from None
             wall = _time.perf_counter() - start
             msgs = _errors(ng._stderr)
             if msgs:
@@ -587,4 +593,4 @@ def _run(text: str, probes: Mapping[str, tuple[str, ...]], dtype, axis: str) -> 
         out = {label: read(probe) for label, probe in probes.items()}
     except KeyError as exc:
         raise NgspiceError(f"ngspice's output has no vector {exc.args[0]!r} (it has {', '.join(sorted(vectors))}).") from None
-    return SpiceRun(time, out, wall)
+    return SpiceRun(time, out, wall, load=load)
