@@ -25,6 +25,7 @@ from sympy.core.function import AppliedUndef
 
 from ..base.component import GROUND, t
 from ..base.domain import Context
+from ..derivation.calculus import atoms_of
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 
@@ -86,17 +87,15 @@ def _signal_of(comp) -> str | None:
 
 
 def _atoms(exprs, channels) -> set:
-    """The applications ``u(t)`` and derivatives of input functions in ``exprs`` (every undefined function when
-    ``channels`` is empty)."""
+    """The applications ``w(…)`` and derivatives of input functions in ``exprs`` (of every undefined function when
+    ``channels`` is empty), each distinct sub-expression visited once."""
     found = set()
-    for e in exprs:
-        e = sp.sympify(e)
-        for d in e.atoms(sp.Derivative):
-            if isinstance(d.expr, AppliedUndef) and (not channels or d.expr.func in channels):
-                found.add(d)
-        for a in e.atoms(AppliedUndef):
-            if not channels or a.func in channels:
-                found.add(a)
+    for e in atoms_of([sp.sympify(e) for e in exprs], sp.Derivative, AppliedUndef):
+        if isinstance(e, sp.Derivative):
+            if isinstance(e.expr, AppliedUndef) and (not channels or e.expr.func in channels):
+                found.add(e)
+        elif not channels or e.func in channels:
+            found.add(e)
     return found
 
 

@@ -51,6 +51,7 @@ from ..base.component import t
 from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
+from ..derivation.calculus import symbols_of
 from .channels import _atoms, _channel, _label, _outputs, _with_inputs
 
 __all__ = ["LinearModel", "linearize", "s"]
@@ -289,22 +290,28 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         out = sp.sympify(expr).xreplace(subs)
         return out if is_symbolic else _number(out, model.name)
 
-    def matrix(rows, cols, entry):
-        out = sp.zeros(rows, cols)
-        for i in range(rows):
-            for j in range(cols):
-                out[i, j] = entry(i, j)
+    def matrix(rows, cols, entries):
+        """A matrix from ``{(i, j): value}`` (the entries that may be nonzero): NumPy, or SymPy when symbolic."""
+        if is_symbolic:
+            out = sp.zeros(rows, cols)
+            for (i, j), value in entries.items():
+                out[i, j] = value
+            return out
+        out = np.zeros((rows, cols))
+        for (i, j), value in entries.items():
+            out[i, j] = value
         return out
 
     unsupported = [str(a.func) for a in _atoms(list(f_u) + list(M_u), ()) if isinstance(a, AppliedUndef)]
     if unsupported:
         raise ModelError(f"model {model.name!r}: signals given as Python callables ({', '.join(sorted(set(unsupported)))}) "
                          f"have no operating value to linearize about; give them as numbers or SymPy expressions of t.")
-    free = [set(sp.sympify(e).free_symbols) for e in f_u]
+    free = [symbols_of([e]) for e in f_u]
     f0 = sp.Matrix([at_point(e) for e in f_u])
-    M0 = matrix(n, n, lambda i, j: at_point(M_u[i, j]))
-    C0 = matrix(n, n, lambda i, j: -at_point(calc.diff(f_u[i], v[j])) if v[j] in free[i] else sp.Integer(0))
-    K0 = matrix(n, n, lambda i, j: -at_point(calc.diff(f_u[i], q[j])) if q[j] in free[i] else sp.Integer(0))
+    M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
+    index_v, index_q = {x: j for j, x in enumerate(v)}, {x: j for j, x in enumerate(q)}
+    C0 = matrix(n, n, {(i, index_v[x]): -at_point(calc.diff(f_u[i], x)) for i in range(n) for x in free[i] if x in index_v})
+    K0 = matrix(n, n, {(i, index_q[x]): -at_point(calc.diff(f_u[i], x)) for i in range(n) for x in free[i] if x in index_q})
     # the k-th derivative of w is s^(k−1) u: B_(k−1), or Bi (u/s) for w itself
     n_in = len(channels)
     channels_by_col = {c[1]: c[0] for c in channels.values()}
@@ -320,7 +327,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         raise ModelError(f"model {model.name!r}: inputs {', '.join(driven)} move a closed kinematic loop (they enter its "
                          f"closure constraints); linearizing about them is not supported. Drive the loop with a force "
                          f"or torque instead.")
-    Jq = matrix(m, n, lambda k, j: at_point(calc.diff(Phi_u[k], q[j]))) if m else sp.zeros(0, n)
+    Jq = matrix(m, n, {(k, j): at_point(calc.diff(Phi_u[k], q[j])) for k in range(m) for j in range(n)})
     if m:
         residual = [at_point(c) for c in Phi_u]
         _check_closure(model.name, residual, is_symbolic, tol)
@@ -339,7 +346,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         conv = (lambda x: sp.Matrix(x))
     else:
         def conv(x):
-            return np.array(x.tolist(), dtype=float).reshape(x.shape)
+            return np.array(x, dtype=float) if isinstance(x, np.ndarray) else np.array(x.tolist(), dtype=float).reshape(x.shape)
     return LinearModel(
         model=model.name, coordinates=list(names), inputs=[c[0] for c in channels.values()],
         outputs=[_label(o) for o in (outputs if outputs is not None else names)],
@@ -412,7 +419,7 @@ def _operating_point(model: Model, names: list[str], at: Mapping[str, Any] | Non
 
 
 def _scale(K0, M0, point, names) -> float:
-    K = np.abs(np.array(K0.tolist(), dtype=float)) if K0.shape[0] else np.zeros((0, 0))
+    K = np.abs(np.asarray(K0, dtype=float) if isinstance(K0, np.ndarray) else np.array(K0.tolist(), dtype=float))
     x = max([abs(float(point[nm])) for nm in names] + [1.0])
     return float(K.max() * x) if K.size else 1.0
 
@@ -457,7 +464,7 @@ def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, poin
             raise ModelError(f"model {model!r} is not at rest at this operating point: the loop constraints cannot "
                              f"balance the net forces {list(rest)}. Give at= an equilibrium.")
         return list(lam)
-    J = np.array(Jq.tolist(), dtype=float)
+    J = np.asarray(Jq, dtype=float)
     f = np.array([float(e) for e in f0])
     lam, *_ = np.linalg.lstsq(J.T, -f, rcond=None)
     rest = f + J.T @ lam
