@@ -38,7 +38,7 @@ MODULES = {
     "plugin": ("contracts", "hookspecs", "registry"),
     "derivation": ("assembly", "derive", "equations"),
     "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench"),
-    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize"),
+    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating"),
     "circuits": ("analogy", "spice", "netlist", "compare", "ac"),
 }
 _WHERE = {name: f"{__name__}.{layer}.{name}" for layer, names in MODULES.items() for name in names}

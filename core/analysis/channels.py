@@ -68,6 +68,8 @@ def _with_inputs(model: Model, inputs: Sequence[str] | None) -> tuple[Model, dic
         if name in chosen:
             raise ModelError(f"input {name!r} is listed twice.")
         chosen[name] = (pname, None if index is None else int(index), item.strip())
+    if not chosen:  # nothing to drive: the model itself (a reduced or derived model keeps its own equations)
+        return model, {}
     twin = Model(model.name, registry=model.registry, **model._options)
     twin._graph.declared = list(model._graph.declared)
     channels: dict[Any, tuple[str, int, Any]] = {}

@@ -46,8 +46,29 @@ def _linear(system: Model | LinearModel, inputs, outputs, kwargs) -> LinearModel
     return linearize(system, inputs=inputs, outputs=outputs, **kwargs)
 
 
+def _balance(lin: LinearModel) -> tuple[LinearModel, np.ndarray]:
+    """``lin`` in coordinates scaled by ``d`` (``q = d·q̃``), each coordinate's own stiffness (or, without one, its
+    damping or inertia at the model's rate) made 1; and ``d``.  Eigenvalues and zeros do not change; the pencil's
+    entries do, from spanning the decades between an electrical and a mechanical coordinate (a capacitor's 1/C of
+    10⁷ beside a spring of 1) to a few: without it QZ, backward stable in the pencil's norm, loses the small
+    stiffness."""
+    w = _rate(lin)
+    size = np.maximum.reduce([np.abs(np.diag(lin.K)), np.abs(np.diag(lin.C)) * w, np.abs(np.diag(lin.M)) * w**2])
+    d = np.where(size > 0, 1 / np.sqrt(np.where(size > 0, size, 1.0)), 1.0)
+    D = np.diag(d)
+    scaled = LinearModel(**{**lin.__dict__, "M": D @ lin.M @ D, "C": D @ lin.C @ D, "K": D @ lin.K @ D,
+                            "Phi": lin.Phi @ D, "B": [D @ b for b in lin.B], "Bi": D @ lin.Bi,
+                            "Cq": [c @ D for c in lin.Cq]})
+    return scaled, d
+
+
 def _scale(lin: LinearModel) -> float:
-    """A characteristic rate of the system (rad/s), to scale ``s`` by before eigenvalue problems."""
+    """A characteristic rate of the system (rad/s), to scale ``s`` by before eigenvalue problems (of the balanced
+    system, :func:`_balance`)."""
+    return _rate(_balance(lin)[0])
+
+
+def _rate(lin: LinearModel) -> float:
     norms = [float(np.linalg.norm(x)) for x in (lin.M, lin.C, lin.K)]
     nM, nC, nK = norms
     if nM and nK:
@@ -74,7 +95,8 @@ def _descriptor(lin: LinearModel, with_io: bool) -> tuple[np.ndarray, np.ndarray
     ``0 = −M w0² ã − C w0 ṽ − K q + Φᵀλ + Σ b_k w_k``, ``0 = Φ q``.  With the input: a chain ``w_k = s^k u``
     (or ``s^(k−1) u`` when the input's integral enters, ``Bi`` or ``Di``), scaled by ``w0^k``, rows ``σ w_k = w_(k+1)``,
     ``u = w_0`` (or ``u = s w_0``), and the output row ``y = 0``."""
-    w0 = _scale(lin)
+    lin, _ = _balance(lin)
+    w0 = _rate(lin)
     n, m = len(lin.coordinates), lin.Phi.shape[0]
     integral = with_io and bool(np.any(lin.Bi) or np.any(lin.Di))
     coeffs = ([lin.Bi] if integral else []) + list(lin.B)
@@ -215,7 +237,7 @@ def modes(system: Model | LinearModel, **kwargs: Any) -> Modes:
         alpha, beta, vecs = _eig_vectors(A, E)
         finite = np.abs(beta) > INFINITE * np.abs(alpha)
         lam = alpha[finite] / beta[finite] * w0
-        shapes = vecs[:n, finite]
+        shapes = vecs[:n, finite] * _balance(lin)[1][:, None]  # back from the balanced coordinates
         keep = lam.imag >= -1e-12 * np.abs(lam)
         lam, shapes = lam[keep], shapes[:, keep]
         method = "generalized eigenvalues of the Laplace-form pencil"
