@@ -28,7 +28,7 @@ from lagrangian.cli import main
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PENDULUMS = f"{EXAMPLES / 'pendulums.py'}:double_pendulum"
 
-# A series RLC circuit; .tran without 'uic' makes the reader warn (NetlistWarning).
+# A series RLC circuit; ic= values with a .tran without 'uic' make the reader warn (NetlistWarning).
 RLC = """series RLC
 V1 in 0 DC 1
 R1 in a 10
@@ -38,9 +38,8 @@ C1 b 0 1u ic=0.5
 .end
 """
 NETLIST_WARNING = (
-    "lagrangian: warning: netlist 'series RLC': .tran has no 'uic', so SPICE would start from the DC operating point; "
-    "this reader starts from the uic state (ic= values, .ic node voltages, zero otherwise). Add 'uic' to the .tran line "
-    "to make the netlist say what is simulated.\n"
+    "lagrangian: warning: netlist 'series RLC': .tran has no 'uic', so the elements' ic= values are ignored, as SPICE "
+    "ignores them, and the run starts from the DC operating point. Add 'uic' to the .tran line to start from them.\n"
 )
 SCENE = ["scene", "{tmp}/rlc.cir", "-o", "q_L1"]
 BENCH = ["bench", "oscillator", "--methods", "DOP853", "--tolerances", "1e-4", "--no-chart", "--quiet"]

@@ -341,13 +341,47 @@ def test_initial_values_the_coordinates_cannot_take_are_clear_errors():
         read_netlist(across, formulation="flux")
 
 
-def test_tran_without_uic_warns_that_spice_would_start_elsewhere():
-    with pytest.warns(NetlistWarning, match="uic"):
-        read_netlist(FREE_RLC.replace(" uic", ""))
+DC_START = """dc start
+V1 in 0 SIN(5 1 200)
+R1 in a 100
+L1 a b 10m
+C1 b 0 10u
+R2 b 0 470
+I1 0 b DC 2m
+.tran 10u 10m
+.end
+"""
+
+
+def test_tran_without_uic_starts_from_the_dc_operating_point_as_ngspice_does():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        read_netlist(FREE_RLC)
-        read_netlist("quiet\nV1 a 0 SIN(0 1 1)\nR1 a b 1\nC1 b 0 1\n.tran 0.1 1\n")  # starts at rest: same state
+        net = read_netlist(DC_START)
+    # by hand: L1 shorted, C1 open: v(b) = (5/(R1) + I)/(1/R1 + 1/R2) with R1 = 100, R2 = 470, I = 2 mA into b
+    vb = (5 / 100 + 2e-3) / (1 / 100 + 1 / 470)
+    assert net.ic["C1"] == pytest.approx(vb, rel=1e-12) and net.ic["L1"] == pytest.approx((5 - vb) / 100, rel=1e-12)
+    spice = ngspice(DC_START)
+    res = net.simulate(t_eval=spice["time"][::EVERY], method="exact")
+    assert net.capacitor_voltage(res, "C1")[0] == pytest.approx(spice["b"][0], rel=1e-9)
+    assert net.inductor_current(res, "L1")[0] == pytest.approx(spice["l1#branch"][0], rel=1e-9)
+    assert relative_gap(net.capacitor_voltage(res, "C1"), spice["b"][::EVERY]) < 1e-4  # ngspice's default steps
+
+
+def test_without_uic_a_held_node_and_ignored_ic_values_follow_spice():
+    held = "held\nV1 a 0 DC 1\nR1 a b 1k\nC1 b 0 1u\nR2 b 0 1k\n.ic v(b)=0.2\n.tran 10u 5m\n.end\n"
+    net = read_netlist(held)
+    spice = ngspice(held)
+    assert net.ic["C1"] == pytest.approx(0.2, rel=1e-12) == pytest.approx(spice["b"][0], rel=1e-9)
+    res = net.simulate(t_eval=spice["time"][::EVERY], method="exact")
+    assert relative_gap(net.capacitor_voltage(res, "C1"), spice["b"][::EVERY]) < 1e-4
+    with pytest.warns(NetlistWarning, match="ic= values are ignored"):
+        net = read_netlist(FREE_RLC.replace(" uic", ""))
+    assert all(value == 0.0 for value in net.ic.values())  # no source: the operating point is at rest
+    with pytest.raises(lg.ModelError, match=r"no DC operating point.*\bm\b"):
+        read_netlist("floating\nV1 a 0 DC 1\nC1 a m 1u\nC2 m 0 1u\nR1 a 0 1k\n.tran 1u 1m\n.end\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        read_netlist(FREE_RLC)  # uic: its ic= values, quietly
 
 
 # ---------------------------------------------------------------------------

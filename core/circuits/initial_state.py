@@ -1,8 +1,9 @@
-"""The initial state of a netlist read into a model: SPICE's ``uic`` state as coordinates and velocities.
+"""The initial state of a netlist read into a model, as coordinates and velocities.
 
 :func:`_initial_values` gives every capacitor its initial voltage and every
-inductor its initial current (``ic=``, else the ``.ic`` node voltages, else
-zero); :func:`_initial_state` finds coordinate values and inertial velocities
+inductor its initial current in SPICE's ``uic`` state (``ic=``, else the
+``.ic`` node voltages, else zero); :func:`_operating_point` gives them at
+the DC operating point, SPICE's start without ``uic``; :func:`_initial_state` finds coordinate values and inertial velocities
 at ``t = 0`` that put them there, as the least-norm solution of the linear
 relations of the charge or flux formulation, and names the elements when the
 formulation cannot take that state.
@@ -30,6 +31,79 @@ def _initial_values(deck: _Parsed) -> dict[str, float]:
             out[e.name] = e.ic if e.ic is not None else a - b
         elif e.letter == "l":
             out[e.name] = e.ic if e.ic is not None else 0.0
+    return out
+
+
+def _operating_point(model: Model, deck: _Parsed) -> dict[str, float]:
+    """The DC operating point at ``t = 0``, as SPICE computes it for a ``.tran`` without ``uic``: every capacitor's
+    voltage and every inductor's current, by element name.
+
+    Modified nodal analysis with the sources at their values at ``t = 0``:
+    capacitors open, inductors shorted (a voltage source of 0 V, whose
+    current is the inductor's), nodes named on a ``.ic`` line held at their
+    voltages.  A singular system (a node that only capacitors or current
+    sources reach, a loop of voltage sources and inductors) raises a
+    :class:`~lagrangian.errors.ModelError` naming the nodes or elements.
+    """
+    elements = [e for e in deck.elements if e.letter in "rlcvi"]
+    nodes = sorted({n for e in elements for n in e.nodes if n not in ("0", "gnd")})
+    index = {n: i for i, n in enumerate(nodes)}
+    branches = [e for e in elements if e.letter in "vl"] + [n for n in deck.node_ic if n in index]
+    size = len(nodes) + len(branches)
+    A = np.zeros((size, size))
+    b = np.zeros(size)
+    components = model.components
+
+    def value(e) -> float:
+        expr = components[e.name].E if e.letter == "v" else components[e.name].I
+        return float(sp.sympify(expr).subs(t, 0))
+
+    def stamp(i, j, x):
+        if i is not None and j is not None:
+            A[i, j] += x
+
+    for e in elements:
+        a, c = (index.get(n) for n in e.nodes)
+        if e.letter == "r":
+            g = 1.0 / float(e.value)
+            for i, j, sign in ((a, a, 1), (c, c, 1), (a, c, -1), (c, a, -1)):
+                stamp(i, j, sign * g)
+        elif e.letter == "i":  # I drives current from a through the source to c: it leaves a, enters c
+            if a is not None:
+                b[a] -= value(e)
+            if c is not None:
+                b[c] += value(e)
+    for k, e in enumerate(branches):
+        row = len(nodes) + k
+        if isinstance(e, str):  # a .ic node held at its voltage
+            A[row, index[e]] = A[index[e], row] = 1.0
+            b[row] = deck.node_ic[e]
+            continue
+        a, c = (index.get(n) for n in e.nodes)
+        for node, sign in ((a, 1.0), (c, -1.0)):
+            if node is not None:
+                A[node, row] += sign  # the branch current leaves a, enters c
+                A[row, node] += sign  # v_a − v_c = E (0 for an inductor)
+        b[row] = value(e) if e.letter == "v" else 0.0
+    if size:
+        u, sv, vt = np.linalg.svd(A)
+        if sv[-1] <= 1e-12 * sv[0]:
+            names = nodes + [e if isinstance(e, str) else e.name for e in branches]
+            involved = [names[i] for i in np.flatnonzero(np.abs(vt[-1]) > 1e-8)]
+            raise ModelError(
+                f"netlist {deck.title!r} has no DC operating point (SPICE's starting state without 'uic'): its equations "
+                f"are singular in {', '.join(involved)} (a node that only capacitors or current sources reach, or a "
+                f"loop of voltage sources and inductors). Add 'uic' to the .tran line to start from the ic= values.")
+        x = np.linalg.solve(A, b)
+    else:
+        x = np.zeros(0)
+    voltage = {n: x[i] for n, i in index.items()}
+    out = {}
+    for e in elements:
+        if e.letter == "c":
+            out[e.name] = float(voltage.get(e.nodes[0], 0.0) - voltage.get(e.nodes[1], 0.0))
+        elif e.letter == "l":
+            out[e.name] = float(x[len(nodes) + branches.index(e)])
     return out
 
 

@@ -65,7 +65,7 @@ Waveforms (ngspice 39 semantics, checked against it in the tests)
 Initial state
 -------------
 
-The state at ``t = 0`` is SPICE's ``uic`` state: each capacitor starts at
+With ``uic``, the state at ``t = 0`` is SPICE's ``uic`` state: each capacitor starts at
 its ``ic=`` voltage, or else at the difference of its nodes' ``.ic``
 voltages (nodes not listed are at 0 V); each inductor starts at its ``ic=``
 current, or 0.  :attr:`ImportedNetlist.initial` and
@@ -80,9 +80,12 @@ charges, capacitor charges that would not balance at a node where only
 capacitors meet, and inductor currents that break Kirchhoff's current law;
 in node fluxes, inductor flux linkages that would not add up around a loop
 of inductors, and capacitor voltages that break Kirchhoff's voltage law.
-A ``.tran`` without ``uic`` makes SPICE start from the DC operating point
-instead; this reader still uses the ``uic`` state, and warns
-(:class:`NetlistWarning`) when the two could differ.
+A ``.tran`` without ``uic`` starts, as SPICE does, from the DC operating
+point at ``t = 0``: the sources at their values there, capacitors open,
+inductors shorted, nodes named on a ``.ic`` line held at their voltages;
+elements' ``ic=`` values are then ignored, as SPICE ignores them, with a
+:class:`NetlistWarning`.  A circuit without an operating point (a node that
+only capacitors reach) is refused, naming the nodes.
 
 The text is read into a deck by :mod:`lagrangian.circuits.deck` (lines,
 numbers, elements, sources, dot commands), the model is built from the deck
@@ -123,7 +126,7 @@ from ..model import Model
 from ..numerics.simulation import Result
 from ..plugin.registry import Registry
 from .deck import SUPPORTED, ACSweep, Transient, _Element, _Parsed, _parse, parse_number
-from .initial_state import _initial_state, _initial_values
+from .initial_state import _initial_state, _initial_values, _operating_point
 
 __all__ = ["ImportedNetlist", "Transient", "ACSweep", "NetlistWarning", "read_netlist", "read_netlist_file", "parse_number",
            "SUPPORTED"]
@@ -263,15 +266,18 @@ def read_netlist(
     model = Model(name or deck.title or "netlist", registry=registry, formulation=formulation)
     for element in deck.elements:
         _add(model, deck, element, formulation)
-    ic = _initial_values(deck)
-    if deck.tran is not None and not deck.tran.uic and (deck.node_ic or deck.element_ic or _sources_start_nonzero(model)):
-        warnings.warn(
-            f"netlist {deck.title!r}: .tran has no 'uic', so SPICE would start from the DC operating point; this "
-            f"reader starts from the uic state (ic= values, .ic node voltages, zero otherwise). Add 'uic' to the "
-            f".tran line to make the netlist say what is simulated.",
-            NetlistWarning,
-            stacklevel=2,
-        )
+    if deck.tran is not None and not deck.tran.uic:
+        if deck.element_ic:
+            warnings.warn(
+                f"netlist {deck.title!r}: .tran has no 'uic', so the elements' ic= values are ignored, as SPICE "
+                f"ignores them, and the run starts from the DC operating point. Add 'uic' to the .tran line to start "
+                f"from them.",
+                NetlistWarning,
+                stacklevel=2,
+            )
+        ic = _operating_point(model, deck)
+    else:
+        ic = _initial_values(deck)
     initial, velocity = _initial_state(model, ic)
     return ImportedNetlist(
         model=model,
@@ -367,11 +373,3 @@ def _waveform(wave: str, args: list[float], tran: Transient | None, where: str) 
         (v1, True),
     ]
     return sp.Piecewise(*pieces)
-
-
-def _sources_start_nonzero(model: Model) -> bool:
-    for comp in model.components.values():
-        value = {"voltage_source": "E", "current_source": "I"}.get(comp.kind)
-        if value is not None and sp.sympify(getattr(comp, value)).subs(t, 0) != 0:
-            return True
-    return False
