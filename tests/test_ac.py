@@ -123,3 +123,29 @@ def test_a_long_ladder_solved_banded_agrees_with_ngspice_and_with_the_dense_solv
     dense = frequency.frequency_response(lin, cmp.frequencies).H
     floor = 1e-12 * np.abs(dense).max(axis=-1, keepdims=True)
     assert np.max(np.abs(banded - dense) / np.maximum(np.abs(dense), floor)) < 1e-10
+
+
+@pytest.mark.parametrize("analogy", ["force-voltage", "force-current"])
+def test_a_mechanisms_analogue_in_ngspice_agrees_with_the_mechanism(analogy):
+    """Driven by a force, every state quantity of the analogue; driven by a base motion, the mass's velocity."""
+    m = lg.Model("oscillator")
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("ground", "p"), k=40.0)
+    m.add("damper", "c", ("ground", "p"), c=0.5)
+    m.add("force", "F", "p", F=0)
+    cmp = compare_ac_with_ngspice(m, input="F", analogy=analogy, start=0.1, stop=100, points=20)
+    assert len(cmp.rows) == 2 and cmp.worst_rel < 1e-9, cmp.table()
+    velocity = "i(L_m)" if analogy == "force-voltage" else "v(C_m)"
+    f = cmp.frequencies
+    mobility = 1 / (0.5 + 2j * np.pi * f * 0.3 + 40.0 / (2j * np.pi * f))  # v / F, by hand
+    assert np.max(np.abs(cmp.spice[velocity] / mobility - 1)) < 1e-9
+    base = lg.Model("isolator")
+    base.add("prescribed_motion", "base", "b", position=0)
+    base.add("mass", "m", "p", m=0.3)
+    base.add("spring", "k", ("b", "p"), k=40.0)
+    base.add("damper", "c", ("b", "p"), c=0.5)
+    cmp = compare_ac_with_ngspice(base, input="base", analogy=analogy, start=0.1, stop=100, points=20)
+    assert [r.label for r in cmp.rows] == [velocity] and cmp.worst_rel < 1e-9, cmp.table()
+    spring = "v(C_k)" if analogy == "force-voltage" else "i(L_k)"
+    with pytest.raises(lg.ModelError, match="velocities"):
+        compare_ac_with_ngspice(base, input="base", analogy=analogy, outputs=[spring], start=0.1, stop=100, points=20)

@@ -32,11 +32,13 @@ from pathlib import Path
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from ..analysis.frequency import frequency_response
 from ..base.component import t
 from ..errors import ModelError
 from ..model import Model
+from .analogy import map_model
 from .netlist import ImportedNetlist
 from .spice import _fmt, netlist, run_ac
 
@@ -124,7 +126,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
                             outputs: Sequence[str] | None = None, start: float | None = None,
                             stop: float | None = None, points: int | None = None, sweep: str | None = None,
                             params: Mapping[str, float] | None = None,
-                            at: Mapping[str, float] | None = None) -> ACComparison:
+                            at: Mapping[str, float] | None = None, analogy: str | None = None) -> ACComparison:
     """Run ngspice's ``.ac sweep points start stop`` on a model or an imported netlist driven at ``input``;
     compare with ours.
 
@@ -136,9 +138,19 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
     (inductors and voltage sources, whose currents ngspice reports); every
     capacitor voltage and inductor current by default.  ``params`` gives
     symbolic parameters their values; ``at`` the operating point (coordinate
-    values) for a model that is not linear.
+    values) for a model that is not linear.  ``analogy`` (``"force-voltage"``
+    or ``"force-current"``) runs a mechanism's circuit analogue in ngspice,
+    driven by the element its ``input`` (a force, a prescribed motion) maps
+    to, and compares each of the analogue's state quantities with what it
+    means in the mechanism (a current with a velocity, for force–voltage),
+    from the mechanism's own linearization.
     """
     model = system.model if isinstance(system, ImportedNetlist) else system
+    mapped = None
+    if analogy is not None:  # the mechanism's analogue runs in ngspice; ours is the mechanism's own response
+        if isinstance(system, ImportedNetlist):
+            raise ModelError("an imported netlist is a circuit already: compare it without analogy=.")
+        mapped = map_model(model, analogy)
     if isinstance(system, ImportedNetlist):
         if input is None:
             if len(system.ac_sources) != 1:
@@ -158,17 +170,27 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
     points = 20 if points is None else points
     if sweep not in ("dec", "oct", "lin"):
         raise ModelError(f"sweep is 'dec', 'oct' or 'lin', not {sweep!r}.")
-    comp = model.component(input)
+    source = input
+    if mapped is not None:
+        model.component(input)
+        analogues = [name for name, origin in mapped.origin.items() if origin == input]
+        if len(analogues) != 1:
+            raise ModelError(f"{input!r} has {len(analogues)} elements in the {analogy} analogue; drive one source.")
+        circuit, input = mapped.model, analogues[0]
+    else:
+        circuit = model
+    comp = circuit.component(input)
     if comp.kind not in ("voltage_source", "current_source"):
-        raise ModelError(f"the input of an AC comparison is a voltage or current source; {input!r} is a {comp.kind}.")
+        raise ModelError(f"the input of an AC comparison is a voltage or current source (or, with analogy=, a force or "
+                         f"prescribed motion that maps to one); {source!r} is a {comp.kind}.")
     for name, value in (("start", start), ("stop", stop)):
         if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
             raise ModelError(f"{name} must be a positive frequency in Hz, got {value!r}.")
     if not start < stop or not isinstance(points, int) or isinstance(points, bool) or points < 1:
         raise ModelError(f"need start < stop and a whole number of points ≥ 1, got {start!r}, {stop!r}, {points!r}.")
-    net = netlist(model, params=params, t_end=1.0)
+    net = netlist(circuit, params=params, t_end=1.0)
     element = next(name for name, owner in net.elements.items() if owner == input)
-    subs = {sym: sp.Float(v) for sym, v in model._values(params or {}).items()}
+    subs = {sym: sp.Float(v) for sym, v in circuit._values(params or {}).items()}
     signal = comp.params["E" if comp.kind == "voltage_source" else "I"]
     try:
         dc = float(sp.sympify(signal).xreplace({t: 0}).xreplace(subs))
@@ -184,12 +206,37 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
             line = f".ac {sweep} {points} {_fmt(float(start))} {_fmt(float(stop))}"
         lines.append(line)
     labels = list(outputs) if outputs is not None else [k for k in net.probes if "." not in k]
-    probes = {label: _probe(model, net, label) for label in labels}
+    probes = {label: _probe(circuit, net, label) for label in labels}
     run = run_ac("\n".join(lines), probes)
+    if mapped is not None:  # each analogue quantity means an expression of the mechanism's coordinates
+        unknown = [label for label in labels if label not in net.quantities]
+        if unknown:
+            raise ModelError(f"with analogy=, compare the analogue's state quantities ({', '.join(net.quantities)}); "
+                             f"{unknown[0]!r} is not one.")
+        meaning = [mapped.to_source(net.quantities[label]) for label in labels]
+        if model.component(source).role == "across":
+            # the analogue was built with the motion at its value; what a spring's force owes to the motion itself
+            # is not in its meaning, so only rates (velocities) compare
+            coordinates = {c.function for c in model.coordinates}
+            rates = [not any(f in coordinates for f in e.xreplace({d: sp.Dummy() for d in e.atoms(sp.Derivative)})
+                             .atoms(AppliedUndef)) for e in meaning]
+            if outputs is None:
+                labels = [label for label, ok in zip(labels, rates) if ok]
+                meaning = [e for e, ok in zip(meaning, rates) if ok]
+            elif not all(rates):
+                bad = [label for label, ok in zip(labels, rates) if not ok]
+                raise ModelError(f"driven by the prescribed motion {source!r}, the analogue's {', '.join(bad)} stand for "
+                                 f"forces or displacements that depend on the motion itself; compare its velocities "
+                                 f"(the inductor currents or capacitor voltages of masses).")
+            run.quantities = {label: run.quantities[label] for label in labels}
     began = _time.perf_counter()
-    resp = frequency_response(model, run.time, inputs=[input], outputs=labels, params=params, at=at)
+    resp = frequency_response(model, run.time, inputs=[source], outputs=meaning if mapped else labels, params=params,
+                              at=at)
     ours_s = _time.perf_counter() - began
-    ours = {label: resp[label] for label in labels}
+    ours = {label: resp[out] for label, out in zip(labels, resp.outputs)}
+    if mapped is not None and model.component(source).role == "across":
+        # a prescribed motion becomes a source of its rate (velocity ↔ current or voltage): AC 1 there is a motion 1/s
+        ours = {label: h / (2j * np.pi * run.time) for label, h in ours.items()}
     rows = []
     for label in labels:
         a, b = ours[label], run.quantities[label]
@@ -203,7 +250,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
             deg = np.abs(np.degrees(np.angle(a[seen] / b[seen])))
         rows.append(OutputError(label, float(np.nanmax(rel, initial=0.0)), float(np.nanmax(db, initial=0.0)),
                                 float(np.nanmax(deg, initial=0.0))))
-    return ACComparison(model.name, input, "\n".join(lines), run.time, ours, run.quantities, rows, ours_s, run.wall,
+    return ACComparison(model.name, source, "\n".join(lines), run.time, ours, run.quantities, rows, ours_s, run.wall,
                         list(resp.notes), run.load)
 
 
