@@ -146,8 +146,20 @@ def test_parallelogram_linkage_swings_as_its_closed_form_through_its_loop_constr
     found = modes(m, at=hanging)
     assert len(found.omega) == 1
     assert found.omega[0] == pytest.approx(np.sqrt(G * (mc + mp) / (L * (2 / 3 * mc + mp))), rel=1e-10)
-    with pytest.raises(lg.ModelError, match="constraints"):
-        linearize(m, hanging).state_space()
+    lin = linearize(m, hanging)
+    A, B, C, D, states = lin.state_space()  # in independent coordinates: one angle and its rate
+    assert len(states) == 2 and states[0] in lin.coordinates and states[1] == states[0] + "'"
+    assert np.sort(np.abs(np.linalg.eigvals(A))) == pytest.approx([found.omega[0]] * 2, rel=1e-10)
+    assert np.allclose(lin.independent().Phi.shape, (0, 1))
+    # a force on the coupler: the state space in independent coordinates and the exact Laplace form agree
+    m.add("force", "F", "coupler", F=(0, 0))
+    driven = linearize(m, hanging, inputs=["F[0]"], outputs=["theta_A", "theta_D'"])
+    A, B, C, D, _ = driven.state_space()
+    for out, row in (("theta_A", 0), ("theta_D'", 1)):
+        H = transfer_function(driven, "F[0]", out)
+        for w in (0.5, 3.0, 20.0):
+            ss = (C @ np.linalg.solve(1j * w * np.eye(len(A)) - A, B) + D)[row, 0]
+            assert H(1j * w) == pytest.approx(ss, rel=1e-10)
     with pytest.raises(lg.ModelError, match="kinematic loops"):
         linearize(m, {**hanging, "theta_B": 0.2})
 

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
@@ -131,21 +132,26 @@ class LinearModel:
             D = D + self.Di / s_value
         return Cq, D
 
+    def independent(self) -> "LinearModel":
+        """The same linearization in independent coordinates: the loop constraints ``Φ_q δq = 0`` solved for as
+        many coordinates as they fix (those whose columns of ``Φ_q`` are best conditioned, by QR with column
+        pivoting), the others kept; ``M``, ``C``, ``K`` projected as ``Nᵀ M N`` with ``δq = N δq_independent``,
+        outputs as ``Cq N``.  Numeric linearizations only."""
+        return _independent(self) if self.Phi.shape[0] else self
+
     def state_space(self) -> tuple[Any, Any, Any, Any, list[str]]:
         """``(A, B, C, D, states)`` of ``ẋ = A x + B u``, ``y = C x + D u`` with ``x = (δq, δq̇ of the inertial
         coordinates)``.
 
-        Raises :class:`~lagrangian.errors.ModelError` when the model has no
-        such form here: loop constraints (its coordinates are not
-        independent), inputs that enter through their derivatives (a
-        prescribed motion: use the transfer function, which takes ``s``
-        exactly), or outputs that need the acceleration of a first-order
-        coordinate.
+        With loop constraints the state is that of independent coordinates
+        (:meth:`independent`).  Raises :class:`~lagrangian.errors.ModelError`
+        when the model has no such form here: inputs that enter through
+        their derivatives (a prescribed motion: use the transfer function,
+        which takes ``s`` exactly), or outputs that need the acceleration of
+        a first-order coordinate.
         """
         if self.Phi.shape[0]:
-            raise ModelError(f"model {self.model!r} has loop-closure constraints: its coordinates are not independent, "
-                             f"so it has no state-space form in them. Its transfer functions and frequency response "
-                             f"keep the constraints exactly (lagrangian.frequency.transfer_function).")
+            return self.independent().state_space()
         if not (_zero_matrix(self.Bi) and _zero_matrix(self.Di)):
             raise ModelError(f"model {self.model!r}: inputs {', '.join(self.inputs)} fix a coordinate through their "
                              f"integral (a voltage source in node fluxes), so ẋ = A x + B u has no B; use the transfer "
@@ -198,6 +204,29 @@ class LinearModel:
             D[0] + Cq[1] @ B[:n] + sel(Cq[2], inertial) @ B[n:])
         states = list(self.coordinates) + [f"{self.coordinates[i]}'" for i in inertial]
         return A, B, C_out, D_out, states
+
+
+def _independent(lin: LinearModel) -> LinearModel:
+    """:meth:`LinearModel.independent`."""
+    if lin.symbolic:
+        raise ModelError(f"model {lin.model!r}: independent coordinates of a symbolic linearization are not formed; "
+                         f"give the parameters values (params=).")
+    if lin.first_order:
+        raise ModelError(f"model {lin.model!r}: first-order coordinates ({', '.join(lin.first_order)}) inside closed "
+                         f"loops have no independent-coordinate form here; use the transfer function.")
+    n, m = len(lin.coordinates), lin.Phi.shape[0]
+    _, R, pivots = scipy.linalg.qr(lin.Phi, pivoting=True)
+    rank = int(np.sum(np.abs(np.diag(R)) > 1e-10 * max(np.abs(R).max(initial=0.0), 1e-300)))
+    dependent, free = sorted(pivots[:rank]), sorted(pivots[rank:])
+    # Φ_d δq_d + Φ_i δq_i = 0: δq = N δq_i
+    N = np.zeros((n, len(free)))
+    N[free, np.arange(len(free))] = 1.0
+    N[dependent] = np.linalg.lstsq(lin.Phi[:, dependent], -lin.Phi[:, free], rcond=None)[0]  # redundant rows: exact
+    project = (lambda X: N.T @ X @ N)
+    return LinearModel(**{**lin.__dict__, "coordinates": [lin.coordinates[i] for i in free], "M": project(lin.M),
+                          "C": project(lin.C), "K": project(lin.K), "Phi": np.zeros((0, len(free))),
+                          "B": [N.T @ b for b in lin.B], "Bi": N.T @ lin.Bi, "Cq": [c @ N for c in lin.Cq],
+                          "at": {lin.coordinates[i]: lin.at[lin.coordinates[i]] for i in free}})
 
 
 def _cols(M: sp.Matrix, cols: list[int], lib) -> sp.Matrix:
