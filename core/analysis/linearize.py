@@ -214,7 +214,7 @@ def _independent(lin: LinearModel) -> LinearModel:
     if lin.first_order:
         raise ModelError(f"model {lin.model!r}: first-order coordinates ({', '.join(lin.first_order)}) inside closed "
                          f"loops have no independent-coordinate form here; use the transfer function.")
-    n, m = len(lin.coordinates), lin.Phi.shape[0]
+    n = len(lin.coordinates)
     _, R, pivots = scipy.linalg.qr(lin.Phi, pivoting=True)
     rank = int(np.sum(np.abs(np.diag(R)) > 1e-10 * max(np.abs(R).max(initial=0.0), 1e-300)))
     dependent, free = sorted(pivots[:rank]), sorted(pivots[rank:])
