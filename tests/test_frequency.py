@@ -337,6 +337,18 @@ def lg_force_2d():
     return m
 
 
+def test_responses_carry_units_for_their_charts():
+    m = lg.Model("msd")
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("ground", "p"), k=40.0)
+    m.add("force", "F", "p", F=0)
+    resp = frequency_response(m, [1.0, 2.0], outputs=["x_p", "x_p'", "x_p''"])
+    assert [resp.unit(o, "F") for o in resp.outputs] == ["m/N", "m/(s N)", "m/(s² N)"]
+    rlc = frequency_response(series_rlc(10.0, 7e-3, 2.2e-6), [1.0], outputs=["v(C1)", "i(L1)", "q_L1"])
+    assert [rlc.unit(o, "V1") for o in rlc.outputs] == ["V/V", "A/V", "C/V"]
+    assert frequency_response(series_rlc(10.0, 7e-3, 2.2e-6), [1.0], outputs=[sp.Symbol("z") * 0]).unit("0", "V1") == ""
+
+
 def test_frequency_response_charts_are_written(tmp_path):
     m = series_rlc(10.0, 7e-3, 2.2e-6)
     resp = frequency_response(m, decades(10, 1e5, 20), outputs=["v(C1)", "i(L1)"])

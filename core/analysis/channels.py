@@ -202,3 +202,25 @@ def _node_voltage(model: Model, node: str) -> sp.Expr:
         v = comp.quantity(_context(model, comp), "v")
         total += v if comp.nodes == (a, b) else -v
     return total
+
+
+#: Units of coordinates by the prefix of their names (``q_`` a charge, ``lambda_`` a flux linkage, ``x_`` a
+#: position, ``theta_`` an angle...), for the labels of charts.
+_COORDINATE_UNITS = {"q": "C", "lambda": "Wb", "x": "m", "y": "m", "z": "m", "s": "m", "theta": "rad", "phi": "rad",
+                     "psi": "rad", "alpha": "rad", "beta": "rad", "gamma": "rad"}
+
+
+def _unit(label: str) -> str:
+    """The unit of an output label (``"V"`` for ``v(…)``, ``"m/s"`` for ``"x_p'"``), or ``""`` when unknown."""
+    branch = _BRANCH.match(label)
+    if branch:
+        return {"v": "V", "i": "A"}.get(branch.group(1).lower(), "")
+    base, primes = _PRIMES.match(label.strip()).groups()
+    unit = _COORDINATE_UNITS.get(base.partition("_")[0], "")
+    return unit + ("", "/s", "/s²")[len(primes)] if unit else ""
+
+
+def _input_unit(comp, pname: str) -> str:
+    """The unit of an input: its signal parameter's (an angle in rad, a displacement in m when it names none)."""
+    unit = comp.parameters[pname].unit
+    return unit or {"angle": "rad", "displacement": "m"}.get(pname, "")

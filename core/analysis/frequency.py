@@ -458,6 +458,17 @@ class FrequencyResponse:
     outputs: list[str]
     H: np.ndarray  # outputs × inputs × frequencies
     notes: list[str] = field(default_factory=list)
+    #: units of the inputs and outputs by label (``""`` where unknown)
+    units: dict[str, str] = field(default_factory=dict)
+
+    def unit(self, output: Any, input: str) -> str:
+        """The unit of ``H[output, input]`` (``"V/A"``, ``"m/N"``, ``"V/V"``), or ``""`` when either is unknown."""
+        top, bottom = self.units.get(str(output), ""), self.units.get(input, "")
+        if not top or not bottom:
+            return ""
+        num, _, den = top.partition("/")
+        den = " ".join(x for x in (den, bottom) if x)
+        return f"{num}/{den}" if " " not in den else f"{num}/({den})"
 
     def __repr__(self) -> str:
         return (f"<FrequencyResponse of {self.model!r}: {len(self.outputs)} output(s) × {len(self.inputs)} input(s), "
@@ -491,6 +502,10 @@ class FrequencyResponse:
         """The phase of ``H`` in degrees, unwrapped along the frequency grid."""
         return np.degrees(np.unwrap(np.angle(self[output, input] if input else self[output])))
 
+    def _legend(self, output: str, input: str) -> str:
+        unit = self.unit(output, input)
+        return f"{output} / {input}" + (f" ({unit})" if unit else "")
+
     def plot(self, kind: str = "bode", *, outputs: Sequence[Any] | None = None, input: str | None = None,
              path: str | None = None):
         """A Bode chart (magnitude in dB and phase against log frequency) or a Nyquist chart; returns the matplotlib
@@ -508,9 +523,10 @@ class FrequencyResponse:
         if kind == "bode":
             fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
             for o in chosen:
-                ax_m.semilogx(self.frequencies, self.magnitude_db(o, inp), label=f"{o} / {inp}")
-                ax_p.semilogx(self.frequencies, self.phase_deg(o, inp), label=f"{o} / {inp}")
-            ax_m.set_ylabel("|H| (dB)")
+                ax_m.semilogx(self.frequencies, self.magnitude_db(o, inp), label=self._legend(o, inp))
+                ax_p.semilogx(self.frequencies, self.phase_deg(o, inp), label=self._legend(o, inp))
+            ax_m.set_ylabel("|H| (dB re 1 unit of each ratio)" if any(self.unit(o, inp) for o in chosen)
+                            else "|H| (dB)")
             ax_p.set_ylabel("phase (°)")
             ax_p.set_xlabel("frequency (Hz)")
             ax_m.legend(fontsize=8)
@@ -520,11 +536,13 @@ class FrequencyResponse:
             fig, ax = plt.subplots(figsize=(6, 6))
             for o in chosen:
                 H = self[o, inp]
-                ax.plot(H.real, H.imag, label=f"{o} / {inp}")
+                ax.plot(H.real, H.imag, label=self._legend(o, inp))
                 ax.plot(H.real, -H.imag, "--", alpha=0.4)
             ax.plot([-1], [0], "r+")
-            ax.set_xlabel("Re H")
-            ax.set_ylabel("Im H")
+            units = {self.unit(o, inp) for o in chosen}
+            suffix = f" ({units.pop()})" if len(units) == 1 and "" not in units else ""
+            ax.set_xlabel(f"Re H{suffix}")
+            ax.set_ylabel(f"Im H{suffix}")
             ax.axis("equal")
             ax.legend(fontsize=8)
             ax.grid(True, alpha=0.3)
@@ -548,4 +566,5 @@ def frequency_response(system: Model | LinearModel, frequencies: Any, *, inputs:
     if not np.all(np.isfinite(H)):
         bad = f[~np.all(np.isfinite(H), axis=(1, 2))]
         notes.append(f"not finite at {len(bad)} frequencies (a pole on the grid, first at {bad[0]:g} Hz)")
-    return FrequencyResponse(lin.model, f, list(lin.inputs), list(lin.outputs), np.moveaxis(H, 0, -1), notes)
+    return FrequencyResponse(lin.model, f, list(lin.inputs), list(lin.outputs), np.moveaxis(H, 0, -1), notes,
+                             dict(lin.units))

@@ -53,7 +53,7 @@ from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..derivation.calculus import symbols_of
-from .channels import _atoms, _channel, _label, _outputs, _with_inputs
+from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
 
 __all__ = ["LinearModel", "linearize", "s"]
 
@@ -95,6 +95,8 @@ class LinearModel:
     time: float = 0.0
     first_order: list[str] = field(default_factory=list)
     parameters: list[sp.Symbol] = field(default_factory=list)
+    #: units of the inputs and outputs by label (``""`` where unknown), for charts
+    units: dict[str, str] = field(default_factory=dict)
 
     def __repr__(self) -> str:
         kind = "symbolic" if self.symbolic else "numeric"
@@ -370,6 +372,10 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     else:
         _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point)
     Cq, Dw, y0 = _outputs(twin, eq, outputs, usym, channels, at_point)
+    units = {_label(o): _unit(_label(o)) for o in (outputs if outputs is not None else names)}
+    for label, _, _ in channels.values():
+        comp = model.component(_INPUT.match(label).group(1))
+        units[label] = _input_unit(comp, _INPUT.match(label).group(2) or _signal_of(comp))
     first = [names[i] for i in eq.first_order]
     if is_symbolic:
         conv = (lambda x: sp.Matrix(x))
@@ -381,7 +387,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         outputs=[_label(o) for o in (outputs if outputs is not None else names)],
         M=conv(M0), C=conv(C0), K=conv(K0), Phi=conv(Jq), B=[conv(b) for b in Bw[1:]], Bi=conv(Bw[0]),
         Cq=[conv(c) for c in Cq], D=[conv(d) for d in Dw[1:]], Di=conv(Dw[0]), symbolic=is_symbolic, at=dict(point), time=time,
-        u0={c[0]: c[2] for c in channels.values()}, y0=y0, first_order=first,
+        u0={c[0]: c[2] for c in channels.values()}, y0=y0, first_order=first, units=units,
         parameters=sorted(_unvalued(twin, values), key=lambda p: p.name),
     )
 

@@ -180,7 +180,10 @@ class ImportedNetlist:
         resp = frequency_response(self.model, frequencies, inputs=names, outputs=outputs, **kwargs)
         weights = np.array([mag * np.exp(1j * np.radians(phase)) for mag, phase in self.ac_sources.values()])
         combined = np.einsum("oif,i->of", resp.H, weights)[:, None, :]
-        return FrequencyResponse(resp.model, resp.frequencies, [" + ".join(names)], resp.outputs, combined, resp.notes)
+        label = " + ".join(names)
+        units = {**resp.units, label: "V" if all(resp.units.get(n) == "V" for n in names) else
+                 "A" if all(resp.units.get(n) == "A" for n in names) else ""}
+        return FrequencyResponse(resp.model, resp.frequencies, [label], resp.outputs, combined, resp.notes, units)
 
     def simulate(self, t_end: float | tuple[float, float] | None = None, **kwargs: Any) -> Result:
         """``model.simulate`` from the netlist's initial state; by default over the ``.tran`` span, on its output grid.
