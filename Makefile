@@ -24,6 +24,7 @@ benchmark: setup
 	.venv/bin/python benchmarks/scenes.py
 	.venv/bin/python benchmarks/impacts.py
 	.venv/bin/python benchmarks/scale.py
+	.venv/bin/python benchmarks/ac.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins
