@@ -92,7 +92,7 @@ def _atoms(exprs, channels) -> set:
     """The applications ``w(…)`` and derivatives of input functions in ``exprs`` (of every undefined function when
     ``channels`` is empty), each distinct sub-expression visited once."""
     found = set()
-    for e in atoms_of([sp.sympify(e) for e in exprs], sp.Derivative, AppliedUndef):
+    for e in atoms_of([sp.sympify(e, strict=True) for e in exprs], sp.Derivative, AppliedUndef):
         if isinstance(e, sp.Derivative):
             if isinstance(e.expr, AppliedUndef) and (not channels or e.expr.func in channels):
                 found.add(e)
@@ -124,7 +124,7 @@ def _outputs(twin: Model, eq, outputs, usym, channels, at_point):
     rows_u = [sp.zeros(len(exprs), len(channels)) for _ in range(2)]
     y0 = {}
     for r, (label, expr) in enumerate(exprs):
-        e = sp.sympify(expr)
+        e = sp.sympify(expr, strict=True)
         e = e.xreplace({d: to_sym[d] for d in e.atoms(sp.Derivative) if d in to_sym})
         e = e.xreplace({f: to_sym[f] for f in e.atoms(AppliedUndef) if f in to_sym})
         e = e.xreplace({a: sp.Integer(0) for a in e.atoms(AppliedUndef) if a.func in channels and a.args != (t,)})

@@ -318,7 +318,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     subs.update({sym: (sp.Float(val) if isinstance(val, float) else val) for sym, val in values.items()})
 
     def at_point(expr):
-        out = sp.sympify(expr).xreplace(subs)
+        out = sp.sympify(expr, strict=True).xreplace(subs)
         return out if is_symbolic else _number(out, model.name)
 
     def matrix(rows, cols, entries):
@@ -353,7 +353,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
                 Bw[k][i, col] += at_point(sp.diff(f_u[i], us))  # calc differentiates by q, v and t only
     m = len(Phi_g)
     Phi_u = Phi_g.xreplace(replace) if (m and replace) else Phi_g
-    driven = sorted({channels_by_col[u_syms[x][0]] for c in Phi_u for x in sp.sympify(c).free_symbols if x in u_syms})
+    driven = sorted({channels_by_col[u_syms[x][0]] for c in Phi_u for x in sp.sympify(c, strict=True).free_symbols if x in u_syms})
     if driven:
         raise ModelError(f"model {model.name!r}: inputs {', '.join(driven)} move a closed kinematic loop (they enter its "
                          f"closure constraints); linearizing about them is not supported. Drive the loop with a force "

@@ -193,7 +193,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
     subs = {sym: sp.Float(v) for sym, v in circuit._values(params or {}).items()}
     signal = comp.params["E" if comp.kind == "voltage_source" else "I"]
     try:
-        dc = float(sp.sympify(signal).xreplace({t: 0}).xreplace(subs))
+        dc = float(sp.sympify(signal, strict=True).xreplace({t: 0}).xreplace(subs))
     except (TypeError, sp.SympifyError):
         raise ModelError(f"source {input!r}: its value at t = 0 is not a number; give it as a number or an "
                          f"expression of t.") from None
