@@ -134,7 +134,7 @@ class Coupling(Component):
             )
         if couplings[0] is not self:  # the group's first coupling carries the whole correction
             return Contribution()
-        gamma = inductance.inv()
+        gamma = _inverse(inductance)
         flux = sp.Matrix([ctx.view.flux(c) for c in group])
         correction = gamma - sp.diag(*[1 / c.L for c in group])
         return Contribution(V=sp.expand((flux.T * correction * flux)[0, 0] / 2))
@@ -152,7 +152,7 @@ class Coupling(Component):
         group, couplings = _group(self, ctx)
         if couplings[0] is not self or inductor not in group:
             return sp.Integer(0)
-        gamma = _inductance_matrix(group, couplings, ctx).inv()
+        gamma = _inverse(_inductance_matrix(group, couplings, ctx))
         flux = sp.Matrix([ctx.view.flux(c) for c in group])
         return ((gamma - sp.diag(*[1 / c.L for c in group])) * flux)[group.index(inductor)]
 
@@ -288,3 +288,13 @@ def _check_charge_inertia(coupling: Coupling, ctx: Context, own_T: sp.Expr) -> N
 @hookimpl
 def register_component_types(register):
     register(Coupling)
+
+
+def _inverse(matrix: sp.Matrix) -> sp.Matrix:
+    """The inverse of an inductance matrix already known to be regular (decided by value, :func:`_singular`): the
+    adjugate over the determinant up to 3×3 (two or three coupled coils, the usual case), which on symbolic
+    entries takes about 1 ms where SymPy's ``inv()``, which first proves the determinant nonzero, takes 0.1 s;
+    LU decomposition beyond."""
+    if matrix.rows <= 3:
+        return matrix.adjugate() / matrix.det(method="berkowitz")
+    return matrix.inv(method="LU")
