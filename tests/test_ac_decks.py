@@ -159,3 +159,20 @@ def test_the_ac_command_reports_bad_requests_in_one_line(tmp_path, capsys, args,
     assert main(["ac", str(deck), *args]) == 1
     err = capsys.readouterr().err
     assert err.startswith("lagrangian: error: ") and fragment in err and "Traceback" not in err
+
+
+def test_a_dc_bias_and_a_dc_current_do_not_stop_the_small_signal_analysis_of_a_linear_circuit():
+    """SPICE linearizes about its DC operating point; a linear circuit's response is the same about any point."""
+    text = "bias\nV1 in 0 DC 5 AC 1\nR1 in out 2.2k\nC1 out 0 47n\nL1 out x 10m\nR2 x 0 100\n.ac dec 10 10 100k\n.end\n"
+    net = read_netlist(text)
+    resp = net.frequency_response(outputs=["v(out)", "i(L1)"])
+    run = run_ac(text, {"v(out)": ("v", "out"), "i(L1)": ("i", "l1")})
+    for label in resp.outputs:
+        assert np.max(np.abs(resp[label] - run.quantities[label]) / np.abs(run.quantities[label])) < 1e-9
+    # a nonlinear model is still held to rest: a pendulum away from its equilibria
+    m = lg.Model("pendulum", dim=2)
+    m.add("rod", "r", "r", m=0.3, length=0.7)
+    m.add("revolute", "j", ("ground", "r"), absolute=True)
+    m.add("gravity", "g")
+    with pytest.raises(lg.ModelError, match="not at rest"):
+        lg.frequency.linearize(m, at={"theta_j": 0.3})

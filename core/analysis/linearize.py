@@ -269,7 +269,9 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
 
     The point must be an equilibrium: a :class:`~lagrangian.errors.ModelError`
     names the coordinates that would accelerate there (beyond ``tol`` of the
-    forces' scale) and by how much.
+    forces' scale) and by how much.  A linear model (no coefficient depends on
+    the state) has the same linearization about every point, so it need not
+    rest there (a DC bias, a DC current through an inductor).
     """
     if not isinstance(model, Model):
         raise ModelError(f"linearize takes a lagrangian.Model, got {type(model).__name__}.")
@@ -341,8 +343,14 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     f0 = sp.Matrix([at_point(e) for e in f_u])
     M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
     index_v, index_q = {x: j for j, x in enumerate(v)}, {x: j for j, x in enumerate(q)}
-    C0 = matrix(n, n, {(i, index_v[x]): -at_point(calc.diff(f_u[i], x)) for i in range(n) for x in free[i] if x in index_v})
-    K0 = matrix(n, n, {(i, index_q[x]): -at_point(calc.diff(f_u[i], x)) for i in range(n) for x in free[i] if x in index_q})
+    dC = {(i, index_v[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_v}
+    dK = {(i, index_q[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_q}
+    C0 = matrix(n, n, {ij: -at_point(e) for ij, e in dC.items()})
+    K0 = matrix(n, n, {ij: -at_point(e) for ij, e in dK.items()})
+    # linear (no coefficient depends on the state): the same linearization about every point, rest or not (a DC
+    # current through a loop without a capacitor): nothing to check
+    state = set(q) | set(v)
+    linear = not symbols_of(list(dC.values()) + list(dK.values()) + list(M_u.todok().values())) & state
     # the k-th derivative of w is s^(k−1) u: B_(k−1), or Bi (u/s) for w itself
     n_in = len(channels)
     channels_by_col = {c[1]: c[0] for c in channels.values()}
@@ -362,14 +370,14 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     if m:
         residual = [at_point(c) for c in Phi_u]
         _check_closure(model.name, residual, is_symbolic, tol)
-        lam0 = _multipliers(model.name, f0, Jq, is_symbolic, names, tol, K0, point)
+        lam0 = _multipliers(model.name, f0, Jq, is_symbolic, names, tol, K0, point, check=not linear)
         for k in range(m):
             if is_zero(lam0[k]) if is_symbolic else lam0[k] == 0:
                 continue
             for i in range(n):
                 for j in range(n):
                     K0[i, j] -= lam0[k] * at_point(calc.diff(calc.diff(Phi_u[k], q[i]), q[j]))
-    else:
+    elif not linear:
         _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point)
     Cq, Dw, y0 = _outputs(twin, eq, outputs, usym, channels, at_point)
     units = {_label(o): _unit(_label(o)) for o in (outputs if outputs is not None else names)}
@@ -489,13 +497,13 @@ def _check_closure(model: str, residual, symbolic: bool, tol: float) -> None:
                          f"(|Φ| = {worst:.3g}). Give at= a point that satisfies them.")
 
 
-def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, point):
+def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, point, check: bool = True):
     """The multipliers ``λ₀`` with ``f₀ + Φ_qᵀ λ₀ = 0``, or an error when none holds the point at rest."""
     if symbolic:
         JT = Jq.T
         lam = (JT.T * JT).LUsolve(-JT.T * f0)
         rest = f0 + JT * lam
-        if any(not is_zero(r) for r in rest):
+        if check and any(not is_zero(r) for r in rest):
             raise ModelError(f"model {model!r} is not at rest at this operating point: the loop constraints cannot "
                              f"balance the net forces {list(rest)}. Give at= an equilibrium.")
         return list(lam)
@@ -504,7 +512,7 @@ def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, poin
     lam, *_ = np.linalg.lstsq(J.T, -f, rcond=None)
     rest = f + J.T @ lam
     scale = max(_scale(K0, None, point, names), float(np.abs(f).max(initial=0.0)))
-    if np.abs(rest).max(initial=0.0) > tol * max(scale, 1e-300):
+    if check and np.abs(rest).max(initial=0.0) > tol * max(scale, 1e-300):
         i = int(np.argmax(np.abs(rest)))
         raise ModelError(f"model {model!r} is not at rest at this operating point: a net force {rest[i]:.3g} on "
                          f"{names[i]!r} that the loop constraints do not balance. Give at= an equilibrium.")
