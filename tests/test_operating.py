@@ -150,3 +150,14 @@ def test_symbolic_parameters_need_values():
         equilibria(m)
     (only,) = equilibria(m, params={"m": 0.3, "k": 40.0})
     assert only.point["x_p"] == pytest.approx(-1 / 40.0, rel=1e-12) and only.stability.verdict == "stable"
+
+
+def test_with_no_point_the_linearization_finds_the_operating_point_as_spice_does():
+    """The actuator biased at 0.5 V: Newton from rest settles on the stable branch, and the small-signal gain there
+    is the closed form's dx/dV = εA V / (k ((g − x)² − 2 x (g − x)))."""
+    lin = frequency.linearize(actuator(0.5), inputs=["V"], outputs=["x_plate"])
+    x = lin.at["x_plate"]
+    stable = electrostatic_equilibria(actuator(0.5), "Cx", 0.5).position
+    assert float(x) == pytest.approx(stable, rel=1e-10)
+    gain = frequency.transfer_function(lin, "V", "x_plate").dc_gain
+    assert gain == pytest.approx(0.5 / ((1 - stable) ** 2 - 2 * stable * (1 - stable)), rel=1e-9)

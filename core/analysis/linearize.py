@@ -269,9 +269,12 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
 
     The point must be an equilibrium: a :class:`~lagrangian.errors.ModelError`
     names the coordinates that would accelerate there (beyond ``tol`` of the
-    forces' scale) and by how much.  A linear model (no coefficient depends on
-    the state) has the same linearization about every point, so it need not
-    rest there (a DC bias, a DC current through an inductor).
+    forces' scale) and by how much.  With no ``at``, the point is where
+    Newton's method from the origin comes to rest, as SPICE finds its
+    operating point (``LinearModel.at`` says where).  A linear model (no
+    coefficient depends on the state) has the same linearization about every
+    point, so it need not rest there (a DC bias, a DC current through an
+    inductor).
     """
     if not isinstance(model, Model):
         raise ModelError(f"linearize takes a lagrangian.Model, got {type(model).__name__}.")
@@ -340,11 +343,13 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         raise ModelError(f"model {model.name!r}: signals given as Python callables ({', '.join(sorted(set(unsupported)))}) "
                          f"have no operating value to linearize about; give them as numbers or SymPy expressions of t.")
     free = [symbols_of([e]) for e in f_u]
-    f0 = sp.Matrix([at_point(e) for e in f_u])
-    M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
     index_v, index_q = {x: j for j, x in enumerate(v)}, {x: j for j, x in enumerate(q)}
     dC = {(i, index_v[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_v}
     dK = {(i, index_q[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_q}
+    if at is None and not is_symbolic and not len(Phi_g):
+        _settle(f_u, dK, q, names, point, subs, at_point, n)  # a nonlinear model's rest point nearest the origin
+    f0 = sp.Matrix([at_point(e) for e in f_u])
+    M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
     C0 = matrix(n, n, {ij: -at_point(e) for ij, e in dC.items()})
     K0 = matrix(n, n, {ij: -at_point(e) for ij, e in dK.items()})
     # linear (no coefficient depends on the state): the same linearization about every point, rest or not (a DC
@@ -398,6 +403,35 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         u0={c[0]: c[2] for c in channels.values()}, y0=y0, first_order=first, units=units,
         parameters=sorted(_unvalued(twin, values), key=lambda p: p.name),
     )
+
+
+def _settle(f_u, dK, q, names, point, subs, at_point, n) -> None:
+    """With no point given: Newton's method from the origin on ``f(q) = 0`` at rest (SPICE's operating point), the
+    point and ``subs`` moved to where it converges; left at the origin when it does not (the rest check then says
+    so).  A linear model converges in one step, or is left where it is (no rest point: a DC current flows)."""
+    x = np.array([float(point[nm]) for nm in names])
+    for _ in range(50):
+        f = np.array([at_point(e) for e in f_u])
+        K = np.zeros((n, n))
+        for (i, j), e in dK.items():
+            K[i, j] = -at_point(e)
+        scale = max(float(np.abs(K).max(initial=0.0)) * max(1.0, float(np.abs(x).max(initial=0.0))), 1e-300)
+        if np.abs(f).max(initial=0.0) <= 1e-12 * scale:
+            break
+        step, *_ = np.linalg.lstsq(K, f, rcond=None)
+        if not np.all(np.isfinite(step)) or np.abs(K @ step - f).max() > 1e-9 * max(np.abs(f).max(), 1e-300):
+            x = None  # no rest point (a singular stiffness the forces do not balance)
+            break
+        x = x + step
+        for qs, nm, value in zip(q, names, x):
+            point[nm] = sp.Float(value)
+            subs[qs] = point[nm]
+    else:
+        x = None
+    if x is None:
+        for qs, nm in zip(q, names):
+            point[nm] = sp.Integer(0)
+            subs[qs] = point[nm]
 
 
 def _number(expr, model: str) -> float:
