@@ -24,9 +24,10 @@ lagrangian.base.budget.BudgetExceeded: the call did not finish within its budget
 
 from __future__ import annotations
 
-import multiprocessing
+import contextlib
 import os
 import pickle
+import select
 import signal
 import threading
 import time
@@ -47,7 +48,7 @@ class BudgetExceeded(Exception):
         self.seconds = seconds
 
 
-def _child(conn, fn, args, kwargs) -> None:  # pragma: no cover - runs in the forked child
+def _child(fd: int, fn, args, kwargs) -> None:  # pragma: no cover - runs in the forked child
     try:
         payload = ("ok", fn(*args, **kwargs))
     except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
@@ -56,37 +57,53 @@ def _child(conn, fn, args, kwargs) -> None:  # pragma: no cover - runs in the fo
         data = pickle.dumps(payload)
     except Exception as exc:  # noqa: BLE001
         data = pickle.dumps(("error", RuntimeError(f"the result could not be sent back: {exc}")))
-    conn.send_bytes(data)
-    conn.close()
-    os._exit(0)
+    try:
+        with os.fdopen(fd, "wb") as out:
+            out.write(data)
+    finally:
+        os._exit(0)
 
 
 def within(fn: Callable[..., Any], *args: Any, seconds: float = DEFAULT_SECONDS, **kwargs: Any) -> Any:
     """``fn(*args, **kwargs)``, or :class:`BudgetExceeded` after ``seconds`` of wall time.
 
     Exceptions raised by ``fn`` are raised here.  ``seconds=None`` (or
-    ``inf``) runs the call directly, without a budget.
+    ``inf``) runs the call directly, without a budget.  The child is forked
+    with :func:`os.fork` itself rather than through :mod:`multiprocessing`,
+    so that it works in daemonic processes too (the worker processes of a
+    Dask cluster, a process pool's workers), which ``multiprocessing``
+    forbids to have children.
     """
-    if seconds is None or seconds == float("inf") or "fork" not in multiprocessing.get_all_start_methods():
+    if seconds is None or seconds == float("inf") or not hasattr(os, "fork"):
         return fn(*args, **kwargs)
-    ctx = multiprocessing.get_context("fork")
-    receive, send = ctx.Pipe(duplex=False)
-    process = ctx.Process(target=_child, args=(send, fn, args, kwargs), daemon=True)
-    process.start()
-    send.close()
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the child
+        os.close(read)
+        _child(write, fn, args, kwargs)
+    os.close(write)
     deadline = time.monotonic() + float(seconds)
+    chunks: list[bytes] = []
+    finished = False
     try:
-        if not receive.poll(max(0.0, deadline - time.monotonic())):
-            raise BudgetExceeded(float(seconds))
-        try:
-            status, value = pickle.loads(receive.recv_bytes())
-        except EOFError:  # the child died without an answer (out of memory, a signal)
-            raise RuntimeError(f"the bounded call ended without a result (exit code {process.exitcode})") from None
+        while True:  # read as the child writes (a large result fills the pipe), until it closes its end
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([read], [], [], left)[0]:
+                raise BudgetExceeded(float(seconds))
+            chunk = os.read(read, 1 << 20)
+            if not chunk:
+                break
+            chunks.append(chunk)
+        finished = True
     finally:
-        if process.is_alive():
-            process.kill()
-        process.join()
-        receive.close()
+        if not finished:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        _, code = os.waitpid(pid, 0)
+        os.close(read)
+    if not chunks:  # the child died without an answer (out of memory, a signal)
+        raise RuntimeError(f"the bounded call ended without a result (wait status {code})")
+    status, value = pickle.loads(b"".join(chunks))
     if status == "error":
         raise value
     return value
