@@ -304,6 +304,17 @@ def test_a_point_that_is_not_an_equilibrium_is_refused_naming_the_coordinate():
     assert top.eigenvalues.real.max() == pytest.approx(bottom.omega[0], rel=1e-12)  # unstable: a real positive root
 
 
+def test_values_a_parameter_refuses_are_refused_as_simulate_refuses_them():
+    R = sp.Symbol("R", positive=True)
+    m = series_rlc(R, 7e-3, 2.2e-6)
+    with pytest.raises(lg.ParameterError, match=r"'R1'.*positive"):
+        frequency_response(m, [1e3], inputs=["V1"], outputs=["v(C1)"], params={"R": -10.0})
+    with pytest.raises(lg.ParameterError, match=r"'L1'.*positive"):
+        linearize(series_rlc(10.0, 7e-3, 2.2e-6), params={"L_L1": -7e-3})
+    with pytest.raises(lg.ParameterError, match=r"'R1'.*positive"):
+        m.simulate(1e-3, params={"R": -10.0})
+
+
 def test_bad_names_and_values_get_clear_errors():
     m = series_rlc(10.0, 7e-3, 2.2e-6)
     with pytest.raises(lg.UnknownNameError, match="V2"):

@@ -48,7 +48,7 @@ import scipy.linalg
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..base.component import t
+from ..base.component import check_value, t
 from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -466,7 +466,22 @@ def _parameter_values(model: Model, params: Mapping[str, Any], symbolic: bool | 
                 raise ModelError(f"parameter {key!r} must be finite, got {val!r:.80}.")
         for sym in by_name[key]:
             values[sym] = entry
+    _check_rules(model, values, {s for k in params for s in by_name[k] if s in model.assembly.values})
     return values
+
+
+def _check_rules(model: Model, values: Mapping[sp.Symbol, Any], overridden: set) -> None:
+    """Numbers given in ``params=`` obey their parameters' rules (a spring's stiffness positive, ...), as
+    ``simulate`` requires: :class:`~lagrangian.ParameterError` naming the component otherwise."""
+    numbers = {s: sp.Float(v) for s, v in values.items() if not isinstance(v, sp.Basic)}
+    for comp in model.components.values():
+        for pname, spec in comp.parameters.items():
+            value = comp.params.get(pname)
+            if isinstance(value, sp.Expr) and value.free_symbols - {t}:
+                entry = value.xreplace(numbers)
+                if entry.is_number:
+                    check_value(entry, spec.check, comp.name, pname)
+    model._check_overrides({s: float(numbers[s]) for s in overridden if s in numbers})
 
 
 def _unvalued(model: Model, values: Mapping[sp.Symbol, Any]) -> set:
