@@ -25,6 +25,7 @@ benchmark: setup
 	.venv/bin/python benchmarks/impacts.py
 	.venv/bin/python benchmarks/scale.py
 	.venv/bin/python benchmarks/ac.py
+	.venv/bin/python benchmarks/sweep.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins

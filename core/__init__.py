@@ -37,8 +37,8 @@ MODULES = {
     "base": ("component", "domain", "graph", "network", "text", "identity", "arguments", "switching", "budget"),
     "plugin": ("contracts", "hookspecs", "registry"),
     "derivation": ("assembly", "derive", "equations"),
-    "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench"),
-    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating"),
+    "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench", "ensemble"),
+    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating", "sweep"),
     "circuits": ("analogy", "spice", "netlist", "compare", "ac"),
 }
 _WHERE = {name: f"{__name__}.{layer}.{name}" for layer, names in MODULES.items() for name in names}

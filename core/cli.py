@@ -17,6 +17,11 @@ small-signal frequency response (see :mod:`lagrangian.frequency`) of a
 netlist (its ``.ac`` line and ``AC`` sources, as ngspice's ``.ac``) or of a
 model, writes it as CSV (``--csv``) and a Bode chart (``--chart``), and
 with ``--ngspice`` compares it with ngspice's.
+``lagrangian sweep SOURCE --param k_k1=1:10:50 --param c=log:1e-3:1:20 -o x_p --out sweep.nc``
+simulates a model over a grid (or ``--design random --samples N --seed S``
+draws of ``uniform:LOW:HIGH``, ``loguniform:…``, ``normal:MEAN:STD``) on Dask
+(see :mod:`lagrangian.sweep`: a local cluster, or ``--address`` of a
+scheduler), prints a summary and writes a netCDF file and a chart.
 ``lagrangian --version`` prints the installed version.
 
 Errors are one line on standard error, ``lagrangian: error: <message>``,
@@ -56,6 +61,7 @@ from .numerics.bench import run as run_benchmarks
 from .errors import LagrangianError, ModelError, UnknownNameError
 from .model import Model
 from .analysis.frequency import frequency_response, sweep
+from .analysis import sweep as sweeps
 from .circuits.ac import compare_ac_with_ngspice
 from .circuits.netlist import read_netlist_file
 from .plugin.registry import default_registry
@@ -503,7 +509,66 @@ def _parser() -> _Parser:
     ac.add_argument("--csv", help="write magnitude (dB) and phase (°) per output to this CSV file")
     ac.add_argument("--chart", help="write a Bode chart to this PNG file")
     ac.add_argument("--ngspice", action="store_true", help="also run ngspice's .ac and print the differences")
+    sw = sub.add_parser("sweep", help="simulate a model over a grid or random samples of its parameters, on Dask")
+    sw.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name] defining a model")
+    sw.add_argument("--param", "-p", action="append", required=True,
+                    help="NAME=VALUES: START:STOP:COUNT, log:START:STOP:COUNT, a list 1,2,5, one value, or "
+                         "uniform:LOW:HIGH, loguniform:LOW:HIGH, normal:MEAN:STD; NAME(0) or NAME'(0) sweeps an "
+                         "initial value or rate; repeat for more")
+    sw.add_argument("--output", "-o", action="append",
+                    help="an output: a coordinate, its rate (x'), T/V/D/E/h, v(element), i(element) or an expression; "
+                         "repeat for more (default: every coordinate)")
+    sw.add_argument("--out", help="write the results to this netCDF file")
+    sw.add_argument("--chart", help="write a chart of the first output's final value against the parameters (PNG)")
+    sw.add_argument("--design", choices=("grid", "zip", "random", "lhs", "sobol"),
+                    help="grid (default for lists), zip, or random/lhs/sobol draws (default with distributions)")
+    sw.add_argument("--samples", type=_whole(1, "random draws"), help="number of draws of a random design")
+    sw.add_argument("--seed", type=_whole(0, "a seed for the draws"), help="seed of the draws (default: drawn, recorded)")
+    sw.add_argument("--t-end", type=_positive("an end time", "10"), help="end time (default: .tran stop, else 10)")
+    sw.add_argument("--points", type=_whole(2, "output times"), default=201, help="output times (default 201)")
+    sw.add_argument("--initial", action="append", type=_pairs, help="initial coordinates name=value[,name=value]")
+    sw.add_argument("--velocity", action="append", type=_pairs, help="initial velocities name=value[,name=value]")
+    sw.add_argument("--method", choices=("DOP853", "dopri5"), default="DOP853", help="integrator (default DOP853)")
+    sw.add_argument("--rtol", type=_tolerance, help="relative tolerance, between 0 and 1 (default 1e-9)")
+    sw.add_argument("--chunk", type=_whole(1, "samples per task"), help="samples per task (default: about 8 tasks per worker)")
+    sw.add_argument("--address", help="a Dask scheduler, tcp://host:8786 (default: a local cluster, one worker per core)")
+    sw.add_argument("--serial", action="store_true", help="run here, without Dask")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
     return parser
+
+
+def _sweep(args) -> int:
+    for option, path in (("--out", args.out), ("--chart", args.chart)):
+        problem = path and _output_problem(option, path, directory=False)
+        if problem:
+            return _fail(problem)
+    model, initial, velocity, span = _load_model(args.source)
+    params = {}
+    for text in args.param:
+        name, eq, spec = text.partition("=")
+        if not eq or not name.strip():
+            return _fail(f"--param {text!r}: write NAME=VALUES, as in k_k1=1:10:50 or c=log:1e-3:1:20.")
+        params[name.strip()] = sweeps.parse_axis(spec, f"--param {name.strip()}")
+    where = {"client": "serial"} if args.serial else {"address": args.address}
+    ds = sweeps.sweep(model, params, design=args.design, samples=args.samples, seed=args.seed,
+                      initial={**initial, **_merged(args.initial)}, velocity={**velocity, **_merged(args.velocity)},
+                      outputs=args.output, t_end=args.t_end or (span or (0.0, 10.0))[1], points=args.points,
+                      method=args.method, rtol=args.rtol, chunk=args.chunk, progress=not args.quiet, **where)
+    print(sweeps.describe(ds))
+    if args.out:
+        try:
+            ds.to_netcdf(args.out)
+        except OSError as exc:
+            return _fail(_write_failure("--out", args.out, exc))
+        print(f"written: {args.out}")
+    if args.chart:
+        output = (args.output or [model.coordinate_names[0]])[0]
+        try:
+            sweeps.plot(ds, output, path=args.chart)
+        except OSError as exc:
+            return _fail(_write_failure("--chart", args.chart, exc))
+        print(f"written: {args.chart}")
+    return 0
 
 
 def _run(argv: list[str] | None) -> int:
@@ -515,7 +580,7 @@ def _run(argv: list[str] | None) -> int:
             return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_USAGE)
         if args.command is None:
             parser.print_usage(sys.stderr)
-            print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac "
+            print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac, sweep "
                   "(see 'lagrangian --help')", file=sys.stderr)
             return EXIT_USAGE
         registry = default_registry()
@@ -525,6 +590,8 @@ def _run(argv: list[str] | None) -> int:
             return _scene(args)
         if args.command == "ac":
             return _ac(args)
+        if args.command == "sweep":
+            return _sweep(args)
         text = {"plugins": registry.describe, "kinds": lambda: _kinds(registry),
                 "integrators": lambda: _integrators(registry)}
         print(text[args.command]())

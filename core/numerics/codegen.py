@@ -243,7 +243,7 @@ class CompiledModel:
         self.m = int(math.isqrt(len(numeric.eq.generic()["A"])))
         dbl, ptr, lng, cint = ctypes.c_double, ctypes.c_void_p, ctypes.c_long, ctypes.c_int
         if lib is not None:
-            dims = (ctypes.c_int * 4)()
+            dims = (ctypes.c_int * 5)()
             lib.lg_dims(dims)
             if (dims[0], dims[1], dims[2]) != (self.n, self.nI, self.m):  # pragma: no cover - a stale or foreign library
                 raise NumericalError(f"the compiled library {path} does not belong to this model; delete it and retry.")

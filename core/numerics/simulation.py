@@ -509,6 +509,48 @@ class Result:
         scale = max(abs(E[0]), np.max(np.abs(self.T)), np.max(np.abs(self.V)), np.finfo(float).tiny)
         return float(np.max(np.abs(E - E[0])) / scale)
 
+    def _columns(self) -> dict[str, np.ndarray]:
+        """Every series of the run by name: coordinates, their rates (``x_p'``), T, V, D and E."""
+        return {**self.q, **{f"{n}'": v for n, v in self.v.items()}, "T": self.T, "V": self.V, "D": self.D, "E": self.E}
+
+    def to_xarray(self):
+        """The run as an :class:`xarray.Dataset` over ``time``: coordinates, their rates (``"x_p'"``), ``T``, ``V``,
+        ``D`` and ``E``, with the method, evaluations and notes as attributes (``.to_netcdf(path)`` saves it).
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("osc")
+        >>> _ = m.add("mass", "m", "p", m=0.3)
+        >>> _ = m.add("spring", "k", ("ground", "p"), k=40)
+        >>> ds = m.simulate(1, initial={"x_p": 0.01}, velocity={"x_p": 0}, points=11).to_xarray()
+        >>> list(ds.data_vars), ds.sizes["time"]
+        (['x_p', "x_p'", 'T', 'V', 'D', 'E'], 11)
+        """
+        import xarray as xr
+
+        units = {"T": "J", "V": "J", "D": "W", "E": "J"}
+        data = {name: xr.Variable(("time",), np.asarray(series), {"units": units[name]} if name in units else {})
+                for name, series in self._columns().items()}
+        attrs = {"model": self.model, "method": self.method, "nfev": int(self.nfev),
+                 "notes": "\n".join(self.notes), "defaulted": ", ".join(self.defaulted)}
+        if self.step is not None:
+            attrs["step"] = float(self.step)
+        return xr.Dataset(data, coords={"time": xr.Variable(("time",), self.t, {"units": "s"})}, attrs=attrs)
+
+    def to_pandas(self):
+        """The run as a :class:`pandas.DataFrame` indexed by time, one column per series (see :meth:`to_xarray`).
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("osc")
+        >>> _ = m.add("mass", "m", "p", m=0.3)
+        >>> _ = m.add("spring", "k", ("ground", "p"), k=40)
+        >>> df = m.simulate(1, initial={"x_p": 0.01}, velocity={"x_p": 0}, points=11).to_pandas()
+        >>> df.shape, df.index.name
+        ((11, 6), 'time')
+        """
+        import pandas as pd
+
+        return pd.DataFrame(self._columns(), index=pd.Index(self.t, name="time"))
+
     def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
         """Plot coordinates (all, or ``names``) against time; return the matplotlib ``Axes``.
 

@@ -164,11 +164,12 @@ class Program:
 
     def c_lines(self, inputs: dict[int, str], targets: Sequence[str], indent: str = "") -> list[str]:
         """Straight-line C: one ``const double wK = …;`` per instruction, then ``target = …;`` per output.
-        ``inputs`` spells each input register (``{0: "t", 1: "q[0]", …}``)."""
+        ``inputs`` spells each input register (``{0: "t", 1: "q[0]", …}``), and may spell constant registers too
+        (a parameter read at run time, ``"P[3]"``); other constants are written as numbers."""
         first = self.n_inputs + len(self.constants)
         names = dict(inputs)
-        for k, c in enumerate(self.constants.tolist()):
-            names[self.n_inputs + k] = "NAN" if c != c else f"({c!r})" if c < 0 else repr(c)
+        for k, c in enumerate(self.constants.tolist()):  # a constant spelled in ``inputs`` (a parameter) keeps it
+            names.setdefault(self.n_inputs + k, "NAN" if c != c else f"({c!r})" if c < 0 else repr(c))
         op_names = list(OPS)
         lines = []
         for op, dst, x, y, z in self.code.tolist():

@@ -1,0 +1,341 @@
+"""One model, many sets of parameter values: compiled once, run anywhere (the engine of :mod:`lagrangian.sweep`).
+
+:func:`compile_form` turns a model's equations into a :class:`CompiledForm`:
+a picklable object holding its native library — its tapes printed as C that
+reads the parameter values at run time from an array
+(:func:`lagrangian.numerics.c_source.parametric_source`), so that one
+library serves every set of values — and the runtime library with the
+stepping loops, both as source and as compiled bytes, plus a tape of the
+outputs asked for.  A process that receives it (a Dask worker, on this
+machine or another) loads the libraries once (:func:`bind`; from its own
+cache, else from the bytes shipped, else by compiling the source shipped)
+and runs samples with :func:`run_chunk`: nothing is derived or recorded
+again, and SymPy is never called.
+
+Each sample is one run of the Dormand–Prince loop in C (``DOP853`` or
+``dopri5``, as ``Model.simulate`` runs them) from its own initial state
+with its own parameter vector.  A sample that fails (a singular mass
+matrix, a diverging state, a run beyond its budget of evaluations) is
+recorded with its message and does not stop the others.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import json
+import math
+import threading
+import uuid
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from ..base.component import t as time_symbol
+from ..errors import ModelError
+from .c_build import _cache, _key, _libraries, _write_atomic, compiler
+from .c_source import _runtime_source, _Unavailable, parametric_source
+from .codegen import _prog
+from .tape import Program, TapeError, record
+
+__all__ = ["CompiledForm", "RunSpec", "compile_form", "bind", "run_chunk", "METHODS", "LOOP_MESSAGES"]
+
+#: The stepping loops a compiled form runs (the names of ``Model.simulate``'s integrators that step in C).
+METHODS = ("DOP853", "dopri5")
+
+#: What a loop's status means (as :meth:`lagrangian.codegen.CompiledModel._run` says it for one run).
+LOOP_MESSAGES = {
+    1: "the mass matrix is singular at t={t:g}",
+    2: "the equations became non-finite at t={t:g}",
+    3: "the step size fell below the resolution of t at t={t:g} (the model may be stiff or singular there)",
+    4: "the state diverged (beyond 1e30 times its initial size, or non-finite) by t={t:g}",
+    5: "out of memory for the stepping loop",
+    6: "stopped at t={t:g}: at its pace the run would need more evaluations than its budget (max_evaluations)",
+    7: "interrupted at t={t:g}",
+}
+
+
+@dataclass(frozen=True)
+class Library:
+    """A shared library shipped by value: its cache key, its C source and, when built here, its bytes."""
+
+    key: str
+    source: str
+    data: bytes | None
+
+
+@dataclass(frozen=True)
+class CompiledForm:
+    """A model's equations compiled once for any parameter values (see the module's text).
+
+    ``parameters`` names the entries of a parameter vector (``values`` are
+    the model's own), ``outputs`` the outputs of ``output_tape`` (a tape from
+    ``(t, q, q̇)``), ``checks`` a tape of the loop-closure residuals and their
+    rates (``None`` without loops); ``conservative`` says whether the Jacobi
+    integral is an integral of motion (its drift is then reported).
+    """
+
+    name: str
+    coordinates: tuple[str, ...]
+    inertial: tuple[int, ...]
+    first: tuple[int, ...]
+    m: int
+    parameters: tuple[str, ...]
+    values: tuple[float, ...]
+    outputs: tuple[str, ...]
+    output_tape: Program | None
+    checks: Program | None
+    conservative: bool
+    runtime: Library
+    model: Library
+    token: str = field(default_factory=lambda: uuid.uuid4().hex)
+
+    @property
+    def n(self) -> int:
+        return len(self.coordinates)
+
+    @property
+    def dim(self) -> int:
+        return self.n + len(self.inertial)
+
+    def __repr__(self) -> str:
+        return (f"CompiledForm({self.name!r}: {self.n} coordinates, {len(self.parameters)} parameters, "
+                f"{len(self.outputs)} extra outputs, library {self.model.key})")
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """How every sample runs: the span, the output times, the loop and its tolerances, the budget, and the
+    quantities kept (``("q", i)``, ``("v", i)``, ``("T",)``, ``("V",)``, ``("D",)``, ``("E",)``, ``("h",)`` or
+    ``("out", j)``, one row each)."""
+
+    span: tuple[float, float]
+    t_eval: np.ndarray
+    method: str = "DOP853"
+    rtol: float = 1e-9
+    atol: float = 1e-12
+    max_step: float = math.inf
+    budget: float = 1e9
+    keep: tuple[tuple, ...] = ()
+    check_tol: float = 1e-8
+
+
+def compile_form(eq, values: dict, *, name: str, outputs: dict[str, sp.Expr] | None = None,
+                 conservative: bool = False) -> CompiledForm:
+    """The compiled form of ``eq`` (:class:`~lagrangian.equations.Equations`) for parameter vectors over the
+    symbols of ``values`` (symbol → the model's value), with ``outputs`` (name → expression of the plain
+    symbols ``t``, ``q``, ``q̇`` and the parameters) as an extra tape.
+
+    Raises :class:`~lagrangian.ModelError` when it cannot be compiled here: no C compiler, time signals given
+    as Python callables, a function the tape does not know."""
+    parameters = tuple(sorted(values, key=sp.default_sort_key))
+    q, v = list(eq.sym.q), list(eq.sym.v)
+    outputs = dict(outputs or {})
+    cc = compiler()
+    if cc is None:
+        raise ModelError("sweeps run compiled code, and no C compiler was found (none of cc, gcc, clang on the PATH, "
+                         "or LAGRANGIAN_CC): install one.")
+    try:
+        source = parametric_source(eq, parameters)
+        output_tape = record(list(outputs.values()), [time_symbol, *q, *v], parameters) if outputs else None
+        checks = None
+        if len(eq.constraints):
+            Phi = eq.generic()["constraints"]
+            rate = Phi.jacobian(q) * sp.Matrix(v) + Phi.diff(time_symbol)
+            checks = record([*Phi, *rate], [time_symbol, *q, *v], parameters)
+    except (_Unavailable, TapeError) as exc:
+        raise ModelError(f"model {name!r} cannot be compiled for a sweep: {exc}.") from None
+    directory, _ = _cache()
+    runtime_source = _runtime_source()
+    wanted = {"runtime": ("runtime-" + _key(runtime_source, cc), runtime_source), "model": (_key(source, cc), source)}
+    try:
+        _libraries(directory, wanted, cc)
+    except (_Unavailable, OSError) as exc:
+        raise ModelError(f"model {name!r} could not be compiled for a sweep: {exc}.") from None
+    libraries = {k: Library(key, text, (directory / f"{key}.so").read_bytes()) for k, (key, text) in wanted.items()}
+    return CompiledForm(
+        name=name, coordinates=tuple(eq.names), inertial=tuple(eq.inertial), first=tuple(eq.first_order),
+        m=int(math.isqrt(len(eq.generic()["A"]))), parameters=tuple(s.name for s in parameters),
+        values=tuple(float(values[s]) for s in parameters), outputs=tuple(outputs), output_tape=output_tape,
+        checks=checks, conservative=bool(conservative), runtime=libraries["runtime"], model=libraries["model"],
+    )
+
+
+# -- in the process that runs samples ------------------------------------------------------------------------------
+class _Bound:
+    """A compiled form's libraries loaded in this process, with the loops' argument types set."""
+
+    def __init__(self, form: CompiledForm):
+        self.form = form
+        self.runtime = _load(form.runtime)
+        self.model = _load(form.model)
+        dims = (ctypes.c_int * 5)()
+        self.model.lg_dims(dims)
+        if (dims[0], dims[1], dims[2], dims[4]) != (form.n, len(form.inertial), form.m, len(form.parameters)):
+            raise ModelError(f"the library {form.model.key} does not belong to model {form.name!r}: delete it from the "
+                             f"cache of this machine ({_cache()[0]}) and run again.")
+        dbl, ptr, lng, cint = ctypes.c_double, ctypes.c_void_p, ctypes.c_long, ctypes.c_int
+        self.rhs = self.model.lg_rhs
+        self.rhs.argtypes, self.rhs.restype = [ptr, dbl, ptr, ptr], cint
+        self.rhs_ptr = ctypes.cast(self.rhs, ctypes.c_void_p).value
+        self.energies = self.model.lg_energies
+        self.energies.argtypes, self.energies.restype = [ptr, lng, ptr, ptr, ptr, ptr], None
+        rt = self.runtime
+        for loop in (rt.lg_dop853, rt.lg_dopri5):
+            loop.argtypes = [ptr, ptr, cint, dbl, dbl, ptr, lng, ptr, dbl, dbl, dbl, dbl, dbl, ptr, ptr, ptr, ptr]
+            loop.restype = cint
+        rt.lg_velocities.argtypes, rt.lg_velocities.restype = [ptr, ptr, cint, cint, lng, ptr, ptr, ptr], lng
+        rt.lg_prog_eval.argtypes, rt.lg_prog_eval.restype = [ptr, lng, ptr, ptr], cint
+        self.lock = threading.Lock()  # one sample at a time per bound form: its tapes' constants are patched
+
+    def tape(self, program: Program | None, P: np.ndarray, rows: np.ndarray) -> np.ndarray | None:
+        """``program`` with the parameter vector ``P`` in its constants, run on ``rows`` of ``(t, q, q̇)``."""
+        if program is None:
+            return None
+        consts = program.constants.copy()
+        index = {name: k for k, name in enumerate(self.form.parameters)}
+        for symbol, slot in program.parameters.items():
+            consts[slot] = P[index[symbol.name]]
+        keep: list = []
+        prog = _prog(Program(program.n_inputs, consts, program.code, program.outputs, {}), keep)
+        rows = np.ascontiguousarray(rows, dtype=float)
+        out = np.empty((rows.shape[0], program.n_outputs))
+        if self.runtime.lg_prog_eval(ctypes.addressof(prog), rows.shape[0], rows.ctypes.data, out.ctypes.data):
+            raise MemoryError("out of memory for a tape's registers")
+        return out
+
+
+def _load(library: Library) -> ctypes.CDLL:
+    """``library`` in this process: from this machine's cache, else from the bytes shipped (written to the cache
+    first), else compiled here from its source."""
+    directory, _ = _cache()
+    path = directory / f"{library.key}.so"
+    try:
+        if not path.exists() and library.data is not None:
+            directory.mkdir(parents=True, exist_ok=True)
+            _install(directory, library)
+        return ctypes.CDLL(str(path))
+    except OSError:  # not loadable here (another platform): compile the source with this machine's compiler
+        cc = compiler()
+        if cc is None:
+            raise ModelError(f"the compiled form's library {library.key} does not load on this machine and no C compiler "
+                             f"was found to build it from its source: install one (cc, gcc or clang).") from None
+        key = ("runtime-" if library.key.startswith("runtime-") else "") + _key(library.source, cc)
+        try:
+            return _libraries(directory, {"lib": (key, library.source)}, cc)["lib"][0]
+        except _Unavailable as exc:
+            raise ModelError(f"the compiled form's library could not be built on this machine: {exc}.") from None
+
+
+def _install(directory: Path, library: Library) -> None:
+    _write_atomic(directory, f"{library.key}.c", library.source.encode())
+    _write_atomic(directory, f"{library.key}.so", library.data)
+    manifest = {"sha256": hashlib.sha256(library.data).hexdigest(), "shipped": True}
+    _write_atomic(directory, f"{library.key}.json", json.dumps(manifest).encode())
+
+
+_BOUND: OrderedDict[str, _Bound] = OrderedDict()
+_BOUND_LOCK = threading.Lock()
+
+
+def bind(form: CompiledForm) -> _Bound:
+    """``form``'s libraries loaded in this process (once per form; the last 8 forms are kept)."""
+    with _BOUND_LOCK:
+        bound = _BOUND.get(form.token)
+        if bound is None:
+            bound = _BOUND[form.token] = _Bound(form)
+            while len(_BOUND) > 8:
+                _BOUND.popitem(last=False)
+        _BOUND.move_to_end(form.token)
+        return bound
+
+
+@dataclass
+class Chunk:
+    """The samples of one chunk: ``data`` (samples × rows of ``RunSpec.keep`` × times), ``status`` (0: done,
+    1: failed), ``errors`` (the message of each failed sample, else ""), ``nfev`` and, for a conservative
+    model, ``drift`` (the Jacobi integral's largest relative departure; NaN otherwise)."""
+
+    data: np.ndarray
+    status: np.ndarray
+    errors: list[str]
+    nfev: np.ndarray
+    drift: np.ndarray
+
+
+def run_chunk(form: CompiledForm, P: np.ndarray, Y0: np.ndarray, spec: RunSpec) -> Chunk:
+    """Run the samples whose parameter vectors are the rows of ``P`` and initial states the rows of ``Y0``."""
+    bound = bind(form)
+    P, Y0 = np.atleast_2d(np.asarray(P, dtype=float)), np.atleast_2d(np.asarray(Y0, dtype=float))
+    count, N = P.shape[0], spec.t_eval.size
+    chunk = Chunk(np.full((count, len(spec.keep), N), np.nan), np.zeros(count, dtype=np.int8), [""] * count,
+                  np.zeros(count, dtype=np.int64), np.full(count, np.nan))
+    with bound.lock:
+        for k in range(count):
+            try:
+                _sample(bound, P[k], Y0[k], spec, chunk, k)
+            except Exception as exc:  # recorded, never sinks the others
+                chunk.status[k], chunk.errors[k] = 1, f"{type(exc).__name__}: {exc}"
+    return chunk
+
+
+def _sample(bound: _Bound, P: np.ndarray, y0: np.ndarray, spec: RunSpec, chunk: Chunk, k: int) -> None:
+    form = bound.form
+    n, dim = form.n, form.dim
+    P = np.ascontiguousarray(P)
+    ctx = P.ctypes.data
+    t0, t1 = spec.span
+    if form.checks is not None:  # the loops must close at the start, as Model.simulate asks
+        v0 = _rates(bound, ctx, np.array([t0]), y0[None, :])[0]
+        gap = np.abs(bound.tape(form.checks, P, np.concatenate([[t0], y0[:n], v0])[None, :])[0])
+        m = len(gap) // 2
+        if not (gap[:m].max(initial=0) <= spec.check_tol and gap[m:].max(initial=0) <= spec.check_tol):
+            raise ModelError(f"the initial state does not close the kinematic loops (|Φ| = {gap[:m].max():.3g}, "
+                             f"|dΦ/dt| = {gap[m:].max():.3g}) with these parameter values")
+    t_eval = np.ascontiguousarray(spec.t_eval, dtype=float)
+    y0 = np.ascontiguousarray(y0, dtype=float)
+    Y = np.full((t_eval.size, dim), np.nan)
+    counts = np.zeros(3, dtype=np.int64)
+    fail = np.zeros(dim + 1)
+    loop = bound.runtime.lg_dop853 if spec.method == "DOP853" else bound.runtime.lg_dopri5
+    status = loop(bound.rhs_ptr, ctx, dim, float(t0), float(t1), y0.ctypes.data, t_eval.size, t_eval.ctypes.data,
+                  float(spec.rtol), float(spec.atol), float(spec.max_step) if math.isfinite(spec.max_step) else 1e300,
+                  0.0, float(spec.budget), None, Y.ctypes.data, counts.ctypes.data, fail.ctypes.data)
+    chunk.nfev[k] = counts[0]
+    if status:
+        raise ArithmeticError(LOOP_MESSAGES.get(status, "the loop failed (status {status}) at t={t:g}").format(
+            t=float(fail[0]), status=status))
+    V = _rates(bound, ctx, t_eval, Y)  # N × n: every coordinate's rate (first-order ones from the equations)
+    E = np.empty((t_eval.size, 4))
+    Q = np.ascontiguousarray(Y[:, :n])
+    Vc = np.ascontiguousarray(V)
+    bound.energies(ctx, t_eval.size, t_eval.ctypes.data, Q.ctypes.data, Vc.ctypes.data, E.ctypes.data)
+    out = None
+    if form.output_tape is not None and any(key[0] == "out" for key in spec.keep):
+        out = bound.tape(form.output_tape, P, np.column_stack([t_eval, Q, Vc]))
+    columns = {"T": E[:, 0], "V": E[:, 1], "D": E[:, 2], "E": E[:, 0] + E[:, 1], "h": E[:, 3]}
+    for row, key in enumerate(spec.keep):
+        kind = key[0]
+        chunk.data[k, row] = (Q[:, key[1]] if kind == "q" else Vc[:, key[1]] if kind == "v"
+                              else out[:, key[1]] if kind == "out" else columns[kind])
+    if form.conservative:
+        h = E[:, 3]
+        scale = max(abs(h[0]), float(np.max(np.abs(E[:, 0]))), float(np.max(np.abs(E[:, 1]))), np.finfo(float).tiny)
+        chunk.drift[k] = float(np.max(np.abs(h - h[0])) / scale)
+
+
+def _rates(bound: _Bound, ctx: int, times: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """Every coordinate's rate at the states ``Y`` (rows): the inertial ones are in the state, first-order ones
+    come from the right-hand side."""
+    form = bound.form
+    times = np.ascontiguousarray(times, dtype=float)
+    rows = np.ascontiguousarray(Y, dtype=float)
+    out = np.empty((times.size, form.n))
+    failed = bound.runtime.lg_velocities(bound.rhs_ptr, ctx, form.n, form.dim, times.size, times.ctypes.data,
+                                         rows.ctypes.data, out.ctypes.data)
+    if failed >= 0:
+        raise ArithmeticError(f"the equations are not finite at t={times[failed]:g}")
+    return out

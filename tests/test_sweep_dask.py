@@ -1,0 +1,125 @@
+"""Sweeps on real Dask clusters: a scheduler and two worker processes started from the command line, and the
+local default; one worker is killed mid-sweep, and every sample must still be there, equal to a serial run."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import lagrangian as lg
+from lagrangian.sweep import DONE, Uniform, local_client, sweep
+
+distributed = pytest.importorskip("distributed")
+
+
+def double_pendulum():
+    m = lg.Model("double pendulum", dim=2)
+    for i in (1, 2):
+        m.add("link", f"l{i}", f"l{i}", points={"end": (1, 0)})
+        m.add("mass", f"m{i}", f"l{i}.end", m=1)
+    m.add("revolute", "j1", ("ground", "l1"), absolute=True)
+    m.add("revolute", "j2", ("l1", "l2"), parent_point=(1, 0), absolute=True)
+    m.add("gravity", "g")
+    return m
+
+
+# Long enough runs (about 10 ms each, two samples per task) that a worker is busy when it is killed.
+RUN = dict(params={"m_m1": Uniform(0.5, 2.0), "m_m2": Uniform(0.5, 2.0)}, samples=60, seed=7,
+           initial={"theta_j1": -1.0, "theta_j2": -0.5}, velocity={"theta_j1": 0.0, "theta_j2": 0.0},
+           outputs=["theta_j1", "E"], t_end=200.0, points=101, chunk=2, progress=False)
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return sweep(double_pendulum(), client="serial", **RUN)
+
+
+def killer(pids):
+    """A progress callable that kills the worker process ``pids[1]`` when the first task has come back."""
+    state = {"killed": False}
+
+    def progress(done, total):
+        if not state["killed"]:
+            os.kill(pids[1], signal.SIGKILL)
+            state["killed"] = True
+
+    return progress, state
+
+
+def same(ds, reference):
+    assert (ds.status == DONE).all(), ds.error.values
+    assert np.array_equal(ds.m_m1.values, reference.m_m1.values)
+    assert np.array_equal(ds.theta_j1.values, reference.theta_j1.values)
+    assert np.array_equal(ds.E.values, reference.E.values)
+
+
+def test_a_cluster_by_address_loses_no_sample_when_a_worker_dies(tmp_path, serial):
+    info = tmp_path / "scheduler.json"
+    python = [sys.executable, "-m", "dask"]
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    procs = [subprocess.Popen([*python, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                               "--scheduler-file", str(info)], **quiet)]
+    try:
+        deadline = time.time() + 60
+        while not info.exists() and time.time() < deadline:
+            time.sleep(0.1)
+        address = json.loads(info.read_text())["address"]
+        for k in range(2):
+            procs.append(subprocess.Popen([*python, "worker", address, "--nthreads", "1", "--no-nanny",
+                                           "--no-dashboard", "--name", f"w{k}"], **quiet))
+        with distributed.Client(address, timeout="30s") as client:
+            client.wait_for_workers(2, timeout=60)
+            pids = sorted(client.run(os.getpid).values())
+        progress, state = killer(pids)
+        ds = sweep(double_pendulum(), address=address, client=None, **{**RUN, "progress": progress})
+        assert state["killed"]
+        deadline = time.time() + 10
+        while time.time() < deadline and all(p.poll() is None for p in procs[1:]):
+            time.sleep(0.1)
+        assert any(p.poll() is not None for p in procs[1:])  # the worker is gone: the other one did its work
+        assert ds.attrs["workers"] == 2
+        same(ds, serial)
+    finally:
+        for p in procs:
+            p.kill()
+            p.wait()
+
+
+def test_the_local_default_loses_no_sample_when_a_worker_dies(serial):
+    client = local_client()
+    client.wait_for_workers(1, timeout=60)
+    pids = sorted(client.run(os.getpid).values())
+    if len(pids) < 2:
+        pytest.skip("one core: the local cluster has one worker")
+    progress, state = killer(pids)
+    ds = sweep(double_pendulum(), **{**RUN, "progress": progress})
+    assert state["killed"]
+    same(ds, serial)
+    again = sweep(double_pendulum(), **RUN)  # the nanny restarted the worker: the cluster is whole again
+    same(again, serial)
+
+
+def test_the_readme_sweep_runs_as_written(tmp_path, monkeypatch):
+    """The README's sweep block, on the local default cluster: a 50 × 20 grid and 10,000 random samples."""
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = next(b for b in re.findall(r"```python\n(.*?)```", readme, re.S) if "from lagrangian.sweep" in b)
+    monkeypatch.chdir(tmp_path)
+    namespace = {"__name__": "__main__"}
+    exec(block, namespace)
+    ds = namespace["ds"]
+    assert ds.sizes["sample"] == 10_000 and (ds.status == DONE).all()
+    # x = x₀ e^(−ζωt)(cos ω_d t + ζ/√(1−ζ²) sin ω_d t): the closed form of every sample, at the end
+    k, c, x0 = ds.k_k1.values, ds.c_c1.values, ds["x_p(0)"].values
+    w, z = np.sqrt(k / 0.3), c / (2 * np.sqrt(k * 0.3))
+    wd, t = w * np.sqrt(1 - z**2), ds.time.values[-1]
+    exact = x0 * np.exp(-z * w * t) * (np.cos(wd * t) + z / np.sqrt(1 - z**2) * np.sin(wd * t))
+    assert np.max(np.abs(ds.x_p.values[:, -1] - exact)) < 1e-8 * 0.02
+    assert (tmp_path / "map.png").stat().st_size > 1000 and (tmp_path / "sweep.nc").exists()
