@@ -340,3 +340,22 @@ def test_command_line_sweep_writes_a_dataset_and_a_chart(tmp_path, capsys):
     assert ds.x_x.dims == ("k_k", "c_c", "time") and chart.stat().st_size > 1000
     assert main(["sweep", f"{source}:build", "--param", "k_k=fast", "--serial"]) == 1
     assert "k_k" in capsys.readouterr().err
+
+
+def bounce(model, values):
+    """A ball striking the ground at (0.5, −v) m/s with restitution e."""
+    from lagrangian import impulse
+
+    jump = impulse.impact(model, [impulse.ground("ball", e=values["e"])], at={"x_ball": 0.0, "y_ball": 0.0},
+                          velocity={"x_ball": 0.5, "y_ball": -values["v"]})
+    return {"vy": float(jump.after["y_ball"]), "vx": float(jump.after["x_ball"]), "lost": float(jump.energy_lost)}
+
+
+def test_impacts_can_be_swept():
+    model = lg.Model("ball", dim=2)
+    model.add("mass", "ball", "ball", m=0.3)
+    model.add("gravity", "g")
+    ds = sweep(model, {"e": [0.3, 0.8, 1.0], "v": [0.7, 3.1]}, analysis=bounce, client=SERIAL)
+    e, v = np.meshgrid([0.3, 0.8, 1.0], [0.7, 3.1], indexing="ij")
+    assert np.allclose(ds.vy.values, e * v, rtol=1e-12) and np.allclose(ds.vx.values, 0.5, rtol=1e-12)
+    assert np.allclose(ds.lost.values, 0.5 * 0.3 * v**2 * (1 - e**2), rtol=1e-9, atol=1e-15)

@@ -123,3 +123,42 @@ def test_the_readme_sweep_runs_as_written(tmp_path, monkeypatch):
     exact = x0 * np.exp(-z * w * t) * (np.cos(wd * t) + z / np.sqrt(1 - z**2) * np.sin(wd * t))
     assert np.max(np.abs(ds.x_p.values[:, -1] - exact)) < 1e-8 * 0.02
     assert (tmp_path / "map.png").stat().st_size > 1000 and (tmp_path / "sweep.nc").exists()
+
+
+def against_ngspice(model, values):
+    from lagrangian.circuits.compare import compare_with_ngspice
+
+    cmp = compare_with_ngspice(model, 2e-3, params=values, initial={"q_L1": 2.2e-6 * 3.3}, velocity={"q_L1": 0.0})
+    return {"worst_rel": cmp.worst_rel}
+
+
+def test_ngspice_comparisons_run_on_the_workers():
+    """A series RLC discharging its 2.2 µF capacitor from 3.3 V, for three resistances: ngspice (in each worker
+    process) agrees with the exact solution to its own accuracy."""
+    import sympy as sp
+
+    R = sp.Symbol("R", positive=True)
+    model = lg.Model("rlc")
+    model.add("resistor", "R1", ("a", "b"), R=R)
+    model.add("inductor", "L1", ("b", "0"), L=7e-3)
+    model.add("capacitor", "C1", ("a", "0"), C=2.2e-6)
+    ds = sweep(model, {"R": [10.0, 47.0, 220.0]}, analysis=against_ngspice, chunk=1)
+    assert (ds.status == DONE).all(), ds.error.values
+    assert float(ds.worst_rel.max()) < 1e-4
+
+
+def test_interrupting_a_distributed_sweep_keeps_what_finished(serial):
+    from lagrangian.sweep import NOT_RUN
+
+    def stop(done, total):
+        if done >= 10:
+            raise KeyboardInterrupt
+
+    ds = sweep(double_pendulum(), **{**RUN, "progress": stop})
+    assert ds.attrs["interrupted"] == 1
+    finished = ds.status.values == DONE
+    assert 10 <= finished.sum() < 60 and set(ds.status.values[~finished]) == {NOT_RUN}
+    assert np.array_equal(ds.theta_j1.values[finished], serial.theta_j1.values[finished])
+    assert np.isnan(ds.theta_j1.values[~finished]).all()
+    again = sweep(double_pendulum(), **RUN)  # the cluster is free again: nothing of the cancelled tasks is left
+    same(again, serial)

@@ -211,7 +211,7 @@ def _distributed(client, fn, shared, blocks, sizes, outcome: Outcome, reporter: 
                     pending.discard(i)
                     reporter.add(sizes[i])
             finally:
-                client.cancel(list(futures), force=True)
+                client.cancel([*futures, data], force=True)  # the shared data too: nothing left on the workers
                 del futures, data
     except KeyboardInterrupt:
         outcome.interrupted = True
