@@ -16,7 +16,7 @@ from typing import Any
 
 from .model import Model
 
-__all__ = ["spherical_pendulum", "heavy_top"]
+__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum"]
 
 
 def spherical_pendulum(m: Any = 1.0, length: Any = 1.0, g: Any = 9.81) -> Model:
@@ -35,6 +35,25 @@ def spherical_pendulum(m: Any = 1.0, length: Any = 1.0, g: Any = 9.81) -> Model:
     model.add("link", "arm", "arm", points={"bob": (0, 0, -length)})
     model.add("revolute", "tilt", ("yoke", "arm"), axis=(1, 0, 0))
     model.add("mass", "bob", "arm.bob", m=m)
+    model.add("gravity", "g", g=g)
+    return model
+
+
+def double_pendulum(m1: Any = 1.0, m2: Any = 1.0, l1: Any = 1.0, l2: Any = 1.0, g: Any = 9.81) -> Model:
+    """The planar double pendulum: point masses ``m1``, ``m2`` at the ends of massless links of lengths ``l1``,
+    ``l2``, angles ``theta_j1``, ``theta_j2`` absolute (from the x axis), gravity ``g`` along −y.  Its
+    parameters given as numbers are named ``m_m1``, ``m_m2``, ``points_l1_end_0``, ``points_l2_end_0``,
+    ``parent_point_j2_0`` and ``g_g`` (``simulate(params=...)``, sweeps).
+
+    >>> double_pendulum(0.3, 0.2).coordinate_names
+    ['theta_j1', 'theta_j2']
+    """
+    model = Model("double pendulum", dim=2)
+    for i, (mass, length) in enumerate(((m1, l1), (m2, l2)), start=1):
+        model.add("link", f"l{i}", f"l{i}", points={"end": (length, 0)})
+        model.add("mass", f"m{i}", f"l{i}.end", m=mass)
+    model.add("revolute", "j1", ("ground", "l1"), absolute=True)
+    model.add("revolute", "j2", ("l1", "l2"), parent_point=(l1, 0), absolute=True)
     model.add("gravity", "g", g=g)
     return model
 

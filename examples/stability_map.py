@@ -76,7 +76,7 @@ def main() -> None:
     omega = np.linspace(1.0, 8.0, args.points)
     length = np.geomspace(0.1, 2.0, args.points)
     ds = sweep(turntable_pendulum(), {"Omega": omega, "l": length}, analysis=verdict,
-               client="serial" if args.serial else None)
+               units={"Omega": "rad/s", "l": "m"}, client="serial" if args.serial else None)
     print(describe(ds))
     done = ds.status == 0
     stable = ds.hanging == "stable"

@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.cli import main
 from lagrangian.sweep import (DONE, FAILED, NOT_RUN, LogUniform, Normal, Uniform, describe, design, parse_axis, plot,
                               sweep)
@@ -36,14 +37,7 @@ def oscillator(m=0.3, k=40.0, c=0.0):
 
 
 def double_pendulum():
-    m = lg.Model("double pendulum", dim=2)
-    for i in (1, 2):
-        m.add("link", f"l{i}", f"l{i}", points={"end": (1, 0)})
-        m.add("mass", f"m{i}", f"l{i}.end", m=1)
-    m.add("revolute", "j1", ("ground", "l1"), absolute=True)
-    m.add("revolute", "j2", ("l1", "l2"), parent_point=(1, 0), absolute=True)
-    m.add("gravity", "g")
-    return m
+    return models.double_pendulum()
 
 
 START = {"initial": {"theta_j1": -1.0, "theta_j2": -0.5}, "velocity": {"theta_j1": 0.0, "theta_j2": 0.0}}
@@ -359,3 +353,26 @@ def test_impacts_can_be_swept():
     e, v = np.meshgrid([0.3, 0.8, 1.0], [0.7, 3.1], indexing="ij")
     assert np.allclose(ds.vy.values, e * v, rtol=1e-12) and np.allclose(ds.vx.values, 0.5, rtol=1e-12)
     assert np.allclose(ds.lost.values, 0.5 * 0.3 * v**2 * (1 - e**2), rtol=1e-9, atol=1e-15)
+
+
+@settings(max_examples=5)
+@given(decade(1.0, 1e3), decade(1e-4, 1e-1), decade(1e-9, 1e-5))
+def test_frequency_responses_can_be_swept(R, L, C):
+    """Series RLC driven by V1: v(C1)/V1 = 1 / (1 − ω²LC + jωRC) on every sample."""
+    from lagrangian.sweep import response
+
+    r = sp.Symbol("r", positive=True)
+    model = lg.Model("series rlc")
+    model.add("voltage_source", "V1", ("in", "0"), E=0)
+    model.add("resistor", "R1", ("in", "a"), R=r)
+    model.add("inductor", "L1", ("a", "b"), L=L)
+    model.add("capacitor", "C1", ("b", "0"), C=C)
+    f0 = 1 / (2 * np.pi * np.sqrt(L * C))
+    f = np.geomspace(f0 / 10, f0 * 10, 9)
+    ds = sweep(model, {"r": [R, 3 * R]}, analysis=response(f, inputs=["V1"], outputs=["v(C1)"]), client=SERIAL)
+    assert ds["mag(v(C1))"].dims == ("r", "frequency") and ds["mag(v(C1))"].attrs["units"] == "V/V"
+    w = 2 * np.pi * f
+    for j, rj in enumerate([R, 3 * R]):
+        H = 1 / (1 - w**2 * L * C + 1j * w * rj * C)
+        assert np.allclose(ds["mag(v(C1))"].values[j], np.abs(H), rtol=1e-9)
+        assert np.allclose(ds["phase(v(C1))"].values[j], np.degrees(np.angle(H)), atol=1e-7)

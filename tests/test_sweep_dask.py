@@ -12,20 +12,14 @@ import numpy as np
 import pytest
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.sweep import DONE, Uniform, local_client, sweep
 
 distributed = pytest.importorskip("distributed")
 
 
 def double_pendulum():
-    m = lg.Model("double pendulum", dim=2)
-    for i in (1, 2):
-        m.add("link", f"l{i}", f"l{i}", points={"end": (1, 0)})
-        m.add("mass", f"m{i}", f"l{i}.end", m=1)
-    m.add("revolute", "j1", ("ground", "l1"), absolute=True)
-    m.add("revolute", "j2", ("l1", "l2"), parent_point=(1, 0), absolute=True)
-    m.add("gravity", "g")
-    return m
+    return models.double_pendulum()
 
 
 # Long enough runs (about 10 ms each, two samples per task) that a worker is busy when it is killed.

@@ -38,6 +38,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import importlib.metadata
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -51,13 +52,14 @@ if TYPE_CHECKING:
 from ...errors import ModelError
 from ...model import Model
 from ...numerics.ensemble import Chunk, run_chunk
+from ..frequency import frequency_response
 from .dataset import DONE, FAILED, NOT_RUN, dataset, describe, plot
 from .design import Distribution, LogUniform, Normal, Samples, Uniform, design, parse_axis
 from .design import design as make_design
 from .execute import SERIAL, execute, local_client, shutdown, workers
 from .plan import plan
 
-__all__ = ["sweep", "Uniform", "LogUniform", "Normal", "Distribution", "design", "parse_axis", "plot", "describe",
+__all__ = ["sweep", "response", "Uniform", "LogUniform", "Normal", "Distribution", "design", "parse_axis", "plot", "describe",
            "local_client", "shutdown",
            "SERIAL", "DONE", "FAILED", "NOT_RUN"]
 
@@ -101,7 +103,8 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
           rtol: float | None = None, atol: float | None = None, max_step: float | None = None,
           max_evaluations: float | None = None, energy_tol: float = 1e-6,
           analysis: Callable[[Model, dict[str, float]], Mapping[str, Any]] | None = None, client: Any = None,
-          address: str | None = None, chunk: int | None = None, progress: Any = None) -> xr.Dataset:
+          address: str | None = None, chunk: int | None = None, progress: Any = None,
+          units: Mapping[str, str] | None = None) -> xr.Dataset:
     """Run ``model`` for every sample of ``params``; the results as an :class:`xarray.Dataset`.
 
     ``params`` maps names to lists of values, distributions
@@ -135,17 +138,21 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
     samples per task (default: about eight tasks per worker, at most 500
     samples each).  ``progress``: ``True`` for a progress bar on standard
     error (the default when it is a terminal), ``False`` for none, or a
-    callable ``progress(done, total)``.
+    callable ``progress(done, total)``.  ``units`` names the units of swept
+    names the model does not know (an analysis's own parameters), for the
+    dataset's attributes and the charts' labels.
     """
     if not isinstance(model, Model):
         raise ModelError(f"sweep: the first argument is a lagrangian.Model, not {type(model).__name__}.")
+    if isinstance(energy_tol, bool) or not isinstance(energy_tol, (int, float)) or not energy_tol > 0:
+        raise ModelError(f"sweep: energy_tol is a positive number (a relative drift), got {energy_tol!r:.40}.")
     samples_ = make_design(params, kind=design, samples=samples, seed=seed)
     count = samples_.count
     if analysis is not None:
         if not callable(analysis):
             raise ModelError(f"sweep: analysis= takes a function fn(model, values), not {type(analysis).__name__}.")
         return _sweep_analysis(model, samples_, analysis, client=client, address=address, chunk=chunk,
-                               progress=progress)
+                               progress=progress, units=dict(units or {}))
     the_plan = plan(model, samples_, initial=initial, velocity=velocity, outputs=outputs, t_end=t_end, points=points,
                     t_eval=t_eval, method=method, rtol=rtol, atol=atol, max_step=max_step,
                     max_evaluations=max_evaluations)
@@ -162,16 +169,10 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
     drift = np.full(count, np.nan)
     for k, message in the_plan.refused.items():
         status[k], errors[k] = FAILED, message
-    for i, (idx, _, _) in enumerate(blocks):
-        if i in outcome.failures:
-            status[idx] = FAILED
-            for k in idx:
-                errors[k] = outcome.failures[i]
-        elif i in outcome.results:
-            _, chunk_ = outcome.results[i]
-            data[idx], status[idx], nfev[idx], drift[idx] = chunk_.data, chunk_.status, chunk_.nfev, chunk_.drift
-            for k, e in zip(idx, chunk_.errors):
-                errors[k] = e
+    for idx, chunk_ in _finished(blocks, outcome, status, errors):
+        data[idx], status[idx], nfev[idx], drift[idx] = chunk_.data, chunk_.status, chunk_.nfev, chunk_.drift
+        for k, e in zip(idx, chunk_.errors):
+            errors[k] = e
     notes = list(the_plan.notes)
     drifted = int(np.sum(drift > energy_tol))
     if drifted:
@@ -187,7 +188,60 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
     import xarray as xr  # imported when used (0.26 s)
 
     time = xr.Variable(("time",), the_plan.spec.t_eval, {"units": "s"})
-    return dataset(samples_, status, errors, variables, attrs, the_plan.parameter_units, {"time": time})
+    return dataset(samples_, status, errors, variables, attrs, {**the_plan.parameter_units, **(units or {})},
+                   {"time": time})
+
+
+def response(frequencies: Sequence[float], *, inputs: Sequence[str] | None = None,
+             outputs: Sequence[Any] | None = None, **options: Any) -> Callable[[Model, dict[str, float]], dict]:
+    """An analysis for :func:`sweep`: the frequency response (:func:`lagrangian.frequency.frequency_response`)
+    of each sample on ``frequencies`` (Hz), as ``mag(<output>)`` and ``phase(<output>)`` (degrees) over a
+    ``frequency`` dimension; ``options`` go to ``frequency_response`` (``at=``, ...).
+
+    >>> import lagrangian as lg, sympy as sp
+    >>> R = sp.Symbol("R", positive=True)
+    >>> m = lg.Model("rc")
+    >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+    >>> _ = m.add("resistor", "R1", ("in", "out"), R=R)
+    >>> _ = m.add("capacitor", "C1", ("out", "0"), C=1e-6)
+    >>> ds = sweep(m, {"R": [1e3, 1e4]}, analysis=response([15.915494309189533], outputs=["v(C1)"]), client="serial")
+    >>> ds["mag(v(C1))"].values.round(6).tolist()                  # 1/|1 + jωRC| at ω = 100/s
+    [[0.995037], [0.707107]]
+    """
+    f = np.asarray(frequencies, dtype=float)
+    if f.ndim != 1 or f.size == 0 or not np.all(np.isfinite(f)) or np.any(f <= 0):
+        raise ModelError("response: frequencies are positive finite numbers in Hz, at least one.")
+    return functools.partial(_response, f, None if inputs is None else list(inputs),
+                             None if outputs is None else list(outputs), dict(options))
+
+
+def _response(frequencies, inputs, outputs, options, model, values) -> dict:
+    import xarray as xr
+
+    resp = frequency_response(model, frequencies, inputs=inputs, outputs=outputs, params=values, **options)
+    axis = {"frequency": xr.Variable(("frequency",), frequencies, {"units": "Hz"})}
+    out = {}
+    for label in resp.outputs:
+        h = np.asarray(resp[label])
+        unit = resp.unit(label, resp.inputs[0])
+        out[f"mag({label})"] = xr.DataArray(np.abs(h), dims=("frequency",), coords=axis,
+                                            attrs={"units": unit} if unit else {})
+        out[f"phase({label})"] = xr.DataArray(np.degrees(np.angle(h)), dims=("frequency",), coords=axis,
+                                              attrs={"units": "deg"})
+    return out
+
+
+def _finished(blocks, outcome, status: np.ndarray, errors: list[str]):
+    """``(sample indices, result)`` of every block that came back; the samples of a block whose task failed as a
+    whole are marked failed with its message (those of blocks never run stay NOT_RUN)."""
+    for i, block in enumerate(blocks):
+        idx = block[0]
+        if i in outcome.failures:
+            status[idx] = FAILED
+            for k in idx:
+                errors[k] = outcome.failures[i]
+        elif i in outcome.results:
+            yield idx, outcome.results[i][1]
 
 
 def _guess_workers(client: Any) -> int:
@@ -222,7 +276,7 @@ def _version() -> str:
         return "unknown"
 
 
-def _sweep_analysis(model: Model, samples: Samples, fn, *, client, address, chunk, progress) -> xr.Dataset:
+def _sweep_analysis(model: Model, samples: Samples, fn, *, client, address, chunk, progress, units) -> xr.Dataset:
     count = samples.count
     rows = [{**{k: float(v[i]) for k, v in samples.table.items()}, **samples.fixed} for i in range(count)]
     _ = model.eq  # derived here, once: the workers receive it with the model
@@ -234,18 +288,12 @@ def _sweep_analysis(model: Model, samples: Samples, fn, *, client, address, chun
     status = np.full(count, NOT_RUN, dtype=np.int8)
     errors = [""] * count
     results: list[dict | None] = [None] * count
-    for i, (idx, _) in enumerate(blocks):
-        if i in outcome.failures:
-            status[idx] = FAILED
-            for k in idx:
-                errors[k] = outcome.failures[i]
-        elif i in outcome.results:
-            _, out = outcome.results[i]
-            for k, (st, err, res) in zip(idx, out):
-                status[k], errors[k], results[k] = st, err, res
+    for idx, out in _finished(blocks, outcome, status, errors):
+        for k, (st, err, res) in zip(idx, out):
+            status[k], errors[k], results[k] = st, err, res
     variables, coords = _collect(results, status, errors)
     attrs = _attrs(model, samples, outcome, [], analysis=getattr(fn, "__qualname__", repr(fn)))
-    return dataset(samples, status, errors, variables, attrs, {}, coords)
+    return dataset(samples, status, errors, variables, attrs, units, coords)
 
 
 def _collect(results: list, status: np.ndarray, errors: list[str]):

@@ -76,7 +76,7 @@ def describe(ds: xr.Dataset) -> str:
     done, failed, unrun = int((status == DONE).sum()), int((status == FAILED).sum()), int((status == NOT_RUN).sum())
     seconds = float(ds.attrs.get("wall_seconds", 0.0))
     swept = ", ".join(f"{c} ({ds[c].size if c in ds.dims else 'sample'})" for c in ds.coords
-                      if c not in ("time", "sample") and c not in ds.attrs.get("skip", ()))
+                      if c not in ("time", "sample") and set(ds[c].dims) <= set(ds["status"].dims))
     lines = [f"{ds.attrs.get('model', 'model')}: {ds.attrs.get('analysis', '')} over {count:,} samples "
              f"({ds.attrs.get('design', '')}{', seed ' + str(ds.attrs['seed']) if 'seed' in ds.attrs else ''}) of {swept}",
              f"  {done:,} done, {failed:,} failed, {unrun:,} not run; {ds.attrs.get('workers', 1)} worker(s), "
@@ -160,7 +160,7 @@ def plot(ds: xr.Dataset, output: str, *, x: str | None = None, y: str | None = N
             norm = matplotlib.colors.BoundaryNorm(np.arange(len(categories) + 1) - 0.5, cmap.N)
         if grid:
             z = da.transpose(y, x).values
-            mesh = ax.pcolormesh(xs, ys, z, shading="nearest", cmap=cmap, norm=norm)
+            mesh = ax.pcolormesh(_edges(xs, log.get(x)), _edges(ys, log.get(y)), z, cmap=cmap, norm=norm)
         else:
             mesh = ax.scatter(xs, ys, c=da.values, s=10, cmap=cmap, norm=norm)
         bar = plt.colorbar(mesh, ax=ax, ticks=range(len(categories)) if text else None)
@@ -180,6 +180,17 @@ def plot(ds: xr.Dataset, output: str, *, x: str | None = None, y: str | None = N
     if path:
         ax.figure.savefig(path, dpi=120)
     return ax
+
+
+def _edges(values: np.ndarray, log: bool | None) -> np.ndarray:
+    """Cell edges around sorted grid values: midway between neighbours (geometrically on a log axis)."""
+    v = np.log(values) if log else np.asarray(values, dtype=float)
+    if v.size == 1:
+        mids = np.array([v[0] - 0.5, v[0] + 0.5])
+    else:
+        inner = (v[1:] + v[:-1]) / 2
+        mids = np.concatenate([[2 * v[0] - inner[0]], inner, [2 * v[-1] - inner[-1]]])
+    return np.exp(mids) if log else mids
 
 
 def _axis_label(ds: xr.Dataset, name: str) -> str:
