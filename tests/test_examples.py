@@ -119,7 +119,7 @@ def test_coupled_tanks_modes_are_the_closed_form_in_both_formulations(tmp_path):
 
 
 def test_stability_map_agrees_with_the_closed_form_boundary(tmp_path):
-    out = run("stability_map.py", "--points", "5", "--out", str(tmp_path / "s.png"), cwd=tmp_path)
+    out = run("stability_map.py", "--points", "4", "--serial", "--out", str(tmp_path / "s.png"), cwd=tmp_path)
     agree, total = map(int, re.search(r"stable where Ω² l < g in (\d+) of (\d+) samples", out).groups())
-    assert total == 25 and agree == total
-    assert "25 done, 0 failed" in out and (tmp_path / "s.png").stat().st_size > 1000
+    assert total == 16 and agree == total
+    assert "16 done, 0 failed" in out and (tmp_path / "s.png").stat().st_size > 1000
