@@ -156,3 +156,14 @@ def test_interrupting_a_distributed_sweep_keeps_what_finished(serial):
     assert np.isnan(ds.theta_j1.values[~finished]).all()
     again = sweep(double_pendulum(), **RUN)  # the cluster is free again: nothing of the cancelled tasks is left
     same(again, serial)
+
+
+def test_a_script_without_the_main_guard_is_told_what_to_do(tmp_path):
+    script = tmp_path / "noguard.py"
+    script.write_text("import lagrangian as lg\nfrom lagrangian.sweep import sweep\nm = lg.Model('osc')\n"
+                      "m.add('mass', 'm1', 'p', m=0.3)\nm.add('spring', 'k1', ('ground', 'p'), k=40)\n"
+                      "sweep(m, {'k_k1': [1.0, 2.0]}, initial={'x_p': 0.1}, velocity={'x_p': 0})\n")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert proc.returncode == 1
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith("lagrangian.errors.ModelError") and 'if __name__ == "__main__":' in last

@@ -19,7 +19,7 @@ not finished and keeps what has.
 Like every program that starts worker processes, a script that runs a sweep
 on the local default must start it under ``if __name__ == "__main__":``
 (the worker processes import the script's module again); without the guard
-the sweep stops with an error that says so.
+the cluster cannot start, and the sweep stops with an error that says why.
 """
 
 from __future__ import annotations
@@ -27,7 +27,6 @@ from __future__ import annotations
 import atexit
 import logging
 import math
-import multiprocessing
 import os
 import sys
 import threading
@@ -65,13 +64,15 @@ def local_client():
         client = _LOCAL.get("client")
         if client is not None and client.status == "running":
             return client
-        if multiprocessing.parent_process() is not None:
+        try:
+            cluster = LocalCluster(n_workers=_cores(), threads_per_worker=1, processes=True, dashboard_address=":0",
+                                   silence_logs=logging.ERROR)
+        except (RuntimeError, OSError) as exc:  # distributed's own words are "Nanny failed to start."
             raise ModelError(
-                "sweep: this process was started by another one to import the script again (as worker processes "
-                "do), and would start a cluster of its own: start the sweep under `if __name__ == \"__main__\":` in "
-                "the script, as every program that starts worker processes must.")
-        cluster = LocalCluster(n_workers=_cores(), threads_per_worker=1, processes=True, dashboard_address=":0",
-                               silence_logs=logging.ERROR)
+                f"sweep: the local Dask cluster could not start its worker processes ({exc}). The usual cause: the "
+                f"script runs the sweep when it is imported, and worker processes import it again; put the sweep "
+                f"under `if __name__ == \"__main__\":`, as every program that starts worker processes must (or "
+                f"run it here with client=\"serial\").") from None
         _LOCAL.update(cluster=cluster, client=Client(cluster, set_as_default=False))
         return _LOCAL["client"]
 
