@@ -376,3 +376,27 @@ def test_frequency_responses_can_be_swept(R, L, C):
         H = 1 / (1 - w**2 * L * C + 1j * w * rj * C)
         assert np.allclose(ds["mag(v(C1))"].values[j], np.abs(H), rtol=1e-9)
         assert np.allclose(ds["phase(v(C1))"].values[j], np.degrees(np.angle(H)), atol=1e-7)
+
+
+def test_a_shipped_library_that_does_not_load_here_is_built_from_its_source(tmp_path):
+    """As on a worker of another platform: the bytes shipped are not a library here, so the C source shipped
+    with them is compiled on the spot, and the samples are the same."""
+    import dataclasses
+
+    from lagrangian import codegen
+    from lagrangian.analysis.sweep.plan import plan
+    from lagrangian.numerics.ensemble import Library, run_chunk
+
+    model = double_pendulum()
+    samples = design({"m_m2": [0.5, 2.0]})
+    p = plan(model, samples, outputs=["theta_j1"], t_end=2, points=5, **START)
+    reference = run_chunk(p.form, p.P, p.Y0, p.spec)
+    broken = dataclasses.replace(p.form, model=Library(p.form.model.key, p.form.model.source, b"not a library"),
+                                 token="another")
+    codegen.set_cache_dir(tmp_path)
+    try:
+        again = run_chunk(broken, p.P, p.Y0, p.spec)
+    finally:
+        codegen.set_cache_dir(None)
+    assert (again.status == 0).all() and np.array_equal(again.data, reference.data)
+    assert any(f.suffix == ".so" and f.stat().st_size > 1000 for f in tmp_path.iterdir())

@@ -63,9 +63,12 @@ def test_a_cluster_by_address_loses_no_sample_when_a_worker_dies(tmp_path, seria
         while not info.exists() and time.time() < deadline:
             time.sleep(0.1)
         address = json.loads(info.read_text())["address"]
-        for k in range(2):
+        caches = [tmp_path / f"cache{k}" for k in range(2)]  # empty: as on other machines, nothing built yet
+        for k, cache in enumerate(caches):
+            cache.mkdir(mode=0o700)
             procs.append(subprocess.Popen([*python, "worker", address, "--nthreads", "1", "--no-nanny",
-                                           "--no-dashboard", "--name", f"w{k}"], **quiet))
+                                           "--no-dashboard", "--name", f"w{k}"], **quiet,
+                                          env={**os.environ, "LAGRANGIAN_CACHE_DIR": str(cache)}))
         with distributed.Client(address, timeout="30s") as client:
             client.wait_for_workers(2, timeout=60)
             pids = sorted(client.run(os.getpid).values())
@@ -78,6 +81,9 @@ def test_a_cluster_by_address_loses_no_sample_when_a_worker_dies(tmp_path, seria
         assert any(p.poll() is not None for p in procs[1:])  # the worker is gone: the other one did its work
         assert ds.attrs["workers"] == 2
         same(ds, serial)
+        # the workers loaded the libraries shipped with the compiled form: none compiled one
+        assert all(sorted(p.suffix for p in cache.iterdir() if not p.name.startswith(".")) ==
+                   [".c", ".c", ".json", ".json", ".so", ".so"] for cache in caches)
     finally:
         for p in procs:
             p.kill()
