@@ -452,8 +452,24 @@ def _version() -> str:
         return "(not installed)"
 
 
+_DESCRIPTION = ("Energy-based models of mechanisms and circuits: scenes, frequency responses and parameter sweeps of "
+                "models and SPICE netlists, work-precision benchmarks, and the installed plugins.")
+
+_EXAMPLES = """examples:
+  lagrangian kinds                                     every component kind and its parameters
+  lagrangian scene examples/filter.cir -o "[C1]"       a netlist's .tran with the smallest exact model
+  lagrangian scene examples/machine.py:build -o x_s --t-end 5 --initial x_s=1 --csv out.csv
+  lagrangian ac examples/butterworth.cir -o "v(n3)" --chart bode.png --ngspice
+  lagrangian sweep examples/machine.py:build --param k_k1=1:10:50 --param c_c1=log:1e-3:1:20 -o x_p --out sweep.nc
+  lagrangian bench oscillator --methods RK45,DOP853,verlet --out wp/
+
+exit status: 0 success, 1 the command failed, 2 usage error, 130 interrupted, 141 output closed early.
+'lagrangian COMMAND --help' describes each command."""
+
+
 def _parser() -> _Parser:
-    parser = _Parser(prog="lagrangian", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="lagrangian", description=_DESCRIPTION, epilog=_EXAMPLES,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"lagrangian {_version()}")
     sub = parser.add_subparsers(dest="command")
     sub.add_parser("plugins", help="list installed plugins and the component kinds each provides")

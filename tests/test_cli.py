@@ -14,6 +14,7 @@ shared by the tests.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import warnings
@@ -261,3 +262,37 @@ def test_warning_display_is_restored_after_an_in_process_run(capsys):
     err = capsys.readouterr().err
     assert err.startswith("lagrangian: warning: initial conditions not given, set to zero: theta_shoulder")
     assert len(err.splitlines()) == 1
+
+
+def test_the_readme_command_lines_run_as_written(tmp_path, monkeypatch, capsys):
+    """Every ``lagrangian scene``, ``ac`` and ``sweep`` line of the README, on the files it names under examples/
+    (``bench`` lines are the benchmarks' own tests)."""
+    import shlex
+
+    root = Path(__file__).resolve().parents[1]
+    lines = [line.split("  #")[0].strip() for line in (root / "README.md").read_text().splitlines()
+             if re.match(r"lagrangian (scene|ac|sweep) ", line)]
+    assert len(lines) >= 4
+    (tmp_path / "examples").symlink_to(root / "examples")
+    monkeypatch.chdir(tmp_path)
+    for line in lines:
+        args = shlex.split(line)[1:]
+        if args[0] == "sweep":
+            args.append("--quiet")
+        code = main(args)
+        assert code == 0, (line, capsys.readouterr().err)
+    written = {p.name for p in tmp_path.iterdir()}
+    assert {"out.csv", "sweep.nc", "bode.png"} <= written
+
+
+def test_help_is_plain_text_with_examples_and_the_version_is_single_sourced(capsys):
+    import lagrangian
+
+    assert main(["--help"]) == 0
+    text = capsys.readouterr().out
+    assert "``" not in text and ":func:" not in text and "examples:" in text and "lagrangian sweep " in text
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"lagrangian {lagrangian.__version__}" == f"lagrangian {metadata.version('lagrangian')}"
+    root = Path(__file__).resolve().parents[1]
+    assert (root / "LICENSE").read_text().startswith("MIT License") and (root / "core" / "py.typed").exists()
+    assert "License :: OSI Approved :: MIT License" in metadata.metadata("lagrangian").get_all("Classifier")
