@@ -24,7 +24,7 @@ from .errors import __all__ as _errors
 from .plugin.hookspecs import hookimpl
 from .numerics.events import Event, Occurrence
 from .numerics.integrate import EnergyDriftWarning, StiffnessWarning
-from .model import Model
+from .model import Model, NodeNameWarning
 from .plugin.registry import Registry, default_registry
 from .numerics.simulation import InitialConditionWarning, Result
 
@@ -34,10 +34,12 @@ __version__ = "0.1.0"
 #: ``lagrangian.routh``, ...): ``import lagrangian.routh`` gives the same module object as
 #: ``lagrangian.analysis.routh``, imported when first asked for.
 MODULES = {
-    "base": ("component", "domain", "graph", "network", "text", "identity", "arguments", "switching", "budget"),
+    "base": ("component", "domain", "graph", "network", "text", "identity", "arguments", "switching", "budget",
+             "display"),
     "plugin": ("contracts", "hookspecs", "registry"),
     "derivation": ("assembly", "derive", "equations"),
-    "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench", "ensemble"),
+    "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench", "ensemble",
+                 "result"),
     "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating", "sweep"),
     "circuits": ("analogy", "spice", "netlist", "compare", "ac"),
 }
@@ -95,6 +97,7 @@ __all__ = [
     "GROUND",
     "dot",
     "InitialConditionWarning",
+    "NodeNameWarning",
     "EnergyDriftWarning",
     "StiffnessWarning",
     "Event",

@@ -26,10 +26,11 @@ from sympy.printing.latex import LatexPrinter, translate
 
 from .base.arguments import RunOptions, check_atol, check_max_step, check_state, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
 from .derivation.assembly import Assembly, assemble
-from .base.component import Component, check_value, t
+from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
 from .derivation.equations import Equations
-from .errors import ModelError, ParameterError, UnknownNameError
+from .base import display
+from .errors import LagrangianError, ModelError, ParameterError, UnknownNameError, closest, warn
 from .base.graph import ComponentGraph
 from .plugin.registry import Registry, default_registry
 from .numerics.simulation import NumericModel, Result, initial_state
@@ -80,8 +81,49 @@ class _LatexPrinter(LatexPrinter):
         return name + r"{\left(" + args + r" \right)}"
 
 
+class NodeNameWarning(UserWarning):
+    """A node only one component touches has a name a slip away from another node's (see ``Model``)."""
+
+
+class _DotPrinter(_LatexPrinter):
+    """The mechanics notation: a coordinate ``x(t)`` prints as ``x``, its rates as ``\\dot{x}``, ``\\ddot{x}``."""
+
+    def _print_Function(self, expr, exp=None) -> str:
+        if isinstance(expr, AppliedUndef) and expr.args == (t,):
+            name = self._hprint_Function(expr.func.__name__)
+            return self.parenthesize_super(name) + "^{" + exp + "}" if exp is not None else name
+        return super()._print_Function(expr, exp)
+
+    def _print_Derivative(self, expr) -> str:
+        f = expr.expr
+        order = sum(n for v, n in expr.variable_count if v == t)
+        if isinstance(f, AppliedUndef) and f.args == (t,) and len(expr.variable_count) == 1 and order <= 3:
+            base, supers, subs = self._split_super_sub(f.func.__name__)
+            text = "\\" + "d" * order + "ot{" + base + "}"
+            return text + ("_{" + " ".join(subs) + "}" if subs else "") + ("^{" + " ".join(supers) + "}" if supers else "")
+        return super()._print_Derivative(expr)
+
+
+def _shown(value: Any) -> str:
+    """A parameter's value, short: a number as given, an expression or array in at most 40 characters."""
+    text = f"{float(value):g}" if isinstance(value, (float, sp.Float, sp.Integer)) else str(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def _latex(expr) -> str:
     return _LatexPrinter().doprint(expr)
+
+
+def to_latex(expr, dots: bool = True) -> str:
+    """``expr`` as LaTeX with names escaped; ``dots``: in the mechanics notation (``x`` for ``x(t)``,
+    ``\\dot{x}`` for its rate), else as ``sympy.latex`` writes it.
+
+    >>> import sympy as sp
+    >>> x = sp.Function("theta_j1")(t)
+    >>> print(to_latex(x.diff(t) ** 2 / 2))
+    \\frac{\\dot{\\theta}_{j1}^{2}}{2}
+    """
+    return (_DotPrinter() if dots else _LatexPrinter()).doprint(expr)
 
 
 class Model:
@@ -210,7 +252,32 @@ class Model:
 
     @property
     def assembly(self) -> Assembly:
-        return self._get("assembly", lambda: assemble(self._graph, self.registry, self._options))
+        return self._get("assembly", self._assemble)
+
+    def _assemble(self) -> Assembly:
+        self._check_node_names()
+        return assemble(self._graph, self.registry, self._options)
+
+    def _check_node_names(self) -> None:
+        """Warn (:class:`NodeNameWarning`) of a node only one component touches whose name is a slip away from
+        another node's (``crat`` beside ``cart``): most often a typo that left a part unconnected.  Names of one
+        numbered family (``ball1``, ``ball2``) are not slips."""
+        count: dict[str, int] = {}
+        for comp in self._graph.components.values():
+            for node in set(comp.nodes):
+                count[node] = count.get(node, 0) + 1
+        names = [n for n in count if n not in (GROUND, "0") and "." not in n]  # (a body's points are checked by it)
+        family = {n: re.sub(r"\d+", "#", n) for n in names}
+        for node in names:
+            if count[node] != 1:
+                continue
+            others = [n for n in names if family[n] != family[node]]
+            hint = closest(node, others)
+            if hint and len(node) >= 3:
+                user = next(c.name for c in self._graph.components.values() if node in c.nodes)
+                warn(f"model {self.name!r}: node {node!r} is touched by one component only ({user!r}), and its name "
+                     f"is close to another node's.{hint} If it is a slip, the part it holds is not connected.",
+                     NodeNameWarning)
 
     @property
     def eq(self) -> Equations:
@@ -287,16 +354,71 @@ class Model:
         return any(not sp.Matrix(view.constraints).free_symbols <= known
                    for view in a.generic_views.values() if len(getattr(view, "constraints", ())))
 
-    def latex(self) -> str:
-        """The Lagrangian, Rayleigh function and equations of motion as LaTeX."""
-        lines = [rf"L = {_latex(self.lagrangian)}"]
+    def latex(self, dots: bool = False) -> str:
+        """The Lagrangian, Rayleigh function and equations of motion as LaTeX: SymPy's notation (``x(t)``,
+        ``d/dt x(t)``), or with ``dots=True`` the mechanics notation (``x``, ``ẋ``) the notebook display uses.
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("osc")
+        >>> _ = m.add("mass", "m1", "p", m=2)
+        >>> _ = m.add("spring", "k1", ("ground", "p"), k=8)
+        >>> m.latex(dots=True).splitlines()[0]
+        'L = - 4 x_{p}^{2} + \\\\dot{x}_{p}^{2}'
+        """
+        latex = (lambda e: to_latex(e, dots)) if dots else _latex
+        lines = [rf"L = {latex(self.lagrangian)}"]
         if self.eq.D != 0:
-            lines.append(rf"D = {_latex(self.rayleigh)}")
+            lines.append(rf"D = {latex(self.rayleigh)}")
         lines.append(
-            rf"{_latex(self.mass_matrix)} \ddot{{q}} = {_latex(self.forcing)},\quad "
-            rf"q = {_latex(sp.Matrix([c.function for c in self.coordinates]))}"
+            rf"{latex(self.mass_matrix)} \ddot{{q}} = {latex(self.forcing)},\quad "
+            rf"q = {latex(sp.Matrix([c.function for c in self.coordinates]))}"
         )
         return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        comps = self._graph.components
+        derived = "assembly" in self._cache
+        coords = f", coordinates {display.short(self.coordinate_names)}" if derived else ""
+        return f"<Model {self.name!r}: {len(comps)} components ({display.short(comps)}){coords}>"
+
+    #: Up to this many coordinates the notebook display shows the equations; beyond, their count.
+    DISPLAY_EQUATIONS = 12
+
+    def _repr_html_(self) -> str:
+        """Components, coordinates, and the Lagrangian and equations in LaTeX (Jupyter)."""
+        rows = []
+        for c in self._graph.components.values():
+            values = ", ".join(f"{k}={_shown(v)}" for k, v in c.params.items() if v is not None)
+            rows.append([c.name, c.kind, " – ".join(c.nodes), values])
+        parts = [display.table(["component", "kind", "nodes", "parameters"], rows)]
+        note = None
+        try:
+            coords = self.coordinates
+            parts.append(display.table(["coordinate", "meaning"], [[c.name, c.description] for c in coords]))
+            if len(coords) <= self.DISPLAY_EQUATIONS:
+                parts += [display.math(line) for line in self.latex(dots=True).splitlines()]
+            else:
+                note = f"{len(coords)} coordinates: model.latex() gives the equations."
+        except LagrangianError as exc:  # a model that cannot be derived still shows its parts, and why
+            note = f"not derived: {exc}"
+        return display.block(f"model {self.name}", *parts, note=note)
+
+    def draw(self, ax=None, path: str | None = None):
+        """A picture of the component graph: nodes as points (ground hatched), two-terminal components as edges,
+        others as boxes joined to their terminals, each labelled with its name and kind and coloured by domain;
+        ``path`` saves it as PNG.  Returns the matplotlib Axes.
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("osc")
+        >>> _ = m.add("mass", "m1", "p", m=0.3)
+        >>> _ = m.add("spring", "k1", ("ground", "p"), k=40)
+        >>> sorted(t.get_text() for t in m.draw().texts if t.get_text())
+        ['ground', 'k1\\nspring', 'p\\nm1 (mass)']
+        """
+        ax = display.draw_components(list(self._graph.components.values()), f"model {self.name}", ax=ax)
+        if path:
+            ax.figure.savefig(path, dpi=120)
+        return ax
 
     def describe(self) -> str:
         """A plain-text summary: components, coordinates, Lagrangian, equations."""

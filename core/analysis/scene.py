@@ -58,10 +58,11 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ..base import display
 from ..base.component import t
 from .derived import DerivedModel
 from ..derivation.equations import Equations, _is_zero
-from ..errors import ModelError, ReductionError, UnknownNameError
+from ..errors import ModelError, ReductionError, UnknownNameError, warn
 from .impulse import simulate_with_impacts
 from ..model import Model
 from .routh import _depends, _drop, ignorable, reduce
@@ -212,6 +213,13 @@ class Scene:
 
     def report(self) -> str:
         return self.plan.report()
+
+    def __repr__(self) -> str:
+        return f"<Scene of {self.model.name!r}: outputs {display.short([o.label for o in self._outputs])}>"
+
+    def _repr_html_(self) -> str:
+        """The plan's report: the parts, how each is solved, what was dropped and why (Jupyter)."""
+        return display.block(f"scene of {self.model.name}", f"<pre>{display.escape(self.report())}</pre>")
 
     def _dependencies(self) -> list[set[int]]:
         """``deps[i]``: coordinates whose position, rate or acceleration appear in the equation of ``i``."""
@@ -520,7 +528,7 @@ class Scene:
         values, rates = self._needs(part)
         missing = [n for n in values if n not in initial] + [f"{n}'" for n in rates if n not in velocity]
         if missing:
-            warnings.warn(f"initial conditions not given, set to zero: {', '.join(missing)}", InitialConditionWarning, stacklevel=3)
+            warn(f"initial conditions not given, set to zero: {', '.join(missing)}", InitialConditionWarning)
             initial = {n: initial.get(n, 0.0) for n in part.coordinates}
             velocity = {n: velocity.get(n, 0.0) for n in part.coordinates if n in self._inertial()}
         if part.method == "hybrid":

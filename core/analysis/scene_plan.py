@@ -21,6 +21,7 @@ from ..base.component import t
 from ..derivation.equations import Equations
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
+from ..base import display
 from ..numerics.simulation import Result
 from ..numerics.tape import size
 
@@ -129,6 +130,24 @@ class SceneResult:
     def as_dict(self) -> dict[str, np.ndarray]:
         """Every output (computing those not yet computed)."""
         return {label: self[label] for label in self.outputs}
+
+    def __repr__(self) -> str:
+        span = f"[{self.t[0]:g}, {self.t[-1]:g}]" if len(self.t) else "[]"
+        return (f"<SceneResult of {self.scene.model.name!r}: outputs {display.short(self.outputs)}, {len(self.t)} "
+                f"times over {span}, {len(self.parts)} part(s) run>")
+
+    def _repr_html_(self) -> str:
+        """The scene's report and a chart of its outputs (Jupyter)."""
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 3.4), constrained_layout=True)
+        for label in self.outputs[:8]:
+            ax.plot(self.t, self[label], label=label)
+        ax.set_xlabel("t")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        return display.block(f"scene of {self.scene.model.name}", f"<pre>{display.escape(self.scene.report())}</pre>",
+                             display.image(display.png(fig), alt="scene outputs"))
 
 
 def _closure(start, neighbours) -> set[int]:

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ..base import display
 from ..errors import ModelError
 from .analogy import map_model
 from ..model import Model
@@ -44,7 +45,7 @@ class QuantityError:
         return self.max_abs / self.peak if self.peak > 0 else float(self.max_abs > 0) * np.inf
 
 
-@dataclass
+@dataclass(repr=False)
 class Comparison:
     """The outcome of :func:`compare_with_ngspice`; ``print(cmp.table())`` for the report."""
 
@@ -80,8 +81,30 @@ class Comparison:
         )
         return "\n".join(lines)
 
+    def __repr__(self) -> str:
+        return (f"<Comparison of {self.model!r} with ngspice: {len(self.rows)} quantities, worst "
+                f"{self.worst_rel:.2e} of peak over {self.time.size} points>")
+
+    def _repr_html_(self) -> str:
+        """The table and the chart (Jupyter)."""
+        rows = [[r.label, r.meaning, f"{r.max_abs:.3e}", f"{r.max_rel:.3e}"] for r in self.rows]
+        return display.block(self.table().splitlines()[0],
+                             display.table(["quantity", "meaning", "max abs err", "rel to peak"], rows),
+                             display.image(display.png(self._figure()), alt="ours against ngspice"),
+                             note=self.table().splitlines()[-1].strip())
+
     def chart(self, path: str | Path) -> Path:
         """Write a PNG: each quantity's two responses overlaid, and their difference."""
+        import matplotlib.pyplot as plt
+
+        fig = self._figure()
+        out = Path(path)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(out, dpi=110)
+        plt.close(fig)
+        return out
+
+    def _figure(self):
         import matplotlib
 
         matplotlib.use("Agg", force=False)
@@ -102,11 +125,7 @@ class Comparison:
         axes[-1][0].set_xlabel("t")
         axes[-1][1].set_xlabel("t")
         fig.suptitle(self.table().splitlines()[0])
-        out = Path(path)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(out, dpi=110)
-        plt.close(fig)
-        return out
+        return fig
 
 
 def _state_scale(model: Model, res) -> np.ndarray:

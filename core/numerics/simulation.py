@@ -11,9 +11,7 @@ an integrator failure, non-finite values — raises a
 from __future__ import annotations
 
 import functools
-import warnings
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -22,9 +20,11 @@ import scipy.special
 import sympy as sp
 
 from .codegen import compile_model
+from .result import Result
 from ..base.component import t
 from ..derivation.equations import Equations
 from ..errors import ExpressionError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
+from ..errors import warn as _warn
 from ..base.switching import switching_times
 from ..base.text import as_expr, parse_expression
 
@@ -434,148 +434,6 @@ class NumericModel:
         return tuple(np.broadcast_to(np.asarray(e, dtype=float), time.shape).copy() for e in out)
 
 
-@dataclass
-class Result:
-    """The outcome of :meth:`lagrangian.Model.simulate`.
-
-    ``t`` is the time grid; ``q`` and ``v`` map each coordinate name to its
-    values and velocities; ``T``, ``V``, ``D`` are kinetic energy, potential
-    energy and Rayleigh function over time, and ``E = T + V``.
-    ``defaulted`` lists initial conditions that were not given and set to zero.
-    ``method`` is the method that produced the result (the one picked, for
-    ``method="auto"``), ``nfev`` how many times it evaluated the model,
-    ``step`` the step size of a fixed-step method, and ``notes`` what the
-    run wants known: why ``auto`` picked its method, step adjustments, how
-    well a conservative model kept its energy.  ``events`` lists the events
-    that occurred (:class:`~lagrangian.numerics.events.Occurrence`: name,
-    time, state), when the run was given any.
-    ``res["x_cart"]`` is the same as ``res.q["x_cart"]``.
-    """
-
-    t: np.ndarray
-    q: dict[str, np.ndarray]
-    v: dict[str, np.ndarray]
-    T: np.ndarray
-    V: np.ndarray
-    D: np.ndarray
-    model: str = ""
-    defaulted: list[str] = field(default_factory=list)
-    nfev: int = 0
-    method: str = ""
-    evaluator: Callable[[Any, "Result"], np.ndarray] | None = field(default=None, repr=False)
-    notes: list[str] = field(default_factory=list)
-    step: float | None = None
-    events: list = field(default_factory=list)
-
-    @property
-    def E(self) -> np.ndarray:
-        """Total energy ``T + V``."""
-        return self.T + self.V
-
-    @property
-    def names(self) -> list[str]:
-        return list(self.q)
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        if name in self.q:
-            return self.q[name]
-        raise UnknownNameError("coordinate", name, self.q)
-
-    def velocity(self, name: str) -> np.ndarray:
-        """Values of ``q̇`` for the coordinate ``name``."""
-        if name in self.v:
-            return self.v[name]
-        raise UnknownNameError("coordinate", name, self.v)
-
-    def quantity(self, expr: Any) -> np.ndarray:
-        """Any expression in the coordinates ``q(t)``, their rates and ``t``, evaluated along the result.
-
-        >>> import lagrangian as lg
-        >>> m = lg.Model("osc")
-        >>> _ = m.add("mass", "m", "p", m=1)
-        >>> _ = m.add("spring", "k", ("ground", "p"), k=4)
-        >>> res = m.simulate(1, initial={"x_p": 1}, velocity={"x_p": 0}, points=3)
-        >>> x = m.coordinates[0].function
-        >>> np.allclose(res.quantity(4 * x), 4 * res["x_p"])  # the spring's force
-        True
-        """
-        if self.evaluator is None:
-            raise ModelError("this result is not attached to a model; quantities cannot be evaluated.")
-        return self.evaluator(expr, self)
-
-    def energy_drift(self) -> float:
-        """Largest departure of ``T + V`` from its initial value, relative to the largest of |E(0)|, T and |V|."""
-        E = self.E
-        scale = max(abs(E[0]), np.max(np.abs(self.T)), np.max(np.abs(self.V)), np.finfo(float).tiny)
-        return float(np.max(np.abs(E - E[0])) / scale)
-
-    def _columns(self) -> dict[str, np.ndarray]:
-        """Every series of the run by name: coordinates, their rates (``x_p'``), T, V, D and E."""
-        return {**self.q, **{f"{n}'": v for n, v in self.v.items()}, "T": self.T, "V": self.V, "D": self.D, "E": self.E}
-
-    def to_xarray(self):
-        """The run as an :class:`xarray.Dataset` over ``time``: coordinates, their rates (``"x_p'"``), ``T``, ``V``,
-        ``D`` and ``E``, with the method, evaluations and notes as attributes (``.to_netcdf(path)`` saves it).
-
-        >>> import lagrangian as lg
-        >>> m = lg.Model("osc")
-        >>> _ = m.add("mass", "m", "p", m=0.3)
-        >>> _ = m.add("spring", "k", ("ground", "p"), k=40)
-        >>> ds = m.simulate(1, initial={"x_p": 0.01}, velocity={"x_p": 0}, points=11).to_xarray()
-        >>> list(ds.data_vars), ds.sizes["time"]
-        (['x_p', "x_p'", 'T', 'V', 'D', 'E'], 11)
-        """
-        import xarray as xr
-
-        units = {"T": "J", "V": "J", "D": "W", "E": "J"}
-        data = {name: xr.Variable(("time",), np.asarray(series), {"units": units[name]} if name in units else {})
-                for name, series in self._columns().items()}
-        attrs = {"model": self.model, "method": self.method, "nfev": int(self.nfev),
-                 "notes": "\n".join(self.notes), "defaulted": ", ".join(self.defaulted)}
-        if self.step is not None:
-            attrs["step"] = float(self.step)
-        return xr.Dataset(data, coords={"time": xr.Variable(("time",), self.t, {"units": "s"})}, attrs=attrs)
-
-    def to_pandas(self):
-        """The run as a :class:`pandas.DataFrame` indexed by time, one column per series (see :meth:`to_xarray`).
-
-        >>> import lagrangian as lg
-        >>> m = lg.Model("osc")
-        >>> _ = m.add("mass", "m", "p", m=0.3)
-        >>> _ = m.add("spring", "k", ("ground", "p"), k=40)
-        >>> df = m.simulate(1, initial={"x_p": 0.01}, velocity={"x_p": 0}, points=11).to_pandas()
-        >>> df.shape, df.index.name
-        ((11, 6), 'time')
-        """
-        import pandas as pd
-
-        return pd.DataFrame(self._columns(), index=pd.Index(self.t, name="time"))
-
-    def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
-        """Plot coordinates (all, or ``names``) against time; return the matplotlib ``Axes``.
-
-        ``velocity=True`` plots velocities instead; ``energy=True`` plots T, V and T+V.
-        """
-        import matplotlib.pyplot as plt
-
-        if ax is None:
-            _, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-        prefix = f"{label}: " if label else ""
-        if energy:
-            for lab, series in (("T", self.T), ("V", self.V), ("T+V", self.E)):
-                ax.plot(self.t, series, label=prefix + lab)
-            ax.set_ylabel("energy")
-        else:
-            for name in names or self.names:
-                series = self.velocity(name) if velocity else self[name]
-                ax.plot(self.t, series, label=prefix + (f"d{name}/dt" if velocity else name))
-            ax.set_ylabel("velocity" if velocity else "coordinate")
-        ax.set_xlabel("t")
-        ax.grid(True, alpha=0.3)
-        ax.legend()
-        return ax
-
-
 def initial_state(
     eq: Equations, initial: Mapping[str, float], velocity: Mapping[str, float], *, warn: bool = True
 ) -> tuple[np.ndarray, list[str]]:
@@ -610,8 +468,8 @@ def initial_state(
     y0 = [number(initial, n, "value") for n in names] + [number(velocity, n, "velocity") for n in inertial]
     defaulted = [n for n in names if n not in initial] + [f"{n}'" for n in inertial if n not in velocity]
     if defaulted and warn:
-        warnings.warn(
+        _warn(
             f"initial conditions not given, set to zero: {', '.join(defaulted[:40])}"
-            + (f", … ({len(defaulted) - 40} more)" if len(defaulted) > 40 else ""), InitialConditionWarning, stacklevel=3
+            + (f", … ({len(defaulted) - 40} more)" if len(defaulted) > 40 else ""), InitialConditionWarning
         )
     return np.array(y0), defaulted

@@ -23,7 +23,8 @@ from ...base.identity import equal, is_zero
 from ...base.text import as_expr
 from ...derivation.equations import Equations
 from ...errors import ReductionError, UnknownNameError
-from ...model import Model
+from ...base import display
+from ...model import Model, to_latex
 from ...numerics.simulation import Result
 from ..derived import DerivedModel
 from .cache import _by_structure, _put
@@ -172,6 +173,22 @@ class ReducedModel(DerivedModel):
     # -- what the reduction found --------------------------------------------------
     def _show(self, expr):
         return self.full.eq.display(expr)
+
+    def __repr__(self) -> str:
+        return (f"<ReducedModel {self.name!r}: {display.short(self.ignored)} eliminated, "
+                f"coordinates {display.short(self.coordinate_names)}>")
+
+    def _repr_html_(self) -> str:
+        """The Routhian, the effective potential, the conserved momenta and the reduced equations (Jupyter)."""
+        latex = to_latex
+        parts = [display.math(rf"R = {latex(self.routhian)}")]
+        if self.effective_potential is not None:
+            parts.append(display.math(rf"V_{{\mathrm{{eff}}}} = {latex(self.effective_potential)}"))
+        parts.append(display.table(["eliminated", "conserved momentum"],
+                                   [[n, str(m)] for n, m in self.momenta.items()]))
+        parts += [display.math(rf"{latex(e.lhs)} = {latex(e.rhs)}") for e in self.equations]
+        return display.block(f"reduced model {self.name}", *parts,
+                             note=f"singular where {display.short(self.singularities)} = 0" if self.singularities else None)
 
     @property
     def routhian(self) -> sp.Expr:

@@ -14,6 +14,7 @@ import numpy as np
 import sympy as sp
 
 from ...base.component import t
+from ...base import display
 from ...errors import ReductionError
 from .tidy import _tidy
 
@@ -42,7 +43,7 @@ class Perturbation:
         return sp.simplify(self.K[0, 0] / self.M[0, 0])
 
 
-@dataclass
+@dataclass(repr=False)
 class Stability:
     """The verdict on a steady motion from the linearized reduced equations, cross-checked with ``V_eff``."""
 
@@ -54,6 +55,17 @@ class Stability:
 
     def __str__(self) -> str:
         return f"{self.verdict}: {self.reason}"
+
+    def __repr__(self) -> str:
+        return f"<Stability: {self.verdict}; eigenvalues {display.short([_fmt(z) for z in self.eigenvalues])}>"
+
+    def _repr_html_(self) -> str:
+        """The verdict, its reason, and the eigenvalues with the frequencies (Jupyter)."""
+        rows = [["eigenvalues", display.short([_fmt(z) for z in self.eigenvalues], 12)],
+                ["frequencies (rad/s)", display.short([f"{w:.6g}" for w in self.frequencies], 12) or "none"]]
+        if self.curvature is not None:
+            rows.append(["curvature of V_eff", display.short([f"{c:.6g}" for c in self.curvature], 12)])
+        return display.block(self.verdict, f"<p>{display.escape(self.reason)}</p>", display.table(["", ""], rows))
 
 
 def _off_singular(expr: sp.Expr) -> sp.Expr:

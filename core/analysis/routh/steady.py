@@ -16,12 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
+from ...base import display
 from ...base.identity import is_zero
-from ...errors import ReductionError, UnknownNameError
+from ...errors import LagrangianError, ReductionError, UnknownNameError
 from .stability import Perturbation, Stability, _fmt, _off_singular
 
 
-@dataclass
+@dataclass(repr=False)
 class SteadyMotion:
     """One steady motion: constant remaining coordinates, constant momenta and ignorable rates."""
 
@@ -37,6 +38,21 @@ class SteadyMotion:
         parts += [f"C_{k} = {v}" for k, v in self.momenta.items() if v != sp.Symbol(f"C_{k}", real=True)]
         parts += [f"{k}' = {v}" for k, v in self.rates.items()]
         return "steady motion: " + ", ".join(parts)
+
+    def __repr__(self) -> str:
+        return f"<SteadyMotion {str(self).partition(': ')[2]}>"
+
+    def _repr_html_(self) -> str:
+        """The steady motion's coordinates, momenta and rates, and its stability where it is numeric (Jupyter)."""
+        rows = [[k, str(v)] for k, v in self.coordinates.items()]
+        rows += [[f"C_{k}", str(v)] for k, v in self.momenta.items()]
+        rows += [[f"{k}'", str(v)] for k, v in self.rates.items()]
+        parts = [display.table(["", "value"], rows)]
+        try:
+            parts.append(self.stability()._repr_html_())
+        except LagrangianError as exc:  # symbolic: the verdict needs values
+            parts.append(f"<p><small>stability: {display.escape(exc)}</small></p>")
+        return display.block("steady motion", *parts)
 
     def perturbation(self) -> Perturbation:
         """``M s̈ + C ṡ + K s = 0`` about this steady motion (symbolic where the steady motion is)."""

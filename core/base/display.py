@@ -1,0 +1,149 @@
+"""Rich display in notebooks: the one place where text becomes HTML.
+
+Models, results, reductions, steady motions, comparisons and scenes show
+themselves in Jupyter through ``_repr_html_``, built from these pieces.
+Every piece of text — names come from users and files — goes through
+:func:`escape`; LaTeX is put between ``$$`` for the notebook's MathJax, its
+``<``, ``>`` and ``&`` escaped as HTML too; charts are PNG images inlined as
+base64.
+
+>>> table(["name", "kind"], [["m1", "mass"], ["<b>", "spring"]])
+'<table><thead><tr><th>name</th><th>kind</th></tr></thead><tbody><tr><td>m1</td><td>mass</td></tr><tr><td>&lt;b&gt;</td><td>spring</td></tr></tbody></table>'
+>>> math(r"L = \\frac{1}{2} m \\dot{x}^{2}")
+'<div>$$L = \\\\frac{1}{2} m \\\\dot{x}^{2}$$</div>'
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+__all__ = ["escape", "table", "math", "png", "image", "block", "short"]
+
+
+def escape(text: Any) -> str:
+    """``text`` as HTML text: ``<``, ``>``, ``&`` and quotes escaped."""
+    return html.escape(str(text), quote=True)
+
+
+def table(header: Sequence[Any], rows: Iterable[Sequence[Any]]) -> str:
+    """An HTML table; every cell escaped."""
+    head = "".join(f"<th>{escape(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{escape(c)}</td>" for c in row) + "</tr>" for row in rows)
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def math(latex: str) -> str:
+    """Display LaTeX for MathJax (escaped as HTML text: MathJax reads the text, not the markup)."""
+    return f"<div>$${escape(latex)}$$</div>"
+
+
+def png(figure) -> bytes:
+    """A matplotlib figure as PNG bytes; the figure is closed."""
+    import matplotlib.pyplot as plt
+
+    buffer = io.BytesIO()
+    try:
+        figure.savefig(buffer, format="png", dpi=90)
+    finally:
+        plt.close(figure)
+    return buffer.getvalue()
+
+
+def image(data: bytes, alt: str = "chart") -> str:
+    """PNG bytes as an inline ``<img>``."""
+    return f'<img alt="{escape(alt)}" src="data:image/png;base64,{base64.b64encode(data).decode()}"/>'
+
+
+def block(title: str, *parts: str, note: str | None = None) -> str:
+    """A titled block of HTML parts (already HTML), with an optional note in smaller type (text)."""
+    foot = f"<p><small>{escape(note)}</small></p>" if note else ""
+    return f"<div><p><b>{escape(title)}</b></p>{''.join(parts)}{foot}</div>"
+
+
+def short(items: Sequence[Any], limit: int = 6) -> str:
+    """A few items joined with commas, ``…`` and the count when there are more.
+
+    >>> short(["a", "b", "c"], 2)
+    'a, b, … (3)'
+    """
+    items = [str(i) for i in items]
+    return ", ".join(items) if len(items) <= limit else ", ".join(items[:limit]) + f", … ({len(items)})"
+
+
+#: Colours of the domains in drawings (others take the next colours of matplotlib's cycle).
+DOMAIN_COLOURS = {"mechanical": "#1f77b4", "electrical": "#d62728", "rotational": "#2ca02c", "thermal": "#ff7f0e"}
+
+
+def draw_components(components: Sequence[Any], title: str, ax=None, ground: str = "ground"):
+    """Draw a component graph: nodes as points (ground hatched), a two-terminal component as an edge, any other
+    as a box joined to its terminals; everything labelled, coloured by domain.  Returns the Axes."""
+    import matplotlib.pyplot as plt
+    import networkx as nx
+
+    graph = nx.MultiGraph()
+    hubs, singles = {}, {}
+    for comp in components:
+        nodes = list(dict.fromkeys(comp.nodes))
+        if len(nodes) == 2:
+            graph.add_edge(nodes[0], nodes[1], key=comp.name, comp=comp)
+        elif len(nodes) == 1:
+            singles.setdefault(nodes[0], []).append(comp)
+            graph.add_node(nodes[0])
+        else:  # a box of its own, joined to each terminal (a transducer, a joint on three bodies, a global load)
+            hub = ("component", comp.name)
+            hubs[hub] = comp
+            graph.add_node(hub)
+            for node in nodes:
+                graph.add_edge(hub, node, key=f"{comp.name}:{node}", comp=None)
+    if ax is None:
+        _, ax = plt.subplots(figsize=(8, 5.5), constrained_layout=True)
+    if graph.number_of_nodes() == 0:
+        ax.set_title(f"{title}: no components")
+        ax.axis("off")
+        return ax
+    pos = nx.kamada_kawai_layout(nx.Graph(graph)) if graph.number_of_nodes() > 2 else nx.spring_layout(graph, seed=1)
+    cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colours = dict(DOMAIN_COLOURS)
+
+    def colour(domain):
+        if domain not in colours:
+            colours[domain] = cycle[len(colours) % len(cycle)]
+        return colours[domain]
+
+    seen: dict[tuple, int] = {}
+    for u, v, key, data in graph.edges(keys=True, data=True):
+        comp = data.get("comp")
+        pair = tuple(sorted(map(str, (u, v))))
+        k = seen[pair] = seen.get(pair, -1) + 1  # parallel components bend apart
+        rad = 0.25 * ((k + 1) // 2) * (1 if k % 2 else -1)
+        col = colour(comp.domain) if comp is not None else "0.6"
+        ax.annotate("", xy=pos[v], xytext=pos[u], arrowprops=dict(arrowstyle="-", color=col, lw=2 if comp else 1,
+                                                                   connectionstyle=f"arc3,rad={rad}"))
+        if comp is not None:
+            (x0, y0), (x1, y1) = pos[u], pos[v]
+            mx, my = (x0 + x1) / 2 + rad * (y1 - y0) / 2, (y0 + y1) / 2 - rad * (x1 - x0) / 2  # the arc's middle
+            ax.text(mx, my, f"{comp.name}\n{comp.kind}", fontsize=7, ha="center", va="center", color=col,
+                    bbox=dict(boxstyle="round,pad=0.2", fc="white", ec=col, lw=0.8))
+    for node, (x, y) in pos.items():
+        if node in hubs:
+            comp = hubs[node]
+            ax.text(x, y, f"{comp.name}\n{comp.kind}", fontsize=7, ha="center", va="center", color="white",
+                    bbox=dict(boxstyle="square,pad=0.3", fc=colour(comp.domain), ec="none"))
+            continue
+        is_ground = node in (ground, "0")
+        ax.scatter([x], [y], s=90, c="white" if is_ground else "black", edgecolors="black", hatch="////" if is_ground else None,
+                   zorder=3)
+        label = str(node) + "".join(f"\n{c.name} ({c.kind})" for c in singles.get(node, []))
+        ax.annotate(label, (x, y), xytext=(6, 6), textcoords="offset points", fontsize=8, zorder=4)
+    for domain, col in colours.items():
+        if any(getattr(c, "domain", None) == domain for c in components):
+            ax.plot([], [], color=col, lw=2, label=domain)
+    ax.legend(loc="lower right", fontsize=8, frameon=False)
+    ax.set_title(title)
+    ax.axis("off")
+    ax.margins(0.15)
+    return ax

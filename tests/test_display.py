@@ -1,0 +1,119 @@
+"""Display in notebooks: every object users look at renders as HTML (escaped), and its plain repr is short."""
+
+import math
+import re
+
+import numpy as np
+import sympy as sp
+
+import lagrangian as lg
+from lagrangian import models, routh
+from lagrangian.scene import Scene
+
+
+def oscillator(name="oscillator", node="p"):
+    m = lg.Model(name)
+    m.add("mass", "m1", node, m=0.3)
+    m.add("spring", "k1", ("ground", node), k=40)
+    m.add("damper", "c1", ("ground", node), c=0.05)
+    return m
+
+
+def short(obj):
+    text = repr(obj)
+    assert text.startswith("<") and text.endswith(">") and len(text) < 300 and "array(" not in text, text
+    return text
+
+
+def test_a_model_shows_its_components_coordinates_and_equations_in_mechanics_notation():
+    m = oscillator()
+    assert short(m) == "<Model 'oscillator': 3 components (m1, k1, c1)>"
+    html = m._repr_html_()
+    assert "<td>spring</td>" in html and "<td>x_p</td>" in html
+    assert r"\dot{x}_{p}" in html and r"\ddot{q}" in html and "(t)" not in html
+    assert "coordinates x_p" in short(m)
+
+
+def test_names_are_escaped_and_a_model_that_cannot_be_derived_still_shows_why():
+    m = lg.Model("<script>alert(1)</script>")
+    m.add("spring", "k<b>", ("ground", "p"), k=40)
+    html = m._repr_html_()
+    assert "<script>" not in html and "&lt;script&gt;" in html and "k&lt;b&gt;" in html
+    assert "not derived" in html and "inertia" in html
+
+
+def test_a_result_shows_a_summary_notes_and_a_chart():
+    res = oscillator().simulate(2, initial={"x_p": 0.01}, velocity={"x_p": 0})
+    text = short(res)
+    assert "DOP853" in text and "1001 times" in text and "x_p" in text
+    html = res._repr_html_()
+    assert html.count("<img") == 1 and "data:image/png;base64," in html and "energy T + V" in html
+    assert re.search(r"0\.01 → ", html)
+
+
+def test_a_reduced_model_shows_the_routhian_and_its_equations():
+    red = routh.reduce(models.spherical_pendulum(0.3, 0.7))
+    assert "theta_turn eliminated" in short(red)
+    html = red._repr_html_()
+    assert "$$R = " in html and r"V_{\mathrm{eff}}" in html and r"\ddot{\theta}_{tilt}" in html
+
+
+def test_steady_motions_and_their_stability_show_the_verdict_and_eigenvalues():
+    red = routh.reduce(models.spherical_pendulum(1.0, 1.0))
+    C = math.sin(0.7) ** 2 * math.sqrt(9.81 / math.cos(0.7))
+    motion = next(s for s in red.steady_motions(momenta={"theta_turn": C}) if float(s.coordinates["theta_tilt"]) > 0)
+    assert "theta_tilt = 0.7" in short(motion)
+    stability = motion.stability()
+    assert short(stability).startswith("<Stability: stable; eigenvalues")
+    html = motion._repr_html_()
+    omega = math.sqrt(9.81 * (3 * math.cos(0.7) + 1 / math.cos(0.7)))  # the notes' perturbation frequency
+    assert "<b>stable</b>" in html and f"{omega:.6g}" in html
+    l, g = sp.symbols("l g", positive=True)
+    symbolic = routh.reduce(models.spherical_pendulum(1, l, g)).steady_motions(solve_for=["C_theta_turn"])[1]
+    assert "give values" in symbolic._repr_html_()
+
+
+def test_a_comparison_with_ngspice_shows_its_table_and_chart():
+    from lagrangian.compare import compare_with_ngspice
+
+    m = lg.Model("series-RLC")
+    m.add("inductor", "L", ("0", "b"), L=7e-3)
+    m.add("resistor", "R", ("b", "c"), R=4.7)
+    m.add("capacitor", "C", ("c", "0"), C=2.2e-6)
+    cmp = compare_with_ngspice(m, 1e-3, initial={"q_L": 2.2e-6}, velocity={"q_L": 0.0})
+    assert "with ngspice" in short(cmp)
+    html = cmp._repr_html_()
+    assert html.count("<img") == 1 and "<td>i(L)</td>" in html and "wall time" in html
+
+
+def test_a_scene_shows_its_report_and_its_result_a_chart():
+    m = oscillator()
+    m.add("mass", "solo", "s", m=1.0)
+    m.add("spring", "ks", ("ground", "s"), k=1.0)
+    scene = Scene(m, ["x_s"], t_end=1.0, initial={"x_s": 1.0}, velocity={"x_s": 0.0})
+    assert "x_s" in short(scene)
+    assert "dropped" in scene._repr_html_()
+    res = scene.run()
+    assert "x_s" in short(res) and res._repr_html_().count("<img") == 1
+    assert np.allclose(res["x_s"], np.cos(res.t), atol=1e-7)
+
+
+def test_a_model_draws_its_component_graph_with_domains_and_labels(tmp_path):
+    from matplotlib.colors import to_hex
+
+    from lagrangian.base.display import DOMAIN_COLOURS
+
+    m = lg.Model("speaker")
+    m.add("voltage_source", "V1", ("in", "0"), E=0)
+    m.add("resistor", "Re", ("in", "a"), R=6.0)
+    m.add("moving_coil", "coil", ("a", "0", "cone"), Bl=7.0)
+    m.add("mass", "cone", "cone", m=0.02)
+    m.add("spring", "suspension", ("ground", "cone"), k=2e3)
+    ax = m.draw(path=str(tmp_path / "g.png"))
+    labels = {t.get_text() for t in ax.texts if t.get_text()}
+    assert {"Re\nresistor", "coil\nmoving_coil", "suspension\nspring", "cone\ncone (mass)"} <= labels
+    legend = {t.get_text() for t in ax.get_legend().get_texts()}
+    assert legend == {"mechanical", "electrical"}
+    coil = next(t for t in ax.texts if t.get_text() == "coil\nmoving_coil")
+    assert to_hex(coil.get_bbox_patch().get_facecolor()) == DOMAIN_COLOURS["electrical"]
+    assert (tmp_path / "g.png").stat().st_size > 5000
