@@ -11,6 +11,8 @@ True
 from __future__ import annotations
 
 import difflib
+import sys
+import warnings
 from collections.abc import Iterable
 
 __all__ = [
@@ -38,11 +40,28 @@ __all__ = [
 def closest(word: str, choices: Iterable[str]) -> str:
     """A ``" Did you mean 'x'?"`` suffix naming the closest choice, or ``""``.
 
+    A choice that differs only in case comes first (``rk45`` → ``RK45``),
+    then the closest by spelling.
+
     >>> closest("sprng", ["spring", "mass"])
     " Did you mean 'spring'?"
+    >>> closest("rk45", ["rk4", "RK45"])
+    " Did you mean 'RK45'?"
     """
-    match = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
+    choices = [str(c) for c in choices]
+    same = [c for c in choices if c.casefold() == str(word).casefold()]
+    match = same or difflib.get_close_matches(str(word), choices, n=1, cutoff=0.6)
     return f" Did you mean {match[0]!r}?" if match else ""
+
+
+def warn(message: str, category: type[Warning]) -> None:
+    """``warnings.warn`` attributed to the caller's own line: the first frame outside this package (its
+    plugins included), however deep in the library the warning arises, so that the warning names the
+    user's ``simulate(...)``, not a line of lagrangian."""
+    frame, level = sys._getframe(1), 2  # stacklevel 1 is this line; 2 the caller
+    while frame is not None and str(frame.f_globals.get("__name__", "")).split(".")[0] == "lagrangian":
+        frame, level = frame.f_back, level + 1
+    warnings.warn(message, category, stacklevel=level)
 
 
 class LagrangianError(Exception):

@@ -753,3 +753,37 @@ def test_integrator_failure_at_start_is_an_integration_error():
     m.add("damper", "c", ("ground", "p"), c=1)
     with pytest.raises(lg.NumericalError):
         quiet_simulate(m, 1)
+
+
+def test_warnings_name_the_users_line_and_methods_are_suggested_in_any_case():
+    import inspect
+    import warnings
+
+    m = lg.Model("osc")
+    m.add("mass", "m1", "p", m=0.3)
+    m.add("spring", "k1", ("ground", "p"), k=40)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        line = inspect.currentframe().f_lineno + 1
+        m.simulate(0.1)  # no initial conditions: they default to zero, with a warning
+    assert [(w.filename, w.lineno) for w in caught if w.category is lg.InitialConditionWarning] == [(__file__, line)]
+    with pytest.raises(lg.UnknownNameError, match="Did you mean 'RK45'"):
+        m.simulate(0.1, method="rk45", initial={"x_p": 0.1}, velocity={"x_p": 0})
+
+
+def test_a_lone_node_a_slip_away_from_another_gets_did_you_mean():
+    import warnings
+
+    m = lg.Model("cart")
+    m.add("mass", "m", "crat", m=0.3)  # a slip: the spring and the damper hold "cart"
+    m.add("spring", "k", ("ground", "cart"), k=4.0)
+    m.add("damper", "c", ("ground", "cart"), c=0.1)
+    with pytest.warns(lg.NodeNameWarning, match=r"node 'crat' is touched by one component only \('m'\).*Did you mean 'cart'"):
+        m.coordinate_names
+    family = lg.Model("balls", dim=2)  # numbered names are a family, not slips
+    family.add("mass", "b1", "ball1", m=1.0)
+    family.add("mass", "b2", "ball2", m=1.0)
+    family.add("gravity", "g")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert family.coordinate_names == ["x_ball1", "y_ball1", "x_ball2", "y_ball2"]

@@ -81,9 +81,11 @@ def test_a_cluster_by_address_loses_no_sample_when_a_worker_dies(tmp_path, seria
         assert any(p.poll() is not None for p in procs[1:])  # the worker is gone: the other one did its work
         assert ds.attrs["workers"] == 2
         same(ds, serial)
-        # the workers loaded the libraries shipped with the compiled form: none compiled one
-        assert all(sorted(p.suffix for p in cache.iterdir() if not p.name.startswith(".")) ==
-                   [".c", ".c", ".json", ".json", ".so", ".so"] for cache in caches)
+        # the workers loaded the libraries shipped with the compiled form (the one killed may not have got to it),
+        # and none compiled one
+        manifests = [json.loads(p.read_text()) for cache in caches for p in cache.glob("*.json")]
+        assert manifests and all(m.get("shipped") for m in manifests)
+        assert max(len(list(cache.glob("*.so"))) for cache in caches) == 2
     finally:
         for p in procs:
             p.kill()

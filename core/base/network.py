@@ -65,7 +65,10 @@ def check_topology(graph: nx.MultiGraph, ground: str, role: Callable[[str], str 
             cut = sorted(k for u, v, k, _ in _edges(graph) if role(k) == "through" and ((u in part) != (v in part)))
             raise TopologyError(
                 f"ideal through-sources {', '.join(cut)} form a cut-set isolating nodes {', '.join(sorted(map(str, part)))}: "
-                f"nothing else carries the flow there. Add a path (an element) between those nodes and the rest."
+                f"they are the only elements joining those nodes to the rest, so they alone would set the flow through "
+                f"the cut (a current source's current; in a mechanism, force sources acting on a part held by nothing "
+                f"else), and nothing else carries it. Add a path (an element: a resistor, a spring, a damper) between "
+                f"those nodes and the rest."
             )
 
 

@@ -109,7 +109,6 @@ Transient(step=1e-05, stop=0.002, start=0.0, max_step=None, uic=True)
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -121,7 +120,7 @@ import sympy as sp
 from ..analysis.frequency import FrequencyResponse, frequency_response
 from ..base.component import GROUND, t
 from ..base.domain import Context
-from ..errors import LagrangianError, ModelError, ParameterError
+from ..errors import LagrangianError, ModelError, ParameterError, warn
 from ..model import Model
 from ..numerics.simulation import Result
 from ..plugin.registry import Registry
@@ -271,12 +270,11 @@ def read_netlist(
         _add(model, deck, element, formulation)
     if deck.tran is not None and not deck.tran.uic:
         if deck.element_ic:
-            warnings.warn(
+            warn(
                 f"netlist {deck.title!r}: .tran has no 'uic', so the elements' ic= values are ignored, as SPICE "
                 f"ignores them, and the run starts from the DC operating point. Add 'uic' to the .tran line to start "
                 f"from them.",
                 NetlistWarning,
-                stacklevel=2,
             )
         ic = _operating_point(model, deck)
     else:

@@ -40,13 +40,12 @@ from __future__ import annotations
 
 import math
 import sys
-import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from ..errors import IntegrationError, ModelError, closest
+from ..errors import IntegrationError, ModelError, closest, warn
 from ..plugin.contracts import KINDS, RESERVED, Integrator, Solution, integrator_problem, resolve
 from .auto import STIFFNESS_RATIO, Choice, choose
 from .events import solve as solve_with_events
@@ -172,7 +171,7 @@ def integrate(
     stiff_note = _stiffness_note(problem, integrator, t_span, y0, model)
     if stiff_note:
         notes = [*notes, "WARNING: " + stiff_note]
-        warnings.warn(stiff_note, StiffnessWarning, stacklevel=4)
+        warn(stiff_note, StiffnessWarning)
     problem.nfev = 0
     problem._report = _reporter(t_span, model, progress) if progress else None
     problem.watch(t_span, model, max_evaluations)
@@ -373,7 +372,7 @@ def _energy_check(problem, integrator, t, q, v, T, V, options, energy_tol, model
             f"under {integrator.name} (tolerance {energy_tol:.1e}, first exceeded at t={t[where]:g}): {fix}. "
             f"Set energy_tol= to change the tolerance, or energy_tol=False to skip the check."
         )
-        warnings.warn(message, EnergyDriftWarning, stacklevel=5)
+        warn(message, EnergyDriftWarning)
         note = "WARNING: " + message
     return note
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 import re
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -26,7 +25,7 @@ import sympy as sp
 from ...base.arguments import check_grid, check_positive, check_span
 from ...base.component import _CHECKS, LARGEST, t
 from ...base.text import parse_expression
-from ...errors import ModelError, ParameterError, UnknownNameError
+from ...errors import ModelError, ParameterError, UnknownNameError, warn
 from ...model import Model
 from ...numerics.ensemble import METHODS, CompiledForm, RunSpec, compile_form
 from ...numerics.problem import Problem
@@ -222,8 +221,7 @@ def plan(model: Model, samples: Samples, *, initial: Mapping[str, float] | None 
                      (roles[n] for n in swept) if r != "param"}
     defaulted = [d for d in defaulted if d not in swept_initial]
     if defaulted:
-        warnings.warn(f"sweep: initial conditions not given, set to zero: {', '.join(defaulted[:40])}",
-                      InitialConditionWarning, stacklevel=3)
+        warn(f"sweep: initial conditions not given, set to zero: {', '.join(defaulted[:40])}", InitialConditionWarning)
     span = check_span(t_end)
     grid = check_grid(span, points, t_eval, len(y0) * max(count, 1))
     rtol = check_positive("rtol", rtol)
