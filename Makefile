@@ -1,5 +1,5 @@
 # The two commands of the README. Each sets up what it needs (scripts/setup.sh).
-.PHONY: setup demo test benchmark plugins clean
+.PHONY: setup demo test test-fast benchmark plugins clean
 
 setup:
 	@bash scripts/setup.sh
@@ -7,8 +7,13 @@ setup:
 demo: setup
 	.venv/bin/python examples/demo.py
 
+# Every test, on every core (pytest-xdist).
 test: setup
-	.venv/bin/python -m pytest -q
+	.venv/bin/python -m pytest -q -n auto
+
+# The loop while editing: the tests not marked slow (subprocesses, ngspice, Dask clusters; tests/conftest.py).
+test-fast: setup
+	.venv/bin/python -m pytest -q -n auto -m "not slow"
 
 benchmark: setup
 	.venv/bin/python -m pip install -q -e ".[bench]"

@@ -38,3 +38,16 @@ def registry_with():
         return lg.Registry(plugins={"test_plugin": plugin})
 
     return build
+
+
+#: Modules whose tests run subprocesses, ngspice, clusters or long property searches: `make test-fast` skips them
+#: (and every test named for ngspice); `make test` and CI run everything.
+SLOW_MODULES = {"test_examples", "test_sweep_dask", "test_transducer_spice", "test_fuzz", "test_robustness",
+                "test_ngspice", "test_spatial_chains", "test_untrusted_code", "test_compare_params"}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        module = item.nodeid.split("::")[0].rsplit("/", 1)[-1].removesuffix(".py")
+        if module in SLOW_MODULES or "ngspice" in item.name:
+            item.add_marker(pytest.mark.slow)
