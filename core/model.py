@@ -32,6 +32,7 @@ from .derivation.equations import Equations
 from .base import display
 from .errors import LagrangianError, ModelError, ParameterError, UnknownNameError, closest, warn
 from .base.graph import ComponentGraph
+from .base.units import is_quantity, split, to_si
 from .plugin.registry import Registry, default_registry
 from .numerics.simulation import NumericModel, Result, initial_state
 from .numerics.integrate import choose, integrate, Problem, resolve
@@ -481,8 +482,15 @@ class Model:
             )
         values = {s: float(v) for s, v in self.assembly.values.items()}
         for k in params:
+            given = params[k]
+            if is_quantity(given) or split(given) is not None:  # "5 N/m": in the parameter's declared unit
+                owner, pname, unit = self._declared_unit(k)
+                try:
+                    given = to_si(given, unit, "the value")
+                except ModelError as exc:
+                    raise ParameterError(owner, pname, f"{str(exc).removeprefix('the value: ')} (params={{{k!r}: ...}})") from None
             try:
-                value = float(params[k])
+                value = float(given)
             except (TypeError, ValueError):
                 raise ModelError(f"parameter {k!r} must be a number, got {params[k]!r:.80}.") from None
             except OverflowError:  # an integer (or fraction) beyond a float
@@ -497,6 +505,16 @@ class Model:
                 if isinstance(value, sp.Expr) and value.free_symbols - {t}:
                     check_value(value.xreplace(subs), spec.check, comp.name, pname)
         return values
+
+    def _declared_unit(self, name: str) -> tuple[str, str, str]:
+        """``(component, parameter, unit)`` of the parameter named ``name`` (the model and ``""`` when no
+        component declares one)."""
+        for comp in self._graph.components.values():
+            for pname, spec in comp.parameters.items():
+                symbol, value = getattr(comp, "_symbols", {}).get(pname), comp.params.get(pname)
+                if any(isinstance(s, sp.Symbol) and s.name == name for s in (symbol, value)):
+                    return comp.name, pname, spec.unit
+        return self.name, name, ""
 
     def _check_overrides(self, given: Mapping[sp.Symbol, float]) -> None:
         """Another value for a parameter given as a number obeys that parameter's rule (positive, ...)."""

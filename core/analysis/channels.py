@@ -25,6 +25,7 @@ from sympy.core.function import AppliedUndef
 
 from ..base.component import GROUND, t
 from ..base.domain import Context
+from ..base.units import coordinate_unit
 from ..derivation.calculus import atoms_of
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -204,19 +205,13 @@ def _node_voltage(model: Model, node: str) -> sp.Expr:
     return total
 
 
-#: Units of coordinates by the prefix of their names (``q_`` a charge, ``lambda_`` a flux linkage, ``x_`` a
-#: position, ``theta_`` an angle...), for the labels of charts.
-_COORDINATE_UNITS = {"q": "C", "lambda": "Wb", "x": "m", "y": "m", "z": "m", "s": "m", "theta": "rad", "phi": "rad",
-                     "psi": "rad", "alpha": "rad", "beta": "rad", "gamma": "rad"}
-
-
 def _unit(label: str) -> str:
     """The unit of an output label (``"V"`` for ``v(…)``, ``"m/s"`` for ``"x_p'"``), or ``""`` when unknown."""
     branch = _BRANCH.match(label)
     if branch:
         return {"v": "V", "i": "A"}.get(branch.group(1).lower(), "")
     base, primes = _PRIMES.match(label.strip()).groups()
-    unit = _COORDINATE_UNITS.get(base.partition("_")[0], "")
+    unit = coordinate_unit(base)
     return unit + ("", "/s", "/s²")[len(primes)] if unit else ""
 
 

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
+from .units import coordinate_unit, is_quantity, split, to_si
 
 #: a run's outputs may take at most this share of the machine's memory
 MEMORY_SHARE = 0.5
@@ -175,13 +176,19 @@ def check_mapping(name: str, value: Any, names: Sequence[str]) -> dict[str, Any]
 
 
 def check_state(name: str, given: Mapping[str, Any]) -> Mapping[str, Any]:
-    """Initial values (``initial`` / ``velocity``): numbers within ±:data:`STATE_LARGEST`.
+    """Initial values (``initial`` / ``velocity``): numbers within ±:data:`STATE_LARGEST`; values with units
+    (``"1 cm"``, a pint quantity) in SI, as the coordinate's name implies (``x_`` metres, ``theta_`` radians).
 
     Energies square the state and methods' error norms square it again: from 1e149 on, LSODA never returns on
     an oscillator (measured: 1e140 takes 0.06 s).  Text, lists and the like are refused here too.
     """
     what = "initial value" if name == "initial" else "initial velocity"
+    converted = {}
     for key, value in given.items():
+        if is_quantity(value) or split(value) is not None:  # "1 cm", 5 * ureg.deg: in SI, as the coordinate's
+            unit = coordinate_unit(key)
+            value = to_si(value, unit + ("/s" if unit and name != "initial" else ""), f"{what} of {key!r}")
+        converted[key] = value
         if not _number(value):
             raise ModelError(f"{what} of {key!r} must be a number, got {value!r:.60} of type {_kind(value)}.")
         try:
@@ -191,7 +198,7 @@ def check_state(name: str, given: Mapping[str, Any]) -> Mapping[str, Any]:
         if not math.isfinite(x) or abs(x) > STATE_LARGEST:
             raise ModelError(f"{what} of {key!r} must be finite and within ±{STATE_LARGEST:g}, got {value!r:.30}: give "
                              f"the state in units that keep it finite.")
-    return given
+    return converted
 
 
 def check_max_step(max_step: float | None, bounds: tuple[float, float]) -> float | None:

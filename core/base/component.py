@@ -15,8 +15,9 @@ from typing import Any, ClassVar
 
 import sympy as sp
 
-from ..errors import closest, ExpressionError, ParameterError
+from ..errors import closest, ExpressionError, ModelError, ParameterError
 from .text import as_expr
+from .units import is_quantity, split, to_si
 
 __all__ = ["t", "GROUND", "Parameter", "Load", "Contribution", "Example", "Component", "dot"]
 
@@ -138,6 +139,11 @@ class Parameter:
     def _scalar(self, value: Any, component: str, name: str, check: str) -> sp.Expr:
         if isinstance(value, bool):
             raise ParameterError(component, name, f"expected a number or a SymPy expression, got {value!r}.")
+        if is_quantity(value) or split(value) is not None:  # "0.3 kg", 300 * ureg.g: converted to SI
+            try:
+                value = to_si(value, self.unit, "the value")
+            except ModelError as exc:
+                raise ParameterError(component, name, str(exc).removeprefix("the value: ")) from None
         try:
             expr = as_expr(value, "the value")
         except ExpressionError as exc:

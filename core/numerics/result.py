@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..base import display
+from ..base.units import coordinate_unit
 from ..errors import ModelError, UnknownNameError
 
 __all__ = ["Result"]
@@ -141,6 +142,9 @@ class Result:
         import xarray as xr
 
         units = {"T": "J", "V": "J", "D": "W", "E": "J"}
+        for name in self.q:  # by the coordinate's name: x_ metres, theta_ radians, q_ coulombs...
+            if coordinate_unit(name):
+                units[name], units[f"{name}'"] = coordinate_unit(name), coordinate_unit(name) + "/s"
         data = {name: xr.Variable(("time",), np.asarray(series), {"units": units[name]} if name in units else {})
                 for name, series in self._columns().items()}
         attrs = {"model": self.model, "method": self.method, "nfev": int(self.nfev),
