@@ -363,7 +363,9 @@ def _scene(args) -> int:
     else:
         for label in res.outputs:
             values = res[label]
-            print(f"{label}: at t = {res.t[-1]:g}: {values[-1]:.10g} (min {np.min(values):.6g}, max {np.max(values):.6g})")
+            meaning = f" — {res.meanings[label]}" if label in res.meanings else ""
+            print(f"{label}{meaning}: at t = {res.t[-1]:g}: {values[-1]:.10g} (min {np.min(values):.6g}, "
+                  f"max {np.max(values):.6g})")
     return 0
 
 

@@ -109,19 +109,19 @@ def main() -> None:
           f"{np.trapezoid(2 * rm.D, rm.t):.6f} J / {np.trapezoid(2 * rc.D, rc.t):.6f} J")
 
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(9, 6), sharex=True, constrained_layout=True)
-    top.plot(rm.t, x, lw=2.5, label="mass–spring–damper: x(t) [m]")
-    top.plot(rc.t, q, "--", lw=1.5, label="series RLC analogue: q(t) [C]")
+    top.plot(rm.t, x, lw=2.5, label=r"mass–spring–damper: $x(t)$ [m]")
+    top.plot(rc.t, q, "--", lw=1.5, label=r"series RLC analogue: $q(t)$ [C]")
     top.plot(rm.t, exact, ":", color="k", lw=1, label="closed form")
-    top.set_ylabel("displacement / charge")
-    top.set_title(f"Driven mass–spring–damper and its series RLC analogue (F = E = {FORCE})")
+    top.set_ylabel(r"$x$ [m], $q$ [C]")
+    top.set_title(f"Driven mass–spring–damper and its series RLC analogue ($F = E = {sp.latex(FORCE)}$)")
     top.grid(True, alpha=0.3)
     top.legend(loc="upper right")
-    bottom.semilogy(rm.t, np.maximum(np.abs(x - exact), 1e-18), color="C0", label="|x − closed form|")
-    bottom.semilogy(rc.t, np.maximum(np.abs(q - exact), 1e-18), "--", color="C1", label="|q − closed form|")
-    bottom.semilogy(rm.t, np.maximum(diff, 1e-18), color="C3", lw=0.8, label="|x − q| (zero where identical)")
+    bottom.semilogy(rm.t, np.maximum(np.abs(x - exact), 1e-18), color="C0", label=r"$|x - x_{\mathrm{exact}}|$")
+    bottom.semilogy(rc.t, np.maximum(np.abs(q - exact), 1e-18), "--", color="C1", label=r"$|q - q_{\mathrm{exact}}|$")
+    bottom.semilogy(rm.t, np.maximum(diff, 1e-18), color="C3", lw=0.8, label=r"$|x - q|$ (zero where identical)")
     bottom.set_ylabel("absolute difference")
     bottom.legend(loc="lower right", fontsize=8)
-    bottom.set_xlabel("t [s]")
+    bottom.set_xlabel(r"$t$ [s]")
     bottom.grid(True, which="both", alpha=0.3)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -137,6 +137,9 @@ def main() -> None:
                                    step=0.01, max_step=2.5e-4)
         for line in cmp.table().splitlines():
             print("  " + line)
+        if any(r.meaning.lstrip().startswith("-") for r in cmp.rows):
+            print("  sign: v(C_k) = −k·x_cart is the spring's force on the mass, which the analogue's capacitor "
+                  "voltage stands for: it has the opposite sign of the displacement, and both sides compare it")
         chart = cmp.chart(out.with_name(f"{out.stem}-ngspice-{suffix}{out.suffix}"))
         print(f"  chart written to {chart.resolve()}")
 

@@ -70,6 +70,13 @@ class ElectricalView(DomainView):
         """The branch charge (charge formulation) or flux linkage (flux formulation) of edge ``key``."""
         return self.branch[key]
 
+    def branch_meaning(self, key: str, rate: bool = False) -> str:
+        """``"charge through C1 [C]"`` (its rate: the current) or ``"flux linkage of C1 [Wb]"`` (its rate: the
+        voltage), as the formulation has it; the voltage of a charge-formulation branch is ``v(C1)``."""
+        if self.formulation == "charge":
+            return f"current through {key} [A]" if rate else f"charge through {key} [C] (its voltage: v({key}))"
+        return f"voltage across {key} [V]" if rate else f"flux linkage of {key} [Wb] (its current: i({key}))"
+
     def _get(self, component: Component, wanted: str, branch: int) -> sp.Expr:
         if self.formulation != wanted:
             raise ModelError(
@@ -211,6 +218,7 @@ class Inductor(_Element):
     """Inductor: magnetic co-energy ½ L i² (charge), or potential λ²/2L (flux)."""
 
     kind = "inductor"
+    symbol = "Inductor2"
     tree_priority = 3
     parameters = {"L": Parameter("inductance", unit="H")}
 
@@ -247,6 +255,7 @@ class Capacitor(_Element):
     """Capacitor: potential q²/2C (charge), or electric co-energy ½ C v² (flux)."""
 
     kind = "capacitor"
+    symbol = "Capacitor"
     tree_priority = 1
     parameters = {"C": Parameter("capacitance", unit="F")}
 
@@ -273,6 +282,7 @@ class Resistor(_Element):
     """Resistor: Rayleigh dissipation ½ R i² (charge) or v²/2R (flux)."""
 
     kind = "resistor"
+    symbol = "Resistor"
     tree_priority = 2
     parameters = {"R": Parameter("resistance", unit="Ω")}
 
@@ -300,6 +310,7 @@ class VoltageSource(_Element):
     """Ideal voltage source: v_a − v_b = E(t)."""
 
     kind = "voltage_source"
+    symbol = "SourceV"
     role = "across"
     parameters = {"E": Parameter("source voltage", check="real", shape="signal", unit="V")}
 
@@ -336,6 +347,7 @@ class CurrentSource(_Element):
     """Ideal current source driving I(t) from a, through itself, to b."""
 
     kind = "current_source"
+    symbol = "SourceI"
     role = "through"
     parameters = {"I": Parameter("source current", check="real", shape="signal", unit="A")}
 

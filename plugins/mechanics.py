@@ -59,6 +59,10 @@ class MechanicalView(DomainView):
             raise UnknownNameError("rigid body", body, [b for b in self.poses if b != "ground"])
         return self.poses[body]
 
+    def branch_meaning(self, key: str, rate: bool = False) -> str:
+        """``"x_a − x_b of k1 [m]"`` (its rate in m/s)."""
+        return f"x_a − x_b of {key} [{'m/s' if rate else 'm'}]"
+
     def branch_value(self, key: str) -> sp.Expr:
         """``x_a − x_b`` of the branch ``key`` (one dimension only)."""
         if self.dim != 1:

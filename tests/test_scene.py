@@ -471,3 +471,25 @@ def _property_test():
 
 
 test_scene_given_the_whole_state_agrees_with_the_full_model_on_random_values = _property_test()
+
+
+def test_branch_outputs_say_what_they_are_and_spice_names_give_voltages(tmp_path, capsys):
+    """An RC low-pass (4.7 kΩ, 100 nF) from 0.3 V: v(C1) = [C1]/C, i(C1) = [C1]', and each [X] is named."""
+    from lagrangian.cli import main
+    from lagrangian.netlist import read_netlist
+
+    text = "rc\nR1 in out 4.7k\nC1 out 0 100n\nV1 in 0 DC 1\n.ic v(out)=0.3\n.tran 5u 1m\n.end\n"
+    net = read_netlist(text)
+    scene = Scene(net.model, ["[C1]", "v(C1)", "[C1]'", "i(C1)", "v(out)"], t_end=1e-3, initial=net.initial,
+                  velocity=net.velocity)
+    res = scene.run()
+    assert np.allclose(res["v(C1)"], res["[C1]"] / 100e-9, rtol=1e-12)
+    assert np.allclose(res["i(C1)"], res["[C1]'"], rtol=1e-12, atol=1e-15)
+    assert np.allclose(res["v(out)"], res["v(C1)"], rtol=1e-12)
+    tau = 4.7e3 * 100e-9
+    assert np.allclose(res["v(C1)"], 1 - 0.7 * np.exp(-res.t / tau), atol=1e-7)
+    assert res.meanings == {"[C1]": "charge through C1 [C] (its voltage: v(C1))", "[C1]'": "current through C1 [A]"}
+    path = tmp_path / "rc.cir"
+    path.write_text(text)
+    assert main(["scene", str(path), "-o", "[C1]"]) == 0
+    assert "[C1] — charge through C1 [C] (its voltage: v(C1)): at t = 0.001" in capsys.readouterr().out

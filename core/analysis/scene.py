@@ -65,6 +65,7 @@ from ..derivation.equations import Equations, _is_zero
 from ..errors import ModelError, ReductionError, UnknownNameError, warn
 from .impulse import simulate_with_impacts
 from ..model import Model
+from .channels import _BRANCH, _output_expr
 from .routh import _depends, _drop, ignorable, reduce
 from .scene_cost import reduction_skipped
 from .scene_plan import Offer, Part, ScenePlan, SceneResult, _closure, _maybe_linear, _ops, _Output, _with_values
@@ -83,7 +84,9 @@ class Scene:
     ``"L"``), a component's share (``"T[m1]"``, ``"V[k1]"``, ``"D[c1]"``),
     a branch's integral quantity or its rate (``"[C1]"``, ``"[L1]'"``:
     charge/current, displacement/velocity, flux/voltage as the domain
-    defines them); or SymPy expressions of the coordinates ``q(t)``, their
+    defines them, said in words by ``SceneResult.meanings``), an element's
+    voltage or current or a node's voltage (``"v(C1)"``, ``"i(L1)"``,
+    ``"v(n2)"``, as SPICE names them); or SymPy expressions of the coordinates ``q(t)``, their
     derivatives and ``t`` (labelled by their text).  ``initial``,
     ``velocity`` and ``params`` are named as for
     :meth:`lagrangian.Model.simulate` and may give the whole model's state
@@ -166,7 +169,10 @@ class Scene:
         else:
             label = spec.strip()
             m = re.fullmatch(r"(T|V|D|E|L)?\[([^\]]+)\](')?", label)
-            if label in names:
+            meaning = ""
+            if label not in names and _BRANCH.match(label):  # v(C1), i(L1), a node's voltage v(n2)
+                expr = eq.symbolic(_output_expr(model, eq, label)[1])
+            elif label in names:
                 expr = eq.sym.q[names.index(label)]
             elif label.endswith("'") and label[:-1] in names:
                 expr = eq.sym.v[names.index(label[:-1])]
@@ -191,6 +197,7 @@ class Scene:
                         raise ModelError(f"scene output {label!r}: component {comp!r} has no branch quantity in the "
                                          f"{domain} domain; ask for a coordinate or an energy instead.") from None
                     expr = eq.symbolic(value.diff(t) if rate else value)
+                    meaning = model.assembly.views[domain].branch_meaning(comp, bool(rate))
             else:
                 choices = names + [f"{n}'" for n in names] + list(_ENERGIES) + ["T[<component>]", "[<component>]"]
                 raise UnknownNameError("scene output", label, choices)
@@ -201,7 +208,7 @@ class Scene:
         expr = _drop(expr, absent)  # e.g. an angle that cancels out of an energy
         free = expr.free_symbols
         depends = {i for i in range(len(names)) if q[i] in free or v[i] in free}
-        return _Output(label, expr, depends)
+        return _Output(label, expr, depends, meaning if isinstance(spec, str) else "")
 
     # -- planning ---------------------------------------------------------------------
     @property

@@ -31,6 +31,7 @@ class _Output:
     label: str
     expr: sp.Expr  # in the plain symbols of the full model
     depends: set[int]  # coordinate indices (positions or rates)
+    meaning: str = ""  # what a branch output is, in words ("charge through C1 [C] ...")
 
 
 @dataclass
@@ -126,6 +127,11 @@ class SceneResult:
     @property
     def outputs(self) -> list[str]:
         return [o.label for o in self.scene._outputs]
+
+    @property
+    def meanings(self) -> dict[str, str]:
+        """What each branch output is, by label (``"[C1]": "charge through C1 [C] (its voltage: v(C1))"``)."""
+        return {o.label: o.meaning for o in self.scene._outputs if o.meaning}
 
     def as_dict(self) -> dict[str, np.ndarray]:
         """Every output (computing those not yet computed)."""

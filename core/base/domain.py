@@ -104,6 +104,11 @@ class DomainView:
     def branch_value(self, key: str) -> sp.Expr:
         raise NotImplementedError(f"{type(self).__name__} does not define branch quantities")
 
+    def branch_meaning(self, key: str, rate: bool = False) -> str:
+        """What :meth:`branch_value` of ``key`` (or its rate) is, in words with its unit, for reports
+        (``"charge through C1 [C]"``); domains with branch quantities override it."""
+        return f"{'rate of the ' if rate else ''}branch quantity of {key}"
+
 
 class Domain:
     """Base class of a physical domain.

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from ..base import display
 from ..errors import ModelError
@@ -74,10 +75,11 @@ class Comparison:
         lines = [head, f"  {'quantity':24} {'meaning':28} {'max abs err':>12} {'rel to peak':>12}"]
         for r in self.rows:
             lines.append(f"  {r.label:24} {r.meaning[:28]:28} {r.max_abs:12.3e} {r.max_rel:12.3e}")
+        setup = (f"+{self.codegen_s * 1e3:.0f} ms set-up: derivation, code generation, imports" if self.codegen_s >= 5e-4
+                 else "no set-up: the derivation and code were already made in this process")
         lines.append(
             f"  wall time: ngspice {self.ngspice_s * 1e3:.1f} ms; ours"
-            f"{f' ({self.method})' if self.method else ''} {self.ours_s * 1e3:.1f} ms "
-            f"(+{self.codegen_s * 1e3:.0f} ms set-up: derivation, code generation, imports)"
+            f"{f' ({self.method})' if self.method else ''} {self.ours_s * 1e3:.1f} ms ({setup})"
         )
         return "\n".join(lines)
 
@@ -126,6 +128,23 @@ class Comparison:
         axes[-1][1].set_xlabel("t")
         fig.suptitle(self.table().splitlines()[0])
         return fig
+
+
+def _plain(expr) -> str:
+    """An expression of the coordinates in the notation of outputs: ``x_cart`` for ``x_cart(t)``, ``x_cart'`` for
+    its rate.
+
+    >>> x = sp.Function("x_cart")(sp.Symbol("t"))
+    >>> _plain(-4.0 * x), _plain(x.diff(sp.Symbol("t")))
+    ('-4.0*x_cart', "x_cart'")
+    """
+    expr = sp.sympify(expr)
+    names = {}
+    for d in expr.atoms(sp.Derivative):
+        if isinstance(d.expr, AppliedUndef) and len(d.variables) <= 2 and len(set(d.variables)) == 1:
+            names[d] = sp.Symbol(d.expr.func.__name__ + "'" * len(d.variables))
+    expr = expr.xreplace(names)
+    return sp.sstr(expr.xreplace({f: sp.Symbol(f.func.__name__) for f in expr.atoms(AppliedUndef)}))
 
 
 def _state_scale(model: Model, res) -> np.ndarray:
@@ -234,7 +253,7 @@ def compare_with_ngspice(
         target = mapped.to_source(expr) if mapped else expr
         ours[label] = res.quantity(target)
         spice = run.quantities[label]
-        meaning = sp.sstr(target) if mapped else label
+        meaning = _plain(target) if mapped else label
         rows.append(QuantityError(label, meaning, float(np.max(np.abs(ours[label] - spice))), float(np.max(np.abs(spice)))))
     return Comparison(
         model=model.name,

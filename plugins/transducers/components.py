@@ -175,7 +175,7 @@ class VariableCapacitor(_Transducer):
     >>> _ = m.add("damper", "c", ("ground", "plate"), c=0.03)
     >>> cmp = compare_with_ngspice(m, 5e-3, analogy="force-voltage", max_step=1e-6)
     >>> [(r.label, r.meaning) for r in cmp.rows if r.label.startswith("v(T_Cx")]  # q/C0 and x/gap
-    [('v(T_Cx.q)', '112994350282.486*q_R(t)'), ('v(T_Cx.x)', '10000.0*x_plate(t)')]
+    [('v(T_Cx.q)', '112994350282.486*q_R'), ('v(T_Cx.x)', '10000.0*x_plate')]
     >>> cmp.worst_rel < 1e-4
     True
     """
