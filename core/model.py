@@ -421,6 +421,32 @@ class Model:
             ax.figure.savefig(path, dpi=120)
         return ax
 
+    def schematic(self, path: str | None = None):
+        """A circuit schematic of the model (:mod:`schemdraw`): its two-terminal elements with their symbols
+        (resistors, capacitors, inductors, sources; a box with the kind for others), labelled with their names,
+        the nodes on a row above ground.  For circuits, imported netlists and the circuit analogues of
+        mechanisms (``map_model(model, ...).model.schematic()``); ``path`` saves it (PNG, SVG or PDF).  Returns
+        the ``schemdraw.Drawing``.  A component with other than two terminals is refused: ``draw()`` draws any
+        model.
+
+        >>> import lagrangian as lg
+        >>> c = lg.Model("rc")
+        >>> _ = c.add("voltage_source", "V1", ("in", "0"), E=1)
+        >>> _ = c.add("resistor", "R1", ("in", "out"), R=1e3)
+        >>> _ = c.add("capacitor", "C1", ("out", "0"), C=1e-6)
+        >>> import schemdraw.elements as elm
+        >>> drawn = c.schematic().elements
+        >>> [sum(isinstance(e, kind) for e in drawn) for kind in (elm.Resistor, elm.Capacitor, elm.SourceV)]
+        [1, 1, 1]
+        """
+        try:
+            drawing = display.schematic(list(self._graph.components.values()), f"{self.name}")
+        except ValueError as exc:
+            raise ModelError(f"model {self.name!r}: {exc}.") from None
+        if path:
+            drawing.save(str(path))
+        return drawing
+
     def describe(self) -> str:
         """A plain-text summary: components, coordinates, Lagrangian, equations."""
         out = [f"model {self.name!r}"]

@@ -1,6 +1,8 @@
 """Display in notebooks: every object users look at renders as HTML (escaped), and its plain repr is short."""
 
 import math
+
+import pytest
 import re
 
 import numpy as np
@@ -117,3 +119,32 @@ def test_a_model_draws_its_component_graph_with_domains_and_labels(tmp_path):
     coil = next(t for t in ax.texts if t.get_text() == "coil\nmoving_coil")
     assert to_hex(coil.get_bbox_patch().get_facecolor()) == DOMAIN_COLOURS["electrical"]
     assert (tmp_path / "g.png").stat().st_size > 5000
+
+
+def test_netlists_and_analogues_draw_as_schematics(tmp_path):
+    import schemdraw.elements as elm
+
+    from lagrangian.analogy import map_model
+    from lagrangian.netlist import read_netlist
+    from pathlib import Path
+
+    deck = (Path(__file__).resolve().parents[1] / "examples" / "butterworth.cir").read_text()
+    drawing = read_netlist(deck).model.schematic(path=str(tmp_path / "bw.svg"))
+    count = {kind.__name__: sum(isinstance(e, kind) for e in drawing.elements)
+             for kind in (elm.Resistor, elm.Capacitor, elm.Inductor2, elm.SourceV)}
+    assert count == {"ResistorIEEE": 2, "Capacitor": 3, "Inductor2": 2, "SourceV": 1}
+    labels = {lab.label for e in drawing.elements for lab in getattr(e, "_userlabels", [])}
+    assert {"Rs", "C1", "L2", "C3", "L4", "C5", "RL", "V1"} <= labels
+    assert (tmp_path / "bw.svg").read_text().startswith("<svg") or "<svg" in (tmp_path / "bw.svg").read_text()
+    msd = lg.Model("msd")
+    msd.add("mass", "m", "cart", m=1.0)
+    msd.add("spring", "k", ("ground", "cart"), k=4.0)
+    msd.add("damper", "c", ("ground", "cart"), c=0.4)
+    msd.add("force", "F", "cart", F=1.0)
+    analogue = map_model(msd, "force-voltage").model.schematic()
+    assert [sum(isinstance(e, kind) for e in analogue.elements) for kind in
+            (elm.Inductor2, elm.Capacitor, elm.Resistor, elm.SourceV)] == [1, 1, 1, 1]
+    with pytest.raises(lg.ModelError, match="two-terminal"):
+        speaker = lg.Model("speaker")
+        speaker.add("moving_coil", "coil", ("a", "0", "cone"), Bl=7.0)
+        speaker.schematic()

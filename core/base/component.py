@@ -366,6 +366,10 @@ class Component:
     #: True for a component that gives the model coordinates or geometry (a joint, a massless link)
     #: rather than energy: its contribution may be empty.
     structural: ClassVar[bool] = False
+    #: The schematic symbol of a two-terminal circuit element: the name of a ``schemdraw.elements`` class
+    #: (``"Resistor"``, ``"Capacitor"``, ``"Inductor2"``, ``"SourceV"``, ...), for ``Model.schematic``;
+    #: ``None``: drawn as a box with the component's kind.
+    symbol: ClassVar[str | None] = None
 
     def __init__(self, name: str, nodes: tuple[str, ...], params: Mapping[str, Any]):
         self.name = name

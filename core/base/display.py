@@ -147,3 +147,82 @@ def draw_components(components: Sequence[Any], title: str, ax=None, ground: str 
     ax.axis("off")
     ax.margins(0.15)
     return ax
+
+
+def schematic(components: Sequence[Any], title: str, ground: Sequence[str] = ("0", "ground")):
+    """A schematic of two-terminal components with :mod:`schemdraw`: the nodes other than ground on one row, in
+    the order of a walk from the first source, ground along the bottom; an element between neighbouring nodes
+    sits on the row, one to ground hangs from its node, others (parallel, or between nodes further apart) are
+    lifted onto rows above and joined by wires.  Each element is drawn with its ``symbol`` (a box with its kind
+    when it has none) and labelled with its name.  Returns the ``schemdraw.Drawing``."""
+    import networkx as nx
+    import schemdraw
+    import schemdraw.elements as elm
+
+    parts = [c for c in components if len(dict.fromkeys(c.nodes)) == 2]
+    others = [c.name for c in components if len(dict.fromkeys(c.nodes)) != 2]
+    if others:
+        raise ValueError(f"only two-terminal elements have schematic symbols; {short(others)} "
+                         f"{'has' if len(others) == 1 else 'have'} other terminals: draw the model with draw()")
+    graph = nx.MultiGraph()
+    for c in parts:
+        graph.add_edge(*c.nodes[:2], key=c.name)
+    live = nx.Graph(graph.subgraph([n for n in graph if n not in ground]))
+    start = next((n for c in parts if c.symbol and c.symbol.startswith("Source") for n in c.nodes if n not in ground),
+                 next(iter(live), None))
+    order: list[str] = []
+    for component in ([start] if start is not None else []) + [n for n in live if n != start]:
+        if component not in order:
+            order += [n for n in nx.dfs_preorder_nodes(live, component) if n not in order]
+    x = {n: 3.0 * i for i, n in enumerate(order)}
+    top, low = 3.0, 0.0
+    schemdraw.use("matplotlib")
+    drawing = schemdraw.Drawing(show=False)
+    drawing.config(fontsize=10, unit=2.5)
+    used: dict[int, list[tuple[float, float]]] = {}  # row → the stretches its elements take
+    hang: dict[str, int] = {}
+    xs = list(x.values()) or [0.0]
+
+    def element(c, p, q):
+        symbol = getattr(elm, c.symbol) if c.symbol and hasattr(elm, c.symbol) else None
+        e = symbol() if symbol is not None else elm.RBox()
+        if c.symbol == "SourceV":  # schemdraw marks its end +; a source's first node is its + terminal
+            p, q = q, p
+        drawing.add(e.endpoints(p, q).label(c.name if symbol is not None else f"{c.name}\n{c.kind}", fontsize=9))
+
+    for c in parts:
+        a, b = c.nodes[0], c.nodes[1]
+        if a in ground and b in ground:
+            continue
+        if a in ground or b in ground:
+            node = b if a in ground else a
+            k = hang.get(node, 0)
+            hang[node] = k + 1
+            px = x[node] + 1.5 * k
+            if k:
+                drawing.add(elm.Line().endpoints((x[node] + 1.5 * (k - 1), top), (px, top)))
+                drawing.add(elm.Line().endpoints((x[node] + 1.5 * (k - 1), low), (px, low)))
+            p, q = ((px, top), (px, low)) if b in ground else ((px, low), (px, top))
+            element(c, p, q)
+            xs.append(px)
+            continue
+        lo, hi = sorted((x[a], x[b]))
+        level = 0 if abs(order.index(a) - order.index(b)) == 1 else 1
+        while any(lo < h and l < hi for l, h in used.get(level, [])):  # the lowest free stretch of a row
+            level += 1
+        used.setdefault(level, []).append((lo, hi))
+        pair = (a, b)
+        y = top + 2.0 * level
+        if level:
+            for n in pair:
+                drawing.add(elm.Line().endpoints((x[n], top), (x[n], y)))
+        p, q = (x[a], y), (x[b], y)
+        element(c, p, q)
+    if any(n in ground for c in parts for n in c.nodes):
+        drawing.add(elm.Line().endpoints((min(xs), low), (max(xs), low)))
+        drawing.add(elm.Ground().at((min(xs), low)))
+    for n in order:
+        drawing.add(elm.Dot().at((x[n], top)).label(str(n), loc="top", fontsize=8, color="gray"))
+    drawing.add(elm.Label().at(((min(xs) + max(xs)) / 2, top + 2.0 * max(used, default=0) + 2.0))
+                .label(title, fontsize=11))
+    return drawing
