@@ -1,5 +1,5 @@
 # The two commands of the README. Each sets up what it needs (scripts/setup.sh).
-.PHONY: setup demo test test-fast benchmark plugins clean
+.PHONY: setup demo test test-fast docs benchmark plugins clean
 
 setup:
 	@bash scripts/setup.sh
@@ -14,6 +14,13 @@ test: setup
 # The loop while editing: the tests not marked slow (subprocesses, ngspice, Dask clusters; tests/conftest.py).
 test-fast: setup
 	.venv/bin/python -m pytest -q -n auto -m "not slow"
+
+# The documentation site (docs/_build/html): the README as the guide, the plugin author's guide, the API from the
+# docstrings; any Sphinx warning is an error.
+docs: setup
+	.venv/bin/python -m pip install -q -e ".[docs]"
+	.venv/bin/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
 
 benchmark: setup
 	.venv/bin/python -m pip install -q -e ".[bench]"
@@ -36,4 +43,4 @@ plugins: setup
 	.venv/bin/lagrangian plugins
 
 clean:
-	rm -rf .venv build *.egg-info core/*.egg-info examples/plugins/*/*.egg-info .pytest_cache
+	rm -rf .venv build *.egg-info core/*.egg-info examples/plugins/*/*.egg-info .pytest_cache docs/_build docs/_api docs/gallery

@@ -1,4 +1,5 @@
 """A pendulum hanging from a cart: on a free cart, and on a cart moved at constant speed.
+======================================================================================
 
 The pendulum is a point mass m on a massless link of length L pinned to the
 cart (absolute angle θ from the x axis: hanging is θ = −π/2); the cart slides
@@ -60,7 +61,7 @@ def upward_crossings(t: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--t-end", type=float, default=20.0, help="simulated time span [s]")
     parser.add_argument("--out", default="cart_pendulum.png", help="where to write the chart (PNG)")
     args = parser.parse_args()

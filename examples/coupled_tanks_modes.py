@@ -1,4 +1,5 @@
 """The normal modes of two inductively coupled LC tanks.
+=====================================================
 
 Two identical tanks (L, C) whose inductors are coupled by k share two
 modes: in phase, at ω² = 1/((1 + k) L C), and in antiphase, at
@@ -42,7 +43,7 @@ def tanks(formulation: str, R: float | None = None) -> lg.Model:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="coupled_tanks.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

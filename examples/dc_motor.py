@@ -1,4 +1,5 @@
 """A DC motor spinning up a flywheel after a voltage step, against the closed form.
+================================================================================
 
 One Lagrangian holds the armature circuit (step source V, resistance R,
 inductance La), the motor (constant K: L ∋ K·θ·q̇, torque K·i, back-emf K·θ̇)
@@ -62,7 +63,7 @@ def closed_form(t: np.ndarray) -> tuple[np.ndarray, complex, complex]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="dc_motor.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

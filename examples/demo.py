@@ -1,4 +1,5 @@
 """The main demo: a driven mass–spring–damper and its series RLC analogue.
+=======================================================================
 
 Both are assembled from plugins into one Lagrangian each; the demo prints
 both Lagrangians and equations of motion, simulates both, prints how far
@@ -69,7 +70,7 @@ def closed_form(t: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="demo.png", help="where to write the chart (PNG)")
     parser.add_argument("--t-end", type=float, default=20.0)
     args = parser.parse_args()

@@ -1,4 +1,5 @@
 """A model using a third-party component: the cubic (Duffing) spring plugin.
+=========================================================================
 
 The kind ``cubic_spring`` comes from the separate distribution in
 examples/plugins/cubic-spring, found through its entry point. Prints the

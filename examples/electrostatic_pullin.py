@@ -1,4 +1,5 @@
 """Electrostatic pull-in: a plate on a spring, attracted by a voltage across a gap.
+================================================================================
 
 A voltage source charges, through a resistor, a parallel-plate capacitor
 whose plate (mass m, on a spring k, with a damper c) moves towards the fixed
@@ -61,7 +62,7 @@ def actuator() -> lg.Model:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="electrostatic_pullin.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

@@ -1,4 +1,5 @@
 """A four-bar linkage: a closed kinematic loop kept by a loop-closure constraint.
+==============================================================================
 
 Crank a = 1 (pinned to the ground at the origin), coupler b = 3, rocker c = 2
 (pinned to the ground at (d, 0), d = 3): a crank-rocker (Grashof: a + b ≤ c + d).
@@ -62,7 +63,7 @@ def rocker_angle(crank: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--t-end", type=float, default=10.0, help="simulated time span [s]")
     parser.add_argument("--out", default="four_bar.png", help="where to write the chart (PNG)")
     args = parser.parse_args()

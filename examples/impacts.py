@@ -1,4 +1,5 @@
 """Hybrid simulation with impacts: a bouncing ball coming to rest, a pendulum hitting a wall.
+==========================================================================================
 
 1. A ball dropped from height h onto the ground, restitution e < 1.  Impact
    k comes at t_k = t₁ + 2v₁(e + … + e^{k−1})/g (t₁ = √(2h/g), v₁ = √(2gh)),
@@ -95,7 +96,7 @@ def pendulum_wall(ax, ell=1.0, alpha=1.2, e=0.8, impacts=5) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="impacts.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
     fig, (left, right) = plt.subplots(1, 2, figsize=(13, 4.5), constrained_layout=True)

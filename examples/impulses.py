@@ -1,4 +1,5 @@
 """Impulsive motion without integrating anything: Δp = Q̂ with the coordinates held fixed.
+=======================================================================================
 
 1. The notes' four-bar linkage (Fig. 2.17): four uniform bars of mass m and
    length 2b pinned in a rhombus, the vertices A and C sliding smoothly on
@@ -154,7 +155,7 @@ def double_pendulum() -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="impulses.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
     fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)

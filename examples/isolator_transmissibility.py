@@ -1,11 +1,12 @@
 """Transmissibility of a base-excited mass–spring–damper (a vibration isolator).
+=============================================================================
 
 A mass m sits on a spring k and a damper c whose other end is a base moved
 by a prescribed motion y(t).  The transfer function from the base's motion
 to the mass's is H(s) = (c s + k)/(m s² + c s + k); its magnitude on the
 imaginary axis is the transmissibility
 
-    |T(r)| = √(1 + (2ζr)²) / √((1 − r²)² + (2ζr)²),   r = ω/ωn,
+    ``|T(r)|`` = √(1 + (2ζr)²) / √((1 − r²)² + (2ζr)²),   r = ω/ωn,
 
 which every curve crosses at r = √2: above it the isolator isolates, and
 more damping isolates less.  The base enters through the damper's velocity,
@@ -41,7 +42,7 @@ def isolator(c: float) -> lg.Model:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="transmissibility.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

@@ -1,4 +1,5 @@
 """The central-force (Kepler) problem reduced to one degree of freedom through the Routhian.
+=========================================================================================
 
 A planet of mass m rides a bead on a massless arm turning about the sun
 (revolute ``orbit``: θ; prismatic ``radius``: r) and is attracted by
@@ -7,6 +8,7 @@ momentum), and the Routhian R = −½ m ṙ² + C²/(2 m r²) − k/r leaves the
 radial equation (2.89) of the notes.
 
 The script prints:
+
 1. the Routhian, the effective potential and the reduced equation;
 2. the circular orbit r₀ = C²/(m k) and its radial frequency ω_r² = k/(m r₀³)
    (equal to the orbital rate: the perturbed orbit closes), with the
@@ -57,7 +59,7 @@ def upward(t: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="kepler.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

@@ -1,11 +1,12 @@
 """The Bode plot of an imported ladder filter, checked against its closed form and ngspice.
+========================================================================================
 
 ``butterworth.cir`` is a fifth-order Butterworth low-pass LC ladder between
 two 50 Ω terminations, cutoff 1 kHz, with an ``.ac dec 50 10 100k`` line and
 an ``AC 1`` source.  Read as a netlist, its small-signal response at every
 node follows from the Lagrangian of the circuit; at the load it is
 
-    |H(f)| = ½ / √(1 + (f/fc)^10),
+    ``|H(f)|`` = ½ / √(1 + (f/fc)^10),
 
 −3 dB below the passband's ½ at fc and falling 100 dB per decade beyond.
 The same deck runs through ngspice's own AC analysis.
@@ -27,12 +28,12 @@ from lagrangian.ac import compare_ac_with_ngspice
 from lagrangian.netlist import read_netlist_file
 from lagrangian.spice import NgspiceMissingError
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(globals().get("__file__", "ladder_filter_bode.py")).resolve().parent  # (the gallery runs it in examples/)
 FC = 1000.0
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--deck", default=str(HERE / "butterworth.cir"), help="the netlist to read")
     parser.add_argument("--out", default="ladder_bode.png", help="where to write the Bode chart (PNG)")
     args = parser.parse_args()

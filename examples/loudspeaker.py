@@ -1,4 +1,5 @@
 """A loudspeaker: its electrical impedance peaks at the mechanical resonance.
+==========================================================================
 
 One Lagrangian holds the voice-coil circuit (source E, resistance Re,
 inductance Le), the moving coil (force factor Bl: L ∋ Bl·x·q̇) and the cone
@@ -10,7 +11,7 @@ impedance E/I with the closed form
     Z(jω) = Re + jωLe + (Bl)² / (c + jωm + k/(jω)),
 
 whose peak Re + (Bl)²/c sits at the mechanical resonance f_s = √(k/m)/2π.
-Writes a chart of |Z| and its phase against frequency.  The drive at f_s is
+Writes a chart of ``|Z|`` and its phase against frequency.  The drive at f_s is
 cross-checked in ngspice: through the force–voltage analogy the cone's mass,
 suspension and damping become an inductor, a capacitor and a resistor, the
 moving coil a gyrator (two current-controlled voltage sources), all in one
@@ -77,7 +78,7 @@ def simulated_impedance(model: lg.Model, f: float, coil_charge: str) -> complex:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="loudspeaker.png", help="where to write the chart (PNG)")
     parser.add_argument("--points", type=int, default=13, help="number of simulated frequencies (log-spaced, 10 Hz–2 kHz)")
     args = parser.parse_args()

@@ -1,4 +1,5 @@
 """A loudspeaker's input impedance, three ways, on one chart.
+==========================================================
 
 1. From its coupled Lagrangian (voice-coil circuit, moving coil L ∋ Bl·x·q̇,
    cone on its suspension): ``lagrangian.frequency.impedance`` of the
@@ -66,7 +67,7 @@ def closed_form(f: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="loudspeaker_impedance.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

@@ -1,8 +1,9 @@
 """A parallel RLC driven by a current source, in node flux linkages (force–current analogy).
+=========================================================================================
 
 The node's flux linkage λ is the coordinate; its rate is the node voltage.
 Prints the Lagrangian (electric co-energy minus magnetic energy) and checks
-the simulated steady-state amplitude against |Z(jω)|·I.
+the simulated steady-state amplitude against ``|Z(jω)|``·I.
 Run: .venv/bin/python examples/parallel_rlc_flux.py
 """
 

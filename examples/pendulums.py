@@ -1,4 +1,5 @@
 """Pendulums from rigid bodies and revolute joints: simple, double and n-link.
+===========================================================================
 
 1. Simple pendulum: a point mass on a massless link, released from rest at
    amplitude A from the downward vertical.  Its period is exactly
@@ -73,7 +74,7 @@ def downward_crossings(t: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--t-end", type=float, default=20.0, help="simulated time span [s]")
     parser.add_argument("--links", type=int, default=5, help="links of the n-link pendulum")
     parser.add_argument("--out", default="pendulums.png", help="where to write the chart (PNG)")

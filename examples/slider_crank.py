@@ -1,4 +1,5 @@
 """A slider–crank: crank r = 1, connecting rod l = 3, slider on a horizontal prismatic joint.
+==========================================================================================
 
 The joints O (ground–crank), A (crank–rod) and P (ground–slider) form the
 spanning tree; the joint B (rod–slider) closes the loop: two constraint
@@ -47,7 +48,7 @@ def slider_crank(crank_angle=None) -> lg.Model:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--t-end", type=float, default=10.0, help="simulated time span [s]")
     parser.add_argument("--out", default="slider_crank.png", help="where to write the chart (PNG)")
     args = parser.parse_args()

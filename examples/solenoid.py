@@ -1,4 +1,5 @@
 """A solenoid plunger after a voltage step, against its closed-form rest position and ngspice.
+===========================================================================================
 
 One Lagrangian holds the coil circuit (step source V, resistance R), the
 solenoid (inductance L(x) = L0/(1 + x/x0): T = ½ L(x) q̇² in the charge
@@ -66,7 +67,7 @@ def rest_position() -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="solenoid.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

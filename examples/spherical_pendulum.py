@@ -1,4 +1,5 @@
 """A spherical pendulum: a ball on a spherical joint, L below the pivot, in 3-D.
+=============================================================================
 
 The ball (mass m, radius r, isotropic inertia 2/5 m r²) hangs by its
 spherical joint at (0, 0, L) in its own frame; the joint uses body-fixed
@@ -46,7 +47,7 @@ def spherical_pendulum() -> lg.Model:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--t-end", type=float, default=20.0, help="simulated time span [s]")
     parser.add_argument("--out", default="spherical_pendulum.png", help="where to write the chart (PNG)")
     args = parser.parse_args()

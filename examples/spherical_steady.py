@@ -1,4 +1,5 @@
 """The spherical pendulum in the notes' angles: Routhian, steady motion, its stability, and the pole.
+==================================================================================================
 
 A bob of mass m on a massless arm of length l hangs from two revolute
 joints: ``turn`` about the vertical (φ) and ``tilt`` about the turning
@@ -6,6 +7,7 @@ horizontal axis (θ, from the downward vertical), so that
 L = ½ m l² (φ̇² sin² θ + θ̇²) + m g l cos θ exactly as in the notes.
 
 The script prints:
+
 1. the Routhian, equation (2.94), the effective potential (2.95), the
    steady-motion condition (2.96) and the perturbation equation
    s̈ + (g/l)(3 cos θ₀ + sec θ₀) s = 0, all derived symbolically;
@@ -56,7 +58,7 @@ def upward(t: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="spherical_steady.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
 

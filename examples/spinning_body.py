@@ -1,4 +1,5 @@
 """A torque-free rigid body: conserved energy and angular momentum, and the intermediate-axis flip.
+================================================================================================
 
 A body with principal moments I = (3, 2, 1) along its x, y, z axes turns
 freely about its centre of mass (a spherical joint there, no gravity).  It is
@@ -15,7 +16,7 @@ major and minor axes, and swings to −1 and back for the intermediate one.
 
 The spherical joint uses body-fixed x-y-z Euler angles, singular when the
 body z axis points along the fixed x axis; each run is oriented so that L
-keeps well away from that (|β| is printed).
+keeps well away from that (``|β|`` is printed).
 
 Run: .venv/bin/python examples/spinning_body.py [--t-end 20] [--out spinning_body.png]
 """
@@ -79,7 +80,7 @@ def flip_interval(rates, angles) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--t-end", type=float, default=20.0, help="simulated time span [s]")
     parser.add_argument("--out", default="spinning_body.png", help="where to write the chart (PNG)")
     args = parser.parse_args()

@@ -1,4 +1,5 @@
 """A stability map: where a steady motion stays stable, over a plane of two parameters, swept on Dask.
+===================================================================================================
 
 A pendulum hangs from a turntable (a disc of 2 kg and 0.25 m turning freely
 about the vertical; a bob of 0.3 kg on an arm of length l pinned to it by a
@@ -68,7 +69,7 @@ def verdict(model: lg.Model, values: dict[str, float]) -> dict[str, object]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--points", type=int, default=16, help="values of Ω and of l (a points × points grid)")
     parser.add_argument("--out", default="stability_map.png", help="where to write the chart (PNG)")
     parser.add_argument("--serial", action="store_true", help="run in this process instead of on Dask")

@@ -1,4 +1,5 @@
 """Two masses in a chain, ground–k1–m1–k2–m2: normal modes from the Lagrangian.
+============================================================================
 
 Prints the equations, the normal-mode frequencies from M and the stiffness
 matrix K = −∂f/∂q, and the simulated motion started in the slow mode.

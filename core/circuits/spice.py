@@ -301,7 +301,7 @@ class _NodeNames(dict):
 
 
 def spice_title(text: str) -> str:
-    """A model's name as a deck's title line: letters, digits, spaces and ``_ - . , ( )`` kept, anything else
+    """A model's name as a deck's title line: letters, digits, spaces and the signs ``_-.,()`` kept, anything else
     (a newline that would start a ``.control`` block or an element, a ``*``, a ``;``) made ``_``, at most 80
     characters — user text enters a deck only through this, :class:`_NodeNames` and ``_element_name``.
 

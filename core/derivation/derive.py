@@ -13,7 +13,7 @@ prunes by which symbols each sub-expression depends on, and never expands.
 is first split into terms ``c(q, t) · w_a · w_b`` with ``w = J(q, t) q̇ + b(q, t)``
 affine in the velocities — a point mass gives ``½ m (ẋ² + ẏ²)``, a body
 ``½ I ω²``, an inductor ``½ L q̇²`` — whose contributions are written down
-directly:
+directly::
 
     M_ij += c (J_ai J_bj + J_aj J_bi)
     f_i  -= c (J_ai h_b + J_bi h_a) + ċ (J_ai w_b + J_bi w_a) − ∂c/∂q_i w_a w_b

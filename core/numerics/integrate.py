@@ -84,7 +84,7 @@ class StiffnessWarning(UserWarning):
 #: The stiffness check before an explicit run looks at models of at most this many state variables (an
 #: eigenvalue problem of the linearization; larger models are not checked).
 STIFFNESS_CHECK_DIM = 400
-#: ... and warns when the run is stiff and would take at least this many explicit steps (span · |λ|max),
+#: ... and warns when the run is stiff and would take at least this many explicit steps (span · ``|λ|max``),
 STIFFNESS_CHECK_STEPS = 1e5
 #: ... and refuses the run (it would not end) from this many on,
 STIFFNESS_REFUSE_STEPS = 1e10
@@ -288,7 +288,7 @@ def _solve_pieces(integrator, problem: Problem, t_span, y0: np.ndarray, t_eval: 
 
 def _stiffness_note(problem: Problem, integrator, t_span, y0, model) -> str | None:
     """Why an explicit adaptive method will crawl on this model (its linearization at the start is stiff), or
-    ``None``: explicit methods need steps of about 1/|λ|max, so a span of many slow time scales takes
+    ``None``: explicit methods need steps of about ``1/|λ|max``, so a span of many slow time scales takes
     ``span·|λ|max`` evaluations and more."""
     if integrator.kind != "adaptive" or integrator.implicit or integrator.stiff or problem.dim > STIFFNESS_CHECK_DIM:
         return None

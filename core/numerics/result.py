@@ -118,7 +118,7 @@ class Result:
         return self.evaluator(expr, self)
 
     def energy_drift(self) -> float:
-        """Largest departure of ``T + V`` from its initial value, relative to the largest of |E(0)|, T and |V|."""
+        """Largest departure of ``T + V`` from its initial value, relative to the largest of ``|E(0)|``, ``T`` and ``|V|``."""
         E = self.E
         scale = max(abs(E[0]), np.max(np.abs(self.T)), np.max(np.abs(self.V)), np.finfo(float).tiny)
         return float(np.max(np.abs(E - E[0])) / scale)

@@ -1,7 +1,7 @@
 """Parameter sweeps and ensembles: compiled once, run on Dask, results as labelled arrays.
 
 :func:`sweep` runs a model over a grid of parameter values, zipped lists,
-or random draws with a seed (:mod:`~lagrangian.sweep.design`), and returns an
+or random draws with a seed (:mod:`~lagrangian.sweep.designs`), and returns an
 :class:`xarray.Dataset` (:mod:`~lagrangian.sweep.dataset`).
 
 - **Simulations** (the default): the model is derived and compiled once,
@@ -54,8 +54,8 @@ from ...model import Model
 from ...numerics.ensemble import Chunk, run_chunk
 from ..frequency import frequency_response
 from .dataset import DONE, FAILED, NOT_RUN, dataset, describe, plot
-from .design import Distribution, LogUniform, Normal, Samples, Uniform, design, parse_axis
-from .design import design as make_design
+from .designs import Distribution, LogUniform, Normal, Samples, Uniform, design, parse_axis
+from .designs import design as make_design
 from .execute import SERIAL, execute, local_client, shutdown, workers
 from .plan import plan
 

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     import xarray as xr
 
 from ...errors import ModelError, UnknownNameError
-from .design import Samples
+from .designs import Samples
 
 __all__ = ["DONE", "FAILED", "NOT_RUN", "dataset", "describe", "plot"]
 

@@ -31,7 +31,7 @@ from ...numerics.ensemble import METHODS, CompiledForm, RunSpec, compile_form
 from ...numerics.problem import Problem
 from ...numerics.simulation import InitialConditionWarning, initial_state
 from ..channels import _BRANCH, _PRIMES, _output_expr, _unit
-from .design import Samples
+from .designs import Samples
 
 __all__ = ["Plan", "plan", "ENERGIES"]
 
