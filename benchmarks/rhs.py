@@ -25,7 +25,7 @@ random state, after a warm-up):
   reason otherwise).
 
 Code generation time (s; median of fresh processes, after the imports and
-the derivation): ours ``compile_model`` native (tapes, C source, ``cc -O2``)
+the derivation): ours ``compile_model`` native (tapes, C source, ``cc -O3``)
 with nothing in the cache (a temporary ``LAGRANGIAN_CACHE_DIR``; the
 runtime library compiles alongside, in parallel) and on the tape (recording
 the tapes; the runtime library built beforehand, as once per machine),
@@ -145,7 +145,7 @@ int lg_rhs(const void *ctx, double t, const double *y, double *dy) { return 1; }
 
 
 def c_loop_us(sources: list[str], states, calls: int, workdir: str, name: str, tape=None) -> tuple[float, list]:
-    """Per-call µs of ``lg_rhs`` from ``sources`` called in a C loop (``cc -O2``), and its value at ``states[0]``;
+    """Per-call µs of ``lg_rhs`` from ``sources`` called in a C loop (``cc`` with ``codegen.FLAGS``), and its value at ``states[0]``;
     with ``tape`` (a ``CompiledModel`` of kind ``"tape"``), of the tape interpreter's right-hand side instead."""
     import ctypes
 
@@ -354,7 +354,7 @@ def main() -> None:
     print("native, tape: CompiledModel.rhs called from Python (ctypes), as solve_ivp or a Python loop calls it, for the "
           "model's native library and for the tape interpreter; native C, tape C, hand C: the generated lg_rhs, the tape "
           "interpreter, and a hand-written C function of the same system (same LU), called in a loop in C, as the "
-          "compiled stepping loops (dopri5_c, rk4_c, verlet_c) call them; gen native: tapes + C source + cc -O2 with "
+          "compiled stepping loops (dopri5_c, rk4_c, verlet_c) call them; gen native: tapes + C source + cc -O3 with "
           "nothing in the cache (the runtime library compiled alongside); gen tape: recording the tapes, with the "
           "runtime library already built (once per machine)")
     print(json.dumps(last))

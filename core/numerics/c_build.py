@@ -26,7 +26,7 @@ from .c_source import CODEGEN_VERSION, _runtime_source, _Unavailable
 _log = logging.getLogger("lagrangian")
 
 #: Flags of every compilation (part of the cache key).
-FLAGS = ("-O2", "-ffp-contract=off", "-shared", "-fPIC")
+FLAGS = ("-O3", "-ffp-contract=off", "-shared", "-fPIC")
 _DIVERGED = 1e30
 _settings: dict[str, Any] = {"cache_dir": None, "compiler": None}
 
