@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import lagrangian as lg
@@ -72,6 +72,7 @@ def actuator(V, eps_A=1.0, gap=1.0, k=1.0, mass=1.0, c=1.0, R=0.1):
 
 @settings(max_examples=12)
 @given(decade(1e-3, 1e3), decade(1e-6, 1e-2), decade(1e-12, 1e-6), st.floats(0.05, 0.97))
+@example(k=100.0, gap=1e-6, eps_A=1e-6, fraction=0.5)  # an RC of 1e3 s beside a resonance at 1e4 rad/s: stiff
 def test_electrostatic_equilibria_are_the_cubics_roots_and_stable_below_pull_in(k, gap, eps_A, fraction):
     v_pi = math.sqrt(8 * k * gap**3 / (27 * eps_A))
     V = fraction * v_pi

@@ -37,6 +37,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 import scipy.optimize
 import sympy as sp
 
@@ -187,6 +188,20 @@ def _newton(model: str, names: list[str], exprs: list[sp.Expr], unknowns: list[s
     return {n: float(x) for n, x in zip(names, sol.x)}
 
 
+def _regular_at_zero(lin) -> bool:
+    """Whether the linearization's pencil is clearly nonsingular at ``s = 0`` (so no eigenvalue is zero): the
+    stiffness, bordered by the constraint Jacobian, balanced, with its smallest singular value above 1e-12 of its
+    largest (a zero eigenvalue, simple or of a Jordan block, leaves it singular to round-off)."""
+    K, Phi = np.asarray(lin.K, dtype=float), np.asarray(lin.Phi, dtype=float)
+    m = Phi.shape[0] if Phi.ndim == 2 else 0
+    P = np.block([[K, Phi.T], [Phi, np.zeros((m, m))]]) if m else K
+    if not P.size or not np.all(np.isfinite(P)):
+        return False
+    balanced, _ = scipy.linalg.matrix_balance(P, permute=False)
+    sv = np.linalg.svd(balanced, compute_uv=False)
+    return bool(sv[0] > 0 and sv[-1] > 1e-12 * sv[0])
+
+
 def _verdict(lin, found: Modes) -> Stability:
     lam = found.eigenvalues
     every = np.concatenate([lam, np.conj(lam[np.abs(lam.imag) > 0])]) if lam.size else lam
@@ -201,13 +216,22 @@ def _verdict(lin, found: Modes) -> Stability:
     symmetric = np.allclose(K, K.T, rtol=1e-9, atol=1e-12 * float(np.max(np.abs(K), initial=0.0)))
     curvature = np.linalg.eigvalsh((K + K.T) / 2) if K.size else np.zeros(0)
     minimum = bool(K.size) and symmetric and bool(np.all(curvature > 1e-9 * float(np.max(np.abs(curvature)))))
-    if scale > 0 and np.any(lam.real > tol):
+    # A small eigenvalue (|λ| ≤ 1e-7 of the largest: a slow pole beside fast ones, an RC of 1e3 s beside a
+    # resonance at 1e4 rad/s) is a zero only if the pencil is singular at s = 0; where it is not, its sign is as
+    # sure as its real part is large against round-off, and decides.
+    small = np.abs(lam) <= tol
+    sure = small & (np.abs(lam.real) > np.maximum(1e-6 * np.abs(lam), 1e3 * np.finfo(float).eps * scale))
+    if small.any() and _regular_at_zero(lin):
+        small = small & ~sure
+    else:
+        sure = np.zeros_like(small)
+    if scale > 0 and np.any((lam.real > tol) | (sure & (lam.real > 0))):
         return Stability("unstable", lam, freqs, curvature,
                          f"an eigenvalue with positive real part ({_fmt(lam[np.argmax(lam.real)])})")
-    if scale == 0 or np.any(np.abs(lam) <= tol):
+    if scale == 0 or np.any(small):
         return Stability("marginal", lam, freqs, curvature,
                          "a zero eigenvalue: the linearization cannot decide (a bifurcation, or a neutral direction)")
-    if np.all(lam.real < -tol):
+    if np.all((lam.real < -tol) | (sure & (lam.real < 0))):
         return Stability("asymptotically stable", lam, freqs, curvature, "every eigenvalue has a negative real part")
     if minimum and not np.any(lin.C):
         return Stability("stable", lam, freqs, curvature,
