@@ -35,7 +35,7 @@ __version__ = "0.1.0"
 #: ``lagrangian.analysis.routh``, imported when first asked for.
 MODULES = {
     "base": ("component", "domain", "graph", "network", "text", "identity", "arguments", "switching", "budget",
-             "display", "units"),
+             "display", "units", "latex"),
     "plugin": ("contracts", "hookspecs", "registry"),
     "derivation": ("assembly", "derive", "equations"),
     "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench", "ensemble",

@@ -20,9 +20,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from sympy.core.function import AppliedUndef
-from sympy.printing.conventions import split_super_sub
-from sympy.printing.latex import LatexPrinter, translate
 
 from .base.arguments import RunOptions, check_atol, check_max_step, check_state, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
 from .derivation.assembly import Assembly, assemble
@@ -30,6 +27,7 @@ from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
 from .derivation.equations import Equations
 from .base import display
+from .base.latex import to_latex
 from .errors import LagrangianError, ModelError, ParameterError, UnknownNameError, closest, warn
 from .base.graph import ComponentGraph
 from .base.units import is_quantity, split, to_si
@@ -44,87 +42,14 @@ __all__ = ["Model"]
 
 _log = logging.getLogger("lagrangian")
 
-#: Characters that LaTeX reads as commands, in the names of coordinates and symbols (``_`` and ``^`` keep
-#: SymPy's meaning: subscript and superscript).
-_LATEX_SPECIAL = {"\\": r"\backslash{}", "{": r"\{", "}": r"\}", "$": r"\$", "&": r"\&", "#": r"\#", "%": r"\%",
-                  "~": r"\sim{}"}
-_LATEX_RE = re.compile("|".join(map(re.escape, _LATEX_SPECIAL)))
-
-
-def _latex_escape(text: str) -> str:
-    """``text`` with every LaTeX special character escaped (``%`` → ``\\%``)."""
-    return _LATEX_RE.sub(lambda m: _LATEX_SPECIAL[m.group()], text)
-
-
-class _LatexPrinter(LatexPrinter):
-    """SymPy's LaTeX printer, with the names of symbols and coordinate functions escaped for LaTeX: node and
-    component names become part of those names, and may hold ``%``, ``{``, ``\\`` or ``#`` (the one place names
-    are escaped for LaTeX).  Names without such characters print exactly as ``sympy.latex`` prints them."""
-
-    def _split_super_sub(self, name: str) -> tuple[str, list[str], list[str]]:
-        if name is None:
-            return super()._split_super_sub(name)
-        base, supers, subs = split_super_sub(name)
-        return (translate(_latex_escape(base)), [translate(_latex_escape(x)) for x in supers],
-                [translate(_latex_escape(x)) for x in subs])
-
-    def _print_Function(self, expr, exp=None) -> str:
-        if not isinstance(expr, AppliedUndef):
-            return super()._print_Function(expr, exp)
-        # SymPy formats the name with % (name % args): built here by concatenation, so a % in a name is text
-        name = self._hprint_Function(expr.func.__name__)
-        if exp is not None:
-            name = self.parenthesize_super(name) + "^{" + exp + "}"
-        args = ",".join(str(self._print(a)) for a in expr.args)
-        if self._settings["fold_func_brackets"] and len(expr.args) == 1 \
-                and not self._needs_function_brackets(expr.args[0]):
-            return name + args
-        return name + r"{\left(" + args + r" \right)}"
-
-
 class NodeNameWarning(UserWarning):
     """A node only one component touches has a name a slip away from another node's (see ``Model``)."""
-
-
-class _DotPrinter(_LatexPrinter):
-    """The mechanics notation: a coordinate ``x(t)`` prints as ``x``, its rates as ``\\dot{x}``, ``\\ddot{x}``."""
-
-    def _print_Function(self, expr, exp=None) -> str:
-        if isinstance(expr, AppliedUndef) and expr.args == (t,):
-            name = self._hprint_Function(expr.func.__name__)
-            return self.parenthesize_super(name) + "^{" + exp + "}" if exp is not None else name
-        return super()._print_Function(expr, exp)
-
-    def _print_Derivative(self, expr) -> str:
-        f = expr.expr
-        order = sum(n for v, n in expr.variable_count if v == t)
-        if isinstance(f, AppliedUndef) and f.args == (t,) and len(expr.variable_count) == 1 and order <= 3:
-            base, supers, subs = self._split_super_sub(f.func.__name__)
-            text = "\\" + "d" * order + "ot{" + base + "}"
-            return text + ("_{" + " ".join(subs) + "}" if subs else "") + ("^{" + " ".join(supers) + "}" if supers else "")
-        return super()._print_Derivative(expr)
 
 
 def _shown(value: Any) -> str:
     """A parameter's value, short: a number as given, an expression or array in at most 40 characters."""
     text = f"{float(value):g}" if isinstance(value, (float, sp.Float, sp.Integer)) else str(value)
     return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _latex(expr) -> str:
-    return _LatexPrinter().doprint(expr)
-
-
-def to_latex(expr, dots: bool = True) -> str:
-    """``expr`` as LaTeX with names escaped; ``dots``: in the mechanics notation (``x`` for ``x(t)``,
-    ``\\dot{x}`` for its rate), else as ``sympy.latex`` writes it.
-
-    >>> import sympy as sp
-    >>> x = sp.Function("theta_j1")(t)
-    >>> print(to_latex(x.diff(t) ** 2 / 2))
-    \\frac{\\dot{\\theta}_{j1}^{2}}{2}
-    """
-    return (_DotPrinter() if dots else _LatexPrinter()).doprint(expr)
 
 
 class Model:
@@ -366,7 +291,7 @@ class Model:
         >>> m.latex(dots=True).splitlines()[0]
         'L = - 4 x_{p}^{2} + \\\\dot{x}_{p}^{2}'
         """
-        latex = (lambda e: to_latex(e, dots)) if dots else _latex
+        latex = lambda e: to_latex(e, dots)  # noqa: E731
         lines = [rf"L = {latex(self.lagrangian)}"]
         if self.eq.D != 0:
             lines.append(rf"D = {latex(self.rayleigh)}")

@@ -24,7 +24,8 @@ from ...base.text import as_expr
 from ...derivation.equations import Equations
 from ...errors import ReductionError, UnknownNameError
 from ...base import display
-from ...model import Model, to_latex
+from ...base.latex import to_latex
+from ...model import Model
 from ...numerics.simulation import Result
 from ..derived import DerivedModel
 from .cache import _by_structure, _put
