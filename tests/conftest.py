@@ -43,7 +43,8 @@ def registry_with():
 #: Modules whose tests run subprocesses, ngspice, clusters or long property searches: `make test-fast` skips them
 #: (and every test named for ngspice); `make test` and CI run everything.
 SLOW_MODULES = {"test_examples", "test_sweep_dask", "test_transducer_spice", "test_fuzz", "test_robustness",
-                "test_ngspice", "test_spatial_chains", "test_untrusted_code", "test_compare_params", "test_site"}
+                "test_ngspice", "test_spatial_chains", "test_untrusted_code", "test_compare_params", "test_site",
+                "test_notebook"}
 
 
 def pytest_collection_modifyitems(config, items):

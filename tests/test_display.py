@@ -75,7 +75,9 @@ def test_steady_motions_and_their_stability_show_the_verdict_and_eigenvalues():
     assert "give values" in symbolic._repr_html_()
 
 
-def test_a_comparison_with_ngspice_shows_its_table_and_chart():
+def test_a_comparison_with_ngspice_shows_its_table_and_chart(tmp_path):
+    import matplotlib
+
     from lagrangian.compare import compare_with_ngspice
 
     m = lg.Model("series-RLC")
@@ -84,8 +86,16 @@ def test_a_comparison_with_ngspice_shows_its_table_and_chart():
     m.add("capacitor", "C", ("c", "0"), C=2.2e-6)
     cmp = compare_with_ngspice(m, 1e-3, initial={"q_L": 2.2e-6}, velocity={"q_L": 0.0})
     assert "with ngspice" in short(cmp)
-    html = cmp._repr_html_()
+    previous = matplotlib.get_backend()
+    matplotlib.use("svg")  # a backend of the user's: showing or charting a comparison must not switch it
+    try:
+        html = cmp._repr_html_()
+        chart = cmp.chart(tmp_path / "cmp.png")
+        assert matplotlib.get_backend() == "svg"
+    finally:
+        matplotlib.use(previous)
     assert html.count("<img") == 1 and "<td>i(L)</td>" in html and "wall time" in html
+    assert chart.read_bytes().startswith(b"\x89PNG")
 
 
 def test_a_scene_shows_its_report_and_its_result_a_chart():

@@ -510,10 +510,6 @@ class FrequencyResponse:
              path: str | None = None):
         """A Bode chart (magnitude in dB and phase against log frequency) or a Nyquist chart; returns the matplotlib
         Figure and writes it to ``path`` (PNG) when given."""
-        import matplotlib
-
-        if path is not None:
-            matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
         if kind not in ("bode", "nyquist"):

@@ -187,10 +187,6 @@ class Modes:
 
     def plot(self, count: int | None = None, path: str | None = None):
         """Mode shapes against coordinate index (a chain's modes as standing waves); returns the Figure."""
-        import matplotlib
-
-        if path is not None:
-            matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
         k = min(count or 4, len(self.eigenvalues))

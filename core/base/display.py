@@ -21,7 +21,7 @@ import io
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-__all__ = ["escape", "table", "math", "png", "image", "block", "short"]
+__all__ = ["escape", "table", "math", "figure", "png", "image", "block", "short"]
 
 
 def escape(text: Any) -> str:
@@ -41,8 +41,23 @@ def math(latex: str) -> str:
     return f"<div>$${escape(latex)}$$</div>"
 
 
+def figure(**kwargs: Any):
+    """A matplotlib ``Figure`` that no backend manages (``kwargs`` as ``Figure``'s), for charts written to files
+    or inlined in HTML: the library never switches the user's backend (a notebook's inline charts stay inline),
+    and these figures never pop up in a window or pile up in ``pyplot``'s list of open figures.
+
+    >>> fig = figure(figsize=(3, 2))
+    >>> _ = fig.subplots().plot([0, 1], [1, 0])
+    >>> png(fig)[:8] == b"\\x89PNG\\r\\n\\x1a\\n"
+    True
+    """
+    from matplotlib.figure import Figure
+
+    return Figure(**kwargs)
+
+
 def png(figure) -> bytes:
-    """A matplotlib figure as PNG bytes; the figure is closed."""
+    """A matplotlib figure as PNG bytes; the figure is closed when ``pyplot`` holds it."""
     import matplotlib.pyplot as plt
 
     buffer = io.BytesIO()

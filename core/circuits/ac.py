@@ -35,6 +35,7 @@ import sympy as sp
 from sympy.core.function import AppliedUndef
 
 from ..analysis.frequency import frequency_response
+from ..base import display
 from ..base.component import t
 from ..errors import ModelError
 from ..model import Model
@@ -93,13 +94,9 @@ class ACComparison:
 
     def chart(self, path: str | Path) -> Path:
         """Write a PNG: each output's two magnitude responses overlaid, their relative difference underneath."""
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-
         n = len(self.rows)
-        fig, axes = plt.subplots(2, n, figsize=(4.2 * n + 1, 6), squeeze=False, sharex=True, constrained_layout=True)
+        fig = display.figure(figsize=(4.2 * n + 1, 6), layout="constrained")
+        axes = fig.subplots(2, n, squeeze=False, sharex=True)
         for k, r in enumerate(self.rows):
             top, bottom = axes[0][k], axes[1][k]
             with np.errstate(divide="ignore"):
@@ -118,7 +115,6 @@ class ACComparison:
         out = Path(path)
         out.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(out, dpi=110)
-        plt.close(fig)
         return out
 
 

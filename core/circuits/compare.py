@@ -97,23 +97,16 @@ class Comparison:
 
     def chart(self, path: str | Path) -> Path:
         """Write a PNG: each quantity's two responses overlaid, and their difference."""
-        import matplotlib.pyplot as plt
-
         fig = self._figure()
         out = Path(path)
         out.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(out, dpi=110)
-        plt.close(fig)
         return out
 
     def _figure(self):
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-
         n = len(self.rows)
-        fig, axes = plt.subplots(n, 2, figsize=(11, 2.4 * n + 0.8), squeeze=False, constrained_layout=True)
+        fig = display.figure(figsize=(11, 2.4 * n + 0.8), layout="constrained")
+        axes = fig.subplots(n, 2, squeeze=False)
         for (left, right), r in zip(axes, self.rows):
             left.plot(self.time, self.ours[r.label], lw=2.2, label="lagrangian")
             left.plot(self.time, self.spice[r.label], "--", lw=1.2, label="ngspice")

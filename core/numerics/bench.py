@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base import display
 from ..plugin.contracts import DEFAULT_TOLERANCES, Benchmark
 from ..errors import LagrangianError, ModelError, UnknownNameError
 from .integrate import EnergyDriftWarning
@@ -115,17 +116,11 @@ class WorkPrecision:
 
     def chart(self, path: str | Path) -> Path:
         """Write :meth:`plot` as a PNG file; return the path."""
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
-
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        fig, ax = plt.subplots(figsize=(7.5, 5.5), constrained_layout=True)
-        self.plot(ax)
+        fig = display.figure(figsize=(7.5, 5.5), layout="constrained")
+        self.plot(fig.subplots())
         fig.savefig(path, dpi=110)
-        plt.close(fig)
         return path
 
 
