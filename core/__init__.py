@@ -18,7 +18,7 @@ import importlib.util as _importlib_util
 import sys as _sys
 
 from .base.component import GROUND, Component, Contribution, Example, Load, MovingFrame, Parameter, dot, t
-from .base.domain import Context, Coordinate, Domain, DomainView, Network, Option
+from .base.domain import Context, Coordinate, Domain, DomainView, Network, Option, coordinate, rate
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
 from .plugin.hookspecs import hookimpl
@@ -90,6 +90,8 @@ __all__ = [
     "Option",
     "Context",
     "Coordinate",
+    "coordinate",
+    "rate",
     "Registry",
     "default_registry",
     "hookimpl",

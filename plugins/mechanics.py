@@ -36,6 +36,7 @@ from lagrangian import (
     Parameter,
     dot,
     hookimpl,
+    rate,
     t,
 )
 from lagrangian.derive import time_derivative
@@ -260,13 +261,23 @@ class Gravity(Component):
 
 
 class Force(Component):
-    """Applied force on a node: a number, a SymPy expression of t, or a Python callable of t."""
+    """Applied force on a node: a number, a SymPy expression of t, or a Python callable of t; or an expression of the
+    state too (coordinates and rates, :func:`lagrangian.coordinate` and :func:`lagrangian.rate`): drag, a
+    controller's feedback.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("drag")
+    >>> _ = m.add("mass", "m1", "p", m=0.3)
+    >>> _ = m.add("force", "drag", "p", F=-0.05 * lg.rate("x_p") ** 3)
+    >>> m.equations
+    [Eq(0.3*Derivative(x_p(t), (t, 2)), -0.05*Derivative(x_p(t), t)**3)]
+    """
 
     kind = "force"
     domain = "mechanical"
     terminals = ("node",)
     role = "through"
-    parameters = {"F": Parameter("force (vector in 2-D/3-D)", check="real", shape="signal", unit="N")}
+    parameters = {"F": Parameter("force (vector in 2-D/3-D)", check="real", shape="signal", unit="N", state=True)}
 
     def contribute(self, ctx) -> Contribution:
         F = _vector(self.F, ctx.view.dim, self, "F")
@@ -279,6 +290,43 @@ class Force(Component):
             {"F": sp.sin(2 * t)},
             context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 2})],
         )
+
+
+class GeneralizedForce(Component):
+    """A generalized force ``Q`` on one coordinate — a force on a position, a torque on an angle — as a number, a
+    signal of t, or an expression of the state: a controller's feedback ``−K θ − D θ̇`` on a joint, a drag on a
+    slider.  Its virtual power is ``Q q̇``; it is compiled with the rest of the model and its power
+    (``Model.load_power``) is the work it does per unit time.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("pd pendulum", dim=2)
+    >>> _ = m.add("link", "l1", "l1", points={"end": (0.7, 0)})
+    >>> _ = m.add("mass", "bob", "l1.end", m=0.3)
+    >>> _ = m.add("revolute", "j1", ("ground", "l1"))
+    >>> th = lg.coordinate("theta_j1")
+    >>> _ = m.add("generalized_force", "pd", coordinate="theta_j1", Q=-2.0 * th - 0.4 * lg.rate("theta_j1"))
+    >>> m.equations
+    [Eq(0.147*Derivative(theta_j1(t), (t, 2)), -2.0*theta_j1(t) - 0.4*Derivative(theta_j1(t), t))]
+    """
+
+    kind = "generalized_force"
+    domain = "mechanical"
+    terminals = ()
+    parameters = {
+        "coordinate": Parameter("the coordinate it acts on (one of Model.coordinate_names)", shape="name"),
+        "Q": Parameter("generalized force (N on a position, N m on an angle)", check="real", shape="signal", state=True),
+    }
+
+    def contribute(self, ctx) -> Contribution:
+        if isinstance(self.Q, sp.MatrixBase):
+            raise ModelError(f"generalized_force {self.name!r}: Q is one number or expression (it acts on one "
+                             f"coordinate), got {list(self.Q)}.")
+        return Contribution(loads=[Load(self.Q, rate(self.coordinate))])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example((), {"coordinate": "x_p", "Q": -0.5 * rate("x_p") - sp.sin(t)},
+                       context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 2})])
 
 
 class CentralForce(Component):
@@ -361,7 +409,7 @@ def register_domains(register):
 
 @hookimpl
 def register_component_types(register):
-    for cls in (Mass, Spring, Damper, Gravity, Force, CentralForce, PrescribedMotion):
+    for cls in (Mass, Spring, Damper, Gravity, Force, GeneralizedForce, CentralForce, PrescribedMotion):
         register(cls)
 
 
@@ -422,6 +470,17 @@ def _mass_force_voltage(mass, ports) -> list:
     ]
 
 
+def _source(force) -> Any:
+    """A force's value as the analogue's source: a signal of time (a Python callable stays one); a force of the state
+    would be a controlled source, which the analogies do not map."""
+    held = force.state("F")
+    if held:
+        raise AnalogyError(f"force {force.name!r} depends on the state ({', '.join(map(str, held))}): its analogue "
+                           f"would be a controlled source, which the analogies do not map. Map the model without it, "
+                           f"or give the force as a function of t.")
+    return force.given("F")
+
+
 def _mass_force_current(mass, ports) -> list:
     """A capacitor, with a current source for its weight in parallel when the model has gravity."""
     a, b = ports.branch()
@@ -436,7 +495,7 @@ FORCE_VOLTAGE = {
     "mass": _mass_force_voltage,
     "spring": lambda c, p: (_no_rest_length(c), [Element("capacitor", f"C_{c.name}", p.branch(), {"C": 1 / c.k})])[1],
     "damper": lambda c, p: [Element("resistor", f"R_{c.name}", p.branch(), {"R": _damping(c, False)})],
-    "force": lambda c, p: [Element("voltage_source", f"V_{c.name}", p.branch()[::-1], {"E": c.F}, branch=None)],
+    "force": lambda c, p: [Element("voltage_source", f"V_{c.name}", p.branch()[::-1], {"E": _source(c)}, branch=None)],
     "prescribed_motion": lambda c, p: [
         Element("current_source", f"I_{c.name}", p.branch(), {"I": _starts_at_zero(c)}, branch=None)
     ],
@@ -447,7 +506,7 @@ FORCE_CURRENT = {
     "mass": _mass_force_current,
     "spring": lambda c, p: (_no_rest_length(c), [Element("inductor", f"L_{c.name}", p.branch(), {"L": 1 / c.k})])[1],
     "damper": lambda c, p: [Element("resistor", f"R_{c.name}", p.branch(), {"R": _damping(c, True)})],
-    "force": lambda c, p: [Element("current_source", f"I_{c.name}", p.branch()[::-1], {"I": c.F}, branch=None)],
+    "force": lambda c, p: [Element("current_source", f"I_{c.name}", p.branch()[::-1], {"I": _source(c)}, branch=None)],
     "prescribed_motion": lambda c, p: [
         Element("voltage_source", f"V_{c.name}", p.branch(), {"E": _starts_at_zero(c)}, branch=None)
     ],

@@ -145,12 +145,13 @@ class RotaryDamper(_Rotational):
 
 
 class Torque(_Rotational):
-    """Applied torque on a node (positive in the +θ sense): a number, a SymPy expression of t, or a Python callable of t."""
+    """Applied torque on a node (positive in the +θ sense): a number, a SymPy expression of t, or a Python callable of t;
+    or an expression of the state too (:func:`lagrangian.coordinate`, :func:`lagrangian.rate`)."""
 
     kind = "torque"
     terminals = ("node",)
     role = "through"
-    parameters = {"tau": Parameter("torque", check="real", shape="signal", unit="N m")}
+    parameters = {"tau": Parameter("torque", check="real", shape="signal", unit="N m", state=True)}
 
     def contribute(self, ctx) -> Contribution:
         if isinstance(self.tau, sp.MatrixBase):

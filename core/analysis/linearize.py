@@ -506,7 +506,8 @@ def _operating_point(model: Model, names: list[str], at: Mapping[str, Any] | Non
             raise ModelError(f"at[{key!r}] must be a number, got {val!r:.80}.") from None
         if not np.isfinite(x):
             raise ModelError(f"at[{key!r}] must be finite, got {val!r:.80}.")
-        point[key] = sp.Float(x) if x else sp.Integer(0)
+        # an exact number (−π/2) stays exact: a symbolic linearization then finds the rest it has there exactly
+        point[key] = val if isinstance(val, sp.Basic) and val.is_real else sp.Float(x) if x else sp.Integer(0)
     return point
 
 

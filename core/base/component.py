@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from ..errors import closest, ExpressionError, ModelError, ParameterError
 from .text import as_expr
@@ -56,7 +57,9 @@ class Parameter:
     ``"vector"`` (a sequence or matrix, one entry per spatial axis),
     ``"signal"`` (a number, a SymPy expression of :data:`t`, or a Python
     callable of time; callables become undefined functions in the equations
-    and are called numerically), ``"name"`` (the name of another
+    and are called numerically; with ``state=True``, the signal of a load,
+    also an expression of the coordinates and their rates:
+    :func:`lagrangian.coordinate`, :func:`lagrangian.rate`), ``"name"`` (the name of another
     component, kept as a string), ``"flag"`` (True or False), ``"mapping"``
     (names to vectors) or ``"tensor"`` (a scalar, a vector or a matrix).
 
@@ -87,6 +90,7 @@ class Parameter:
     shape: str = "scalar"
     unit: str = ""
     symbolic: bool = True
+    state: bool = False
 
     @property
     def required(self) -> bool:
@@ -158,10 +162,33 @@ class Parameter:
             raise ParameterError(component, name, "uses a symbol named t that is not lagrangian.t: build time expressions from lagrangian.t.")
         if self.shape != "signal" and t in expr.free_symbols:
             raise ParameterError(component, name, "depends on time t; only signal parameters may.")
+        if self.shape == "signal":
+            self._state_check(expr, component, name)
         check_value(expr, check, component, name)
         return expr
 
 
+    def _state_check(self, expr: sp.Expr, component: str, name: str) -> None:
+        """A signal holds functions of ``t`` alone; a load's (``state=True``) also coordinates ``x(t)`` and their
+        first rates, never an acceleration."""
+        for d in expr.atoms(sp.Derivative):
+            if not self.state:
+                break
+            if isinstance(d.expr, AppliedUndef) and set(d.variables) == {t} and d.derivative_count > 1:
+                raise ParameterError(component, name, f"holds the acceleration {d}: a load depends on the state "
+                                                      f"(coordinates and rates), not on accelerations.")
+            if not isinstance(d.expr, AppliedUndef) or d.variables != (t,):
+                raise ParameterError(component, name, f"holds {d}: a load may hold coordinates x(t) and their rates "
+                                                      f"dx/dt (lagrangian.coordinate, lagrangian.rate), no other derivative.")
+        for f in expr.atoms(AppliedUndef):
+            if not self.state:
+                raise ParameterError(component, name, f"depends on {f}: a signal is a function of time alone. Loads "
+                                                      f"depend on the state: force, torque, body_torque and "
+                                                      f"generalized_force take expressions of lagrangian.coordinate(...) "
+                                                      f"and lagrangian.rate(...).")
+            if f.args != (t,):
+                raise ParameterError(component, name, f"holds {f}: a load may hold coordinates, functions of t "
+                                                      f"alone (lagrangian.coordinate).")
 
 
 #: The largest magnitude a parameter's value may have (a square of it still fits a double).
@@ -477,6 +504,31 @@ class Component:
     def inputs(self) -> set:
         """The input functions ``w`` that :meth:`with_input` put into this component's parameters."""
         return self.__dict__.get("_inputs", set())
+
+    def given(self, pname: str) -> Any:
+        """Parameter ``pname`` as a user would give it again: the Python callable of a signal given as one (where
+        ``self.<pname>`` is the undefined function standing for it in the equations), else its value.
+
+        >>> import lagrangian as lg
+        >>> f = lg.Model().add("force", "F", "p", F=abs)
+        >>> f.F, f.given("F") is abs
+        (F_F(t), True)
+        """
+        value = self.params[pname]
+        return value.func if isinstance(value, _CallableSignal) else value
+
+    def state(self, pname: str) -> list[sp.Expr]:
+        """The coordinates ``x(t)`` that parameter ``pname`` depends on (a load's signal of the state), sorted.
+
+        >>> import lagrangian as lg
+        >>> lg.Model().add("force", "F", "p", F=-2 * lg.rate("x_p") - lg.coordinate("y_p")).state("F")
+        [x_p(t), y_p(t)]
+        """
+        value = self.params[pname]
+        if not isinstance(value, (sp.Basic, sp.MatrixBase)):
+            return []
+        return sorted({f for f in value.atoms(AppliedUndef) if f.args == (t,) and f.func not in self.inputs()},
+                      key=str)
 
     def __getattr__(self, item: str) -> Any:
         params = self.__dict__.get("params")

@@ -20,7 +20,7 @@ import sympy as sp
 from ..errors import ModelError
 from .component import GROUND, Component, t
 
-__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context", "check_name"]
+__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context", "check_name", "coordinate", "rate"]
 
 
 def check_name(name: str, what: str) -> None:
@@ -55,8 +55,37 @@ class Coordinate:
 
     @classmethod
     def named(cls, name: str, description: str = "") -> "Coordinate":
-        check_name(name, "coordinate name")  # a domain may build names from other text than Model.add checked
-        return cls(name, sp.Function(name, real=True)(t), description)
+        return cls(name, coordinate(name), description)
+
+
+def coordinate(name: str) -> sp.Expr:
+    """The coordinate called ``name`` as the function of time the equations hold, ``name(t)``: what a load that
+    depends on the state is written in (``force``, ``torque``, ``body_torque``, ``generalized_force``), with
+    :func:`rate` for its rate.  The model's coordinate names are ``Model.coordinate_names``; a name the model does
+    not have is refused when the model is assembled, with the names it has.
+
+    >>> import lagrangian as lg
+    >>> th = lg.coordinate("theta_j1")
+    >>> th, lg.rate("theta_j1")
+    (theta_j1(t), Derivative(theta_j1(t), t))
+    """
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"a coordinate is named by a non-empty string, not {name!r}.")
+    check_name(name, "coordinate name")  # a domain may build names from other text than Model.add checked
+    return sp.Function(name, real=True)(t)
+
+
+def rate(name: str) -> sp.Expr:
+    """The rate ``d name/dt`` of the coordinate ``name`` (see :func:`coordinate`).
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("drag")
+    >>> _ = m.add("mass", "m1", "p", m=0.3)
+    >>> _ = m.add("force", "drag", "p", F=-0.2 * lg.rate("x_p") * abs(lg.rate("x_p")))
+    >>> m.equations
+    [Eq(0.3*Derivative(x_p(t), (t, 2)), -0.2*Abs(Derivative(x_p(t), t))*Derivative(x_p(t), t))]
+    """
+    return sp.Derivative(coordinate(name), t)
 
 
 @dataclass(frozen=True)

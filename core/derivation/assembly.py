@@ -17,7 +17,7 @@ from sympy.core.function import AppliedUndef
 
 from ..base.component import GROUND, Component, Contribution, Load, MovingFrame, t
 from ..base.domain import Context, Coordinate, DomainView, Network
-from ..errors import DomainError, LagrangianError, ModelError
+from ..errors import DomainError, LagrangianError, ModelError, closest
 from ..base.graph import ComponentGraph
 from ..base.network import check_topology
 from ..plugin.registry import Registry
@@ -150,7 +150,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
             raise ModelError(
                 f"{comp.kind} {comp.name!r} failed to contribute its energy: {exc.__class__.__name__}: {exc}"
             ) from exc
-        _check_contribution(comp, contribution, allowed | set(signals))
+        _check_contribution(comp, contribution, allowed | set(signals), [c.name for c in coordinates])
         generic[comp.name] = contribution
     contributions = _Valued(generic, values)
     valued = None if all(view is comp for comp, view in zip(components, symbolic)) else (lambda: build(None))
@@ -190,7 +190,7 @@ def _with_values(c: Contribution, values: Mapping) -> Contribution:
                         [MovingFrame(put(f.omega), tuple(put(v) for v in f.velocities)) for f in c.frames])
 
 
-def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
+def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] = ()) -> None:
     where = f"{comp.kind} {comp.name!r}"
     if not isinstance(c, Contribution):
         raise ModelError(f"{where}: contribute() returned {type(c).__name__}, not a lagrangian.Contribution.")
@@ -221,4 +221,7 @@ def _check_contribution(comp: Component, c: Any, allowed: set) -> None:
             raise ModelError(f"{where}: {label} must be a scalar expression.")
         for f in expr.atoms(AppliedUndef):
             if f.func not in allowed:
+                if f.args == (t,) and names:  # a load written in lagrangian.coordinate(...)
+                    raise ModelError(f"{where}: {label} depends on {f}, which is not a coordinate of the model."
+                                     f"{closest(f.func.__name__, names)} Its coordinates: {', '.join(names)}.")
                 raise ModelError(f"{where}: {label} depends on {f}, which is neither a coordinate nor a signal.")

@@ -11,14 +11,16 @@ from .checks import _need_dim
 
 
 class BodyTorque(Component):
-    """A torque on a body (planar: scalar about z; spatial: a vector in the fixed frame)."""
+    """A torque on a body (planar: scalar about z; spatial: a vector in the fixed frame): a signal of t, or an
+    expression of the state (:func:`lagrangian.coordinate`, :func:`lagrangian.rate`)."""
 
     kind = "body_torque"
     domain = "mechanical"
     terminals = ("body",)
     role = "through"
     multibody = True
-    parameters = {"tau": Parameter("torque (a signal; spatial: a vector)", check="real", shape="signal", unit="N m")}
+    parameters = {"tau": Parameter("torque (a signal; spatial: a vector)", check="real", shape="signal", unit="N m",
+                                   state=True)}
 
     def contribute(self, ctx) -> Contribution:
         pose = ctx.view.pose(self.nodes[0])
