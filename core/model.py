@@ -273,7 +273,7 @@ class Model:
         a = self.assembly
         known = set(a.values) | {t}
         for c in a.generic.values():
-            parts = [c.T, c.V, c.D, c.G, *(x for load in c.loads for x in (load.force, load.velocity))]
+            parts = [c.T, c.V, c.D, c.G, *(x for load in c.loads for x in (load.force, load.velocity)), *c.constraints]
             for e in parts:
                 if isinstance(e, (sp.Basic, sp.MatrixBase)) and not e.free_symbols <= known:
                     return True
@@ -700,11 +700,17 @@ class Model:
         rate = Phi.jacobian(q) * sp.Matrix(v) + Phi.diff(t)
         v0, _ = numeric.velocities(t0, y0)
         point = {**dict(zip(q, y0[: numeric.n])), **dict(zip(v, v0)), t: t0}
+        gaps = [max(abs(float(a.xreplace(point))), abs(float(b.xreplace(point)))) for a, b in zip(Phi, rate)]
         gap = max(abs(float(e.xreplace(point))) for e in Phi)
         gap_rate = max(abs(float(e.xreplace(point))) for e in rate)
         if gap > tol or gap_rate > tol:
+            owners = getattr(eq, "constraint_owners", [None] * len(gaps))
+            held = sorted({owner for owner, g in zip(owners, gaps) if owner and g > tol})
+            what = "its kinematic loops" if not held else (
+                f"the constraints of {', '.join(repr(h) for h in held)}"
+                + (" and its kinematic loops" if any(o is None and g > tol for o, g in zip(owners, gaps)) else ""))
             raise ModelError(
-                f"the initial state of model {self.name!r} does not close its kinematic loops (|Φ| = {gap:.3g}, "
+                f"the initial state of model {self.name!r} does not satisfy {what} (|Φ| = {gap:.3g}, "
                 f"|dΦ/dt| = {gap_rate:.3g}): solve the dependent coordinates first with "
                 f"lagrangian.plugins.multibody.consistent_initial(model, initial, velocity)."
             )

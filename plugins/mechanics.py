@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from lagrangian import (
     UnknownNameError,
@@ -35,6 +36,7 @@ from lagrangian import (
     Option,
     Parameter,
     dot,
+    coordinate,
     hookimpl,
     rate,
     t,
@@ -329,6 +331,114 @@ class GeneralizedForce(Component):
                        context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 2})])
 
 
+class Constraint(Component):
+    """A holonomic constraint ``f(q, t) = 0`` between coordinates, written in :func:`lagrangian.coordinate` (one
+    expression, or a list of them: one constraint each): rolling without slipping (``x − R θ``), a cam, a
+    prescribed relation.  It is kept with a Lagrange multiplier as a closed loop's closure is, so
+    ``independent_coordinates``, ``consistent_initial`` and ``constraint_residual`` cover it.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rolling", dim=1)
+    >>> _ = m.add("mass", "m1", "p", m=0.3)
+    >>> _ = m.add("inertia", "J", "wheel", J=2e-3)
+    >>> _ = m.add("constraint", "roll", f=lg.coordinate("x_p") - 0.05 * lg.coordinate("theta_wheel"))
+    >>> m.eq.constraints
+    Matrix([[q_x_p - 0.05*q_theta_wheel]])
+    """
+
+    kind = "constraint"
+    domain = "mechanical"
+    terminals = ()
+    parameters = {"f": Parameter("f(q, t), kept at zero (a list: one constraint each)", check="real", shape="signal",
+                                 state=True)}
+
+    def contribute(self, ctx) -> Contribution:
+        rows = list(self.f) if isinstance(self.f, sp.MatrixBase) else [self.f]
+        for e in rows:
+            if any(isinstance(d, sp.Derivative) for d in sp.preorder_traversal(e)):
+                raise ModelError(f"constraint {self.name!r}: {e} holds a rate; a holonomic constraint is written in "
+                                 f"coordinates and t alone (a constraint on velocities is nonholonomic).")
+            if not any(f.args == (t,) for f in e.atoms(AppliedUndef)):
+                raise ModelError(f"constraint {self.name!r}: {e} holds no coordinate (lagrangian.coordinate): it "
+                                 f"constrains nothing.")
+        return Contribution(constraints=rows)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example((), {"f": coordinate("x_a") - 2 * coordinate("x_b")},
+                       context=[("mass", "ma", "a", {"m": 1}), ("mass", "mb", "b", {"m": 2}),
+                                ("spring", "k", ("ground", "a"), {"k": 3})])
+
+
+class Gear(Component):
+    """A gear pair between two angle coordinates: ``N_a θ_a + N_b θ_b = 0`` (external mesh, the gears turn in opposite
+    senses) or ``N_a θ_a = N_b θ_b`` (``internal=True``: a ring gear), ``N`` their teeth (or radii); kept with a
+    multiplier, whose value is the tooth force times the radius.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("gear pair")
+    >>> _ = m.add("inertia", "J1", "s1", J=0.01)
+    >>> _ = m.add("inertia", "J2", "s2", J=0.04)
+    >>> _ = m.add("gear", "mesh", a="theta_s1", b="theta_s2", teeth_a=12, teeth_b=36)
+    >>> m.eq.constraints
+    Matrix([[12*q_theta_s1 + 36*q_theta_s2]])
+    """
+
+    kind = "gear"
+    domain = "mechanical"
+    terminals = ()
+    parameters = {
+        "a": Parameter("angle coordinate of the first gear", shape="name"),
+        "b": Parameter("angle coordinate of the second gear", shape="name"),
+        "teeth_a": Parameter("teeth (or pitch radius) of the first gear", symbolic=False),
+        "teeth_b": Parameter("teeth (or pitch radius) of the second gear", symbolic=False),
+        "internal": Parameter("the second gear is a ring gear (both turn the same way)", default=False, shape="flag"),
+    }
+
+    def contribute(self, ctx) -> Contribution:
+        a, b = coordinate(self.a), coordinate(self.b)
+        sign = -1 if self.internal else 1
+        return Contribution(constraints=[self.teeth_a * a + sign * self.teeth_b * b])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example((), {"a": "x_a", "b": "x_b", "teeth_a": 12, "teeth_b": 30},
+                       context=[("mass", "ma", "a", {"m": 1}), ("mass", "mb", "b", {"m": 2}),
+                                ("spring", "k", ("ground", "a"), {"k": 3})])
+
+
+class RackAndPinion(Component):
+    """A rack driven by a pinion: ``x = r θ`` between a position coordinate and an angle coordinate (the rack moves
+    +x as the pinion turns +θ); kept with a multiplier, whose value is the tooth force.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rack")
+    >>> _ = m.add("mass", "rack", "p", m=0.5)
+    >>> _ = m.add("inertia", "J", "s", J=1e-3)
+    >>> _ = m.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02)
+    >>> m.eq.constraints
+    Matrix([[q_x_p - 0.02*q_theta_s]])
+    """
+
+    kind = "rack_and_pinion"
+    domain = "mechanical"
+    terminals = ()
+    parameters = {
+        "rack": Parameter("position coordinate of the rack", shape="name"),
+        "pinion": Parameter("angle coordinate of the pinion", shape="name"),
+        "radius": Parameter("pitch radius of the pinion", unit="m", symbolic=False),
+    }
+
+    def contribute(self, ctx) -> Contribution:
+        return Contribution(constraints=[coordinate(self.rack) - self.radius * coordinate(self.pinion)])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example((), {"rack": "x_a", "pinion": "x_b", "radius": 0.5},
+                       context=[("mass", "ma", "a", {"m": 1}), ("mass", "mb", "b", {"m": 2}),
+                                ("spring", "k", ("ground", "a"), {"k": 3})])
+
+
 class CentralForce(Component):
     """Central attraction between two nodes, of magnitude ``k / rⁿ`` (``r``: their distance).
 
@@ -409,7 +519,8 @@ def register_domains(register):
 
 @hookimpl
 def register_component_types(register):
-    for cls in (Mass, Spring, Damper, Gravity, Force, GeneralizedForce, CentralForce, PrescribedMotion):
+    for cls in (Mass, Spring, Damper, Gravity, Force, GeneralizedForce, Constraint, Gear, RackAndPinion,
+                CentralForce, PrescribedMotion):
         register(cls)
 
 

@@ -87,10 +87,15 @@ def check_contribution(kind, m):
             assert expr.free_symbols <= {lg.t}, (name, label, expr.free_symbols)
         for load in c.loads:
             assert isinstance(load, lg.Load)
-    # the kind under test is not a no-op: it adds energy, dissipation, a load or fixes coordinates
+        for e in c.constraints:  # holonomic: scalars in coordinates and t, no rates
+            expr = sp.sympify(e)
+            assert isinstance(expr, sp.Expr) and not expr.atoms(sp.Derivative), (name, expr)
+            assert {f.func for f in expr.atoms(AppliedUndef)} <= allowed and expr.free_symbols <= {lg.t}, (name, expr)
+    # the kind under test is not a no-op: it adds energy, dissipation, a load, a constraint or fixes coordinates
     own = m.assembly.contributions[kind]
     cls = type(m.component(kind))
-    assert own.T != 0 or own.V != 0 or own.D != 0 or own.G != 0 or own.loads or cls.role in ("across", "through") or cls.structural
+    assert (own.T != 0 or own.V != 0 or own.D != 0 or own.G != 0 or own.loads or own.constraints
+            or cls.role in ("across", "through") or cls.structural)
 
 
 def test_kinetic_energy_is_a_nonnegative_quadratic_form_in_velocities(example):
@@ -150,7 +155,7 @@ def check_equations(kind, m):
     assert m.mass_matrix.shape == (n, n)
     assert m.forcing.shape == (n, 1)
     assert len(m.equations) == n
-    assert m.eq.A.shape == (n, n)
+    assert m.eq.A.shape == (n + len(m.eq.constraints),) * 2  # a multiplier per constraint
     assert m.parameters == []  # examples are fully numeric
     # every first-order coordinate is also a coordinate
     assert set(m.first_order) <= set(m.coordinate_names)
@@ -164,6 +169,11 @@ def check_simulation(kind, m):
     eq = m.eq
     initial = {name: 0.1 * (i + 1) for i, name in enumerate(eq.names)}
     velocity = {eq.names[i]: -0.05 * (i + 1) for i in eq.inertial}
+    if len(eq.constraints):  # the dependent coordinates solved from the independent ones
+        from lagrangian.plugins.multibody import consistent_initial, independent_coordinates
+
+        free = independent_coordinates(m, initial).independent
+        initial, velocity = consistent_initial(m, {k: initial[k] for k in free}, {k: velocity[k] for k in free})
     res = m.simulate(1.0, initial=initial, velocity=velocity, points=21, rtol=1e-7, atol=1e-9)
     assert res.defaulted == []
     assert res.t[0] == 0.0 and res.t[-1] == pytest.approx(1.0)

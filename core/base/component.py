@@ -331,7 +331,10 @@ class Contribution:
     that store no energy (gyroscopic and gyrator couplings such as a moving
     coil's ``Bl·x·q̇``), so that ``L = T − V + G``; ``loads``: generalized
     forces by virtual power; ``frames``: the :class:`MovingFrame` objects
-    whose velocities ``T`` is written in, if any.
+    whose velocities ``T`` is written in, if any; ``constraints``: holonomic
+    constraints ``Φ(q, t) = 0`` the component imposes between coordinates
+    (a gear pair, a rack and pinion, rolling without slipping), each kept
+    with a Lagrange multiplier as a closed loop's closure is.
     """
 
     T: Any = 0
@@ -340,6 +343,7 @@ class Contribution:
     G: Any = 0
     loads: list[Load] = field(default_factory=list)
     frames: list[MovingFrame] = field(default_factory=list)
+    constraints: list[Any] = field(default_factory=list)
 
 
 @dataclass(frozen=True)

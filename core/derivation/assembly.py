@@ -64,6 +64,12 @@ class Assembly:
         source = self.generic if generic else self.contributions
         return [frame for c in source.values() for frame in c.frames]
 
+    def constraint_list(self, generic: bool = False) -> list[tuple[str, sp.Expr]]:
+        """``(component, Φ)`` pairs: the holonomic constraints components impose (beyond the domains' loop
+        closures, ``view.constraints``)."""
+        source = self.generic if generic else self.contributions
+        return [(name, sp.sympify(e, strict=True)) for name, c in source.items() for e in c.constraints]
+
     def load_list(self, generic: bool = False) -> list[tuple[str, Load]]:
         """``(component, load)`` pairs."""
         source = self.generic if generic else self.contributions
@@ -187,7 +193,8 @@ def _with_values(c: Contribution, values: Mapping) -> Contribution:
 
     return Contribution(put(c.T), put(c.V), put(c.D), put(c.G),
                         [Load(put(load.force), put(load.velocity)) for load in c.loads],
-                        [MovingFrame(put(f.omega), tuple(put(v) for v in f.velocities)) for f in c.frames])
+                        [MovingFrame(put(f.omega), tuple(put(v) for v in f.velocities)) for f in c.frames],
+                        [put(e) for e in c.constraints])
 
 
 def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] = ()) -> None:
@@ -199,6 +206,14 @@ def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] 
         if not isinstance(load, Load):
             raise ModelError(f"{where}: loads[{i}] is not a lagrangian.Load.")
         parts += [(f"loads[{i}].force", load.force), (f"loads[{i}].velocity", load.velocity)]
+    if not isinstance(c.constraints, (list, tuple)):
+        raise ModelError(f"{where}: constraints must be a list of expressions Φ(q, t) (each Φ = 0), not "
+                         f"{type(c.constraints).__name__}.")
+    for i, e in enumerate(c.constraints):
+        parts.append((f"constraints[{i}]", e))
+        if isinstance(e, sp.Basic) and any(isinstance(d, sp.Derivative) for d in sp.preorder_traversal(e)):
+            raise ModelError(f"{where}: constraints[{i}] holds a rate ({e}): a holonomic constraint is Φ(q, t) = 0, "
+                             f"in coordinates and t alone.")
     for i, frame in enumerate(c.frames):
         if not isinstance(frame, MovingFrame):
             raise ModelError(f"{where}: frames[{i}] is not a lagrangian.MovingFrame.")

@@ -97,6 +97,10 @@ class Equations:
                     Q[i] += share[i]
             self.load_shares.append((name, [e.xreplace(values) for e in share] if values else share))
         constraints = [self.symbolic(c) for view in assembly.generic_views.values() for c in view.constraints]
+        self.constraint_owners = [None] * len(constraints)  # the component that imposes each row (None: a loop's)
+        for name, c in assembly.constraint_list(generic=True):
+            constraints.append(self.symbolic(c))
+            self.constraint_owners.append(name)
         rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.generic_views.values()), default=10.0)
         frames = [([self.symbolic(e) for e in f.omega], [[self.symbolic(e) for e in vel] for vel in f.velocities])
                   for f in assembly.frame_list(generic=True)]
@@ -120,6 +124,7 @@ class Equations:
         self = cls.__new__(cls)
         self._setup(coordinates)
         self.load_shares = []
+        self.constraint_owners = [None] * len(list(constraints))
         self._derive(T, V, G, D, list(Q), list(constraints), constraint_rate, quadratures or {}, values=values)
         return self
 

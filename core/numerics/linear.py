@@ -164,6 +164,11 @@ def state_space(model, params: Mapping[str, float] | None = None) -> StateSpace:
 
 def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
     eq = model.eq
+    if len(eq.constraints):
+        owners = sorted({o for o in getattr(eq, "constraint_owners", ()) if o})
+        what = f"the constraints of {', '.join(map(repr, owners))}" if owners else "loop-closure constraints"
+        raise ModelError(f"model {model.name!r} has {what} between its coordinates, kept with multipliers: the exact "
+                         f"solution by the matrix exponential covers unconstrained models. {_USE}.")
     subs = {s: sp.Float(v) for s, v in values.items()}
     generic = eq.generic()  # the values given as numbers come from ``values`` too (they may be given anew)
     A = generic["A"].xreplace(subs)

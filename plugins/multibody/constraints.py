@@ -60,6 +60,7 @@ class _Closure:
             closures = getattr(view, "closures", None)
             rows = [name for name, k in closures or [] for _ in range(k)]
             self.owners += rows if len(rows) == len(view.constraints) else [None] * len(view.constraints)
+        self.owners += [name for name in getattr(eq, "constraint_owners", [])[len(self.owners):]]  # components' own
         if not self.m:
             self.structure = np.zeros((0, len(self.names)), dtype=bool)
             return
