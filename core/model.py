@@ -273,7 +273,8 @@ class Model:
         a = self.assembly
         known = set(a.values) | {t}
         for c in a.generic.values():
-            parts = [c.T, c.V, c.D, c.G, *(x for load in c.loads for x in (load.force, load.velocity)), *c.constraints]
+            parts = [c.T, c.V, c.D, c.G, *(x for load in c.loads for x in (load.force, load.velocity)), *c.constraints,
+                     *c.velocity_constraints]
             for e in parts:
                 if isinstance(e, (sp.Basic, sp.MatrixBase)) and not e.free_symbols <= known:
                     return True
@@ -690,12 +691,31 @@ class Model:
             return False
         return True
 
+    def _holonomic_only(self, analysis: str, error: type = ModelError) -> None:
+        """Refuse, for ``analysis``, a model with constraints on velocities (nonholonomic), naming them."""
+        owners = sorted(set(self.eq.velocity_owners))
+        if owners:
+            raise error(f"model {self.name!r} has constraints on velocities (nonholonomic: {', '.join(map(repr, owners))}), "
+                        f"which {analysis} does not cover: the Lagrange–d'Alembert equations hold them only in a "
+                        f"simulation (Model.simulate) or an impact.")
+
     def _check_constraints(self, numeric: NumericModel, t0: float, y0: np.ndarray, tol: float = 1e-8) -> None:
         """Refuse an initial state that violates the loop-closure constraints (or their rates)."""
         eq = self.eq
+        q, v = eq.sym.q, eq.sym.v
+        if len(eq.velocity_constraints):  # nonholonomic: the start's rates must satisfy them
+            c = eq.velocity_constraints.xreplace({s: sp.Float(x) for s, x in numeric.values.items()})
+            v0, _ = numeric.velocities(t0, y0)
+            point = {**dict(zip(q, y0[: numeric.n])), **dict(zip(v, v0)), t: t0}
+            gaps = [abs(float(e.xreplace(point))) for e in c]
+            held = sorted({o for o, g in zip(eq.velocity_owners, gaps) if g > tol})
+            if held:
+                raise ModelError(
+                    f"the initial rates of model {self.name!r} violate the constraints on velocities of "
+                    f"{', '.join(map(repr, held))} (|c| = {max(gaps):.3g}): give rates that satisfy "
+                    f"{'; '.join(f'{eq.display(e)} = 0' for e, g in zip(eq.velocity_constraints, gaps) if g > tol)}.")
         if not len(eq.constraints):
             return
-        q, v = eq.sym.q, eq.sym.v
         Phi = eq.constraints.xreplace({s: sp.Float(x) for s, x in numeric.values.items()})
         rate = Phi.jacobian(q) * sp.Matrix(v) + Phi.diff(t)
         v0, _ = numeric.velocities(t0, y0)

@@ -370,6 +370,40 @@ class Constraint(Component):
                                 ("spring", "k", ("ground", "a"), {"k": 3})])
 
 
+class VelocityConstraint(Component):
+    """A constraint on velocities ``A(q, t)·q̇ + b(q, t) = 0`` that no relation between positions integrates
+    (nonholonomic): a knife edge or a skate that cannot slide sideways, a wheel that rolls without slipping in the
+    plane.  Written in :func:`lagrangian.coordinate` and :func:`lagrangian.rate` (a list: one constraint each), it
+    enters Lagrange's equations with a multiplier (the Lagrange–d'Alembert form).  The Routhian, linearization,
+    equilibria, scenes and the exact solution refuse a model holding one, by name; impulses respect it.
+
+    >>> import lagrangian as lg, sympy as sp
+    >>> m = lg.Model("sled", dim=2)
+    >>> _ = m.add("body", "b", "b", m=2.0, inertia=0.1)
+    >>> _ = m.add("free", "j", ("ground", "b"))
+    >>> th = lg.coordinate("theta_j")
+    >>> _ = m.add("velocity_constraint", "edge", c=-sp.sin(th) * lg.rate("x_j") + sp.cos(th) * lg.rate("y_j"))
+    >>> m.eq.velocity_constraints
+    Matrix([[-v_x_j*sin(q_theta_j) + v_y_j*cos(q_theta_j)]])
+    """
+
+    kind = "velocity_constraint"
+    domain = "mechanical"
+    terminals = ()
+    parameters = {"c": Parameter("A(q, t)·q̇ + b(q, t), kept at zero (a list: one constraint each)", check="real",
+                                 shape="signal", state=True)}
+
+    def contribute(self, ctx) -> Contribution:
+        rows = list(self.c) if isinstance(self.c, sp.MatrixBase) else [self.c]
+        return Contribution(velocity_constraints=rows)
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example((), {"c": rate("x_a") - coordinate("x_b") * rate("x_b")},
+                       context=[("mass", "ma", "a", {"m": 1}), ("mass", "mb", "b", {"m": 2}),
+                                ("spring", "k", ("ground", "a"), {"k": 3})])
+
+
 class Gear(Component):
     """A gear pair between two angle coordinates: ``N_a θ_a + N_b θ_b = 0`` (external mesh, the gears turn in opposite
     senses) or ``N_a θ_a = N_b θ_b`` (``internal=True``: a ring gear), ``N`` their teeth (or radii); kept with a
@@ -519,8 +553,8 @@ def register_domains(register):
 
 @hookimpl
 def register_component_types(register):
-    for cls in (Mass, Spring, Damper, Gravity, Force, GeneralizedForce, Constraint, Gear, RackAndPinion,
-                CentralForce, PrescribedMotion):
+    for cls in (Mass, Spring, Damper, Gravity, Force, GeneralizedForce, Constraint, VelocityConstraint, Gear,
+                RackAndPinion, CentralForce, PrescribedMotion):
         register(cls)
 
 

@@ -95,7 +95,7 @@ def check_contribution(kind, m):
     own = m.assembly.contributions[kind]
     cls = type(m.component(kind))
     assert (own.T != 0 or own.V != 0 or own.D != 0 or own.G != 0 or own.loads or own.constraints
-            or cls.role in ("across", "through") or cls.structural)
+            or own.velocity_constraints or cls.role in ("across", "through") or cls.structural)
 
 
 def test_kinetic_energy_is_a_nonnegative_quadratic_form_in_velocities(example):
@@ -155,7 +155,7 @@ def check_equations(kind, m):
     assert m.mass_matrix.shape == (n, n)
     assert m.forcing.shape == (n, 1)
     assert len(m.equations) == n
-    assert m.eq.A.shape == (n + len(m.eq.constraints),) * 2  # a multiplier per constraint
+    assert m.eq.A.shape == (n + len(m.eq.multipliers),) * 2  # a multiplier per constraint
     assert m.parameters == []  # examples are fully numeric
     # every first-order coordinate is also a coordinate
     assert set(m.first_order) <= set(m.coordinate_names)
@@ -174,6 +174,15 @@ def check_simulation(kind, m):
 
         free = independent_coordinates(m, initial).independent
         initial, velocity = consistent_initial(m, {k: initial[k] for k in free}, {k: velocity[k] for k in free})
+    if len(eq.velocity_constraints):  # the rates moved (least change) onto A(q)·q̇ + b(q) = 0
+        at = {**{s: sp.Float(x) for s, x in eq.values.items()}, **{q: initial[n] for q, n in zip(eq.sym.q, eq.names)},
+              lg.t: 0}
+        c = eq.velocity_constraints.xreplace(at)
+        A = np.array(c.jacobian(eq.sym.v).tolist(), dtype=float)
+        b = np.array(c.xreplace({x: 0 for x in eq.sym.v}).tolist(), dtype=float)[:, 0]
+        v0 = np.array([velocity.get(n, 0.0) for n in eq.names])
+        v0 = v0 - np.linalg.pinv(A) @ (A @ v0 + b)
+        velocity = dict(zip(eq.names, map(float, v0)))
     res = m.simulate(1.0, initial=initial, velocity=velocity, points=21, rtol=1e-7, atol=1e-9)
     assert res.defaulted == []
     assert res.t[0] == 0.0 and res.t[-1] == pytest.approx(1.0)

@@ -60,7 +60,9 @@ def test_rack_and_pinion_accelerations_match_kane_over_decades(m, k, J, r, c, th
     y = np.array([q0["x_p"], q0["theta_s"], v0["x_p"], v0["theta_s"]])
     ours = model.numeric().rhs(0.0, y)[3]
     reference = kane_rack(m, k, J, r, c)(theta, omega)
-    assert ours == pytest.approx(reference, rel=1e-9, abs=1e-12 * (k * r * r * abs(theta) + c * r * r * abs(omega)) / J)
+    # consistent_initial closes the constraint to about 1e-15 absolute, and the stabilization answers a residual that
+    # small with ω² times it: the floor of the comparison
+    assert ours == pytest.approx(reference, rel=1e-9, abs=1e-12 * (k * r * r * (abs(theta) + 1e-3) + c * r * r * abs(omega)) / J)
 
 
 def test_rack_and_pinion_oscillates_at_the_closed_form_frequency_and_keeps_its_energy():

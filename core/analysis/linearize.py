@@ -282,6 +282,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     if not np.isfinite(float(time)):
         raise ModelError(f"time must be a finite number, got {time!r}.")
     time = float(time)
+    model._holonomic_only("linearization")
     twin, channels = _with_inputs(model, inputs)
     eq = twin.eq
     names = eq.names

@@ -125,6 +125,7 @@ class Scene:
             raise ModelError("a scene needs at least one output (a coordinate name, 'E', 'T[m1]', an expression...).")
         if not (isinstance(tol, (int, float)) and 0 < tol < 1):
             raise ModelError(f"tol must be a number between 0 and 1, got {tol!r}.")
+        model._holonomic_only("a scene")
         self.model = model
         self.requested = list(outputs)
         self.span = Model._span(t_end)

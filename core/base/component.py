@@ -334,7 +334,11 @@ class Contribution:
     whose velocities ``T`` is written in, if any; ``constraints``: holonomic
     constraints ``Φ(q, t) = 0`` the component imposes between coordinates
     (a gear pair, a rack and pinion, rolling without slipping), each kept
-    with a Lagrange multiplier as a closed loop's closure is.
+    with a Lagrange multiplier as a closed loop's closure is;
+    ``velocity_constraints``: constraints on velocities ``A(q, t)·q̇ + b(q, t)
+    = 0`` that no ``Φ(q, t)`` integrates (nonholonomic: a knife edge, a disc
+    rolling in space), each entering Lagrange's equations with a multiplier
+    (the Lagrange–d'Alembert form).
     """
 
     T: Any = 0
@@ -344,6 +348,7 @@ class Contribution:
     loads: list[Load] = field(default_factory=list)
     frames: list[MovingFrame] = field(default_factory=list)
     constraints: list[Any] = field(default_factory=list)
+    velocity_constraints: list[Any] = field(default_factory=list)
 
 
 @dataclass(frozen=True)

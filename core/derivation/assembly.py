@@ -70,6 +70,11 @@ class Assembly:
         source = self.generic if generic else self.contributions
         return [(name, sp.sympify(e, strict=True)) for name, c in source.items() for e in c.constraints]
 
+    def velocity_constraint_list(self, generic: bool = False) -> list[tuple[str, sp.Expr]]:
+        """``(component, c)`` pairs: the constraints on velocities ``c(q, q̇, t) = 0`` components impose."""
+        source = self.generic if generic else self.contributions
+        return [(name, sp.sympify(e, strict=True)) for name, c in source.items() for e in c.velocity_constraints]
+
     def load_list(self, generic: bool = False) -> list[tuple[str, Load]]:
         """``(component, load)`` pairs."""
         source = self.generic if generic else self.contributions
@@ -194,7 +199,7 @@ def _with_values(c: Contribution, values: Mapping) -> Contribution:
     return Contribution(put(c.T), put(c.V), put(c.D), put(c.G),
                         [Load(put(load.force), put(load.velocity)) for load in c.loads],
                         [MovingFrame(put(f.omega), tuple(put(v) for v in f.velocities)) for f in c.frames],
-                        [put(e) for e in c.constraints])
+                        [put(e) for e in c.constraints], [put(e) for e in c.velocity_constraints])
 
 
 def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] = ()) -> None:
@@ -214,6 +219,11 @@ def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] 
         if isinstance(e, sp.Basic) and any(isinstance(d, sp.Derivative) for d in sp.preorder_traversal(e)):
             raise ModelError(f"{where}: constraints[{i}] holds a rate ({e}): a holonomic constraint is Φ(q, t) = 0, "
                              f"in coordinates and t alone.")
+    if not isinstance(c.velocity_constraints, (list, tuple)):
+        raise ModelError(f"{where}: velocity_constraints must be a list of expressions A(q, t)·q̇ + b(q, t) (each = 0), "
+                         f"not {type(c.velocity_constraints).__name__}.")
+    for i, e in enumerate(c.velocity_constraints):
+        parts.append((f"velocity_constraints[{i}]", e))
     for i, frame in enumerate(c.frames):
         if not isinstance(frame, MovingFrame):
             raise ModelError(f"{where}: frames[{i}] is not a lagrangian.MovingFrame.")

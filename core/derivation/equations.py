@@ -101,10 +101,28 @@ class Equations:
         for name, c in assembly.constraint_list(generic=True):
             constraints.append(self.symbolic(c))
             self.constraint_owners.append(name)
+        velocity, self.velocity_owners = [], []
+        for name, c in assembly.velocity_constraint_list(generic=True):
+            velocity.append(self._linear_in_rates(name, self.symbolic(c)))
+            self.velocity_owners.append(name)
         rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.generic_views.values()), default=10.0)
         frames = [([self.symbolic(e) for e in f.omega], [[self.symbolic(e) for e in vel] for vel in f.velocities])
                   for f in assembly.frame_list(generic=True)]
-        self._derive(T, V, G, D, Q, constraints, rate, values=values, frames=frames)
+        self._derive(T, V, G, D, Q, constraints, rate, values=values, frames=frames, velocity=velocity)
+
+    def _linear_in_rates(self, name: str, c: sp.Expr) -> sp.Expr:
+        """``c`` (in plain symbols), checked to be a constraint on velocities ``A(q, t)·q̇ + b(q, t)``."""
+        v = self.sym.v
+        held = [x for x in v if c.has(x)]
+        if not held:
+            raise ModelError(f"component {name!r}: the velocity constraint {self.display(c)} holds no rate: a "
+                             f"constraint on positions alone is holonomic (the 'constraint' kind keeps it).")
+        for x in held:
+            for y in held:
+                if sp.diff(c, x, y) != 0:
+                    raise ModelError(f"component {name!r}: the velocity constraint {self.display(c)} is not linear in "
+                                     f"the rates (A(q, t)·q̇ + b(q, t) = 0 is the form Lagrange–d'Alembert takes).")
+        return c
 
     @classmethod
     def from_energies(cls, coordinates, T, V, G, D, Q, constraints=(), constraint_rate: float = 10.0,
@@ -148,7 +166,8 @@ class Equations:
         self._symbolic = Rewriter(self._to_sym, self._no_acceleration)
         self._display = Rewriter(self._from_sym)
 
-    def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None, values=None, frames=()) -> None:
+    def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None, values=None, frames=(),
+                velocity=()) -> None:
         q, v = self.sym.q, self.sym.v
         self._derivation = derivation = Derivation(q, v, t)
         M, f = derivation.equations(T, V, G, D, Q, frames=frames)
@@ -167,7 +186,8 @@ class Equations:
             M[i, :] = sp.zeros(1, len(q))
             f[i] = g - v[i]
         # generic: the parameters given as numbers still symbols (compiled code takes their values at run time)
-        self._generic = {"M": M, "f": f, "Q": sp.Matrix(Q), "constraints": sp.Matrix(constraints)}
+        self._generic = {"M": M, "f": f, "Q": sp.Matrix(Q), "constraints": sp.Matrix(constraints),
+                         "velocity_constraints": sp.Matrix(list(velocity))}
         self.T, self.V, self.D, self.G = put(T), put(V), put(D), put(G)
         self._generic_energies = (T, V, D, T - V + G)
         self.L = self.T - self.V + self.G
@@ -175,8 +195,12 @@ class Equations:
         self.M = put(M)
         self._f = None if values else f  # with values: put in on first use (large, and unused by compiled runs)
         self.constraints = put(self._generic["constraints"])
+        self.velocity_constraints = put(self._generic["velocity_constraints"])
+        if not hasattr(self, "velocity_owners"):
+            self.velocity_owners = []
         self.constraint_rate = constraint_rate
-        self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(len(self.constraints))]
+        rows = len(self.constraints) + len(self.velocity_constraints)
+        self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(rows)]
         self._split()
 
     @property
@@ -193,7 +217,7 @@ class Equations:
             if not self._values:
                 g.update(A=self.A, b=self.b, T=self.T, V=self.V, D=self.D, L=self.L, p=self.p)
             else:
-                g["A"], g["b"] = self._system(g["M"], g["f"], g["constraints"])
+                g["A"], g["b"] = self._system(g["M"], g["f"], g["constraints"], velocity=g["velocity_constraints"])
                 g["T"], g["V"], g["D"], g["L"] = self._generic_energies
                 g["p"] = sp.Matrix(self._derivation.momenta())
         return g
@@ -243,10 +267,10 @@ class Equations:
         self.inertial = [i for i in range(n) if i not in zero_rows]
         self.first_order = zero_rows
         self._b = None
-        if not self.first_order and not len(self.constraints):
+        if not self.first_order and not len(self.constraints) and not len(self.velocity_constraints):
             self.A = M.copy()  # b = f, put together on first use
         else:
-            self.A, self._b = self._system(M, self.f, self.constraints, check=True)
+            self.A, self._b = self._system(M, self.f, self.constraints, check=True, velocity=self.velocity_constraints)
 
     @property
     def f(self) -> sp.Matrix:
@@ -298,11 +322,16 @@ class Equations:
             self._free = free - inner - set(self._values)
         return set(self._free)
 
-    def _system(self, M, f, constraints, check: bool = False) -> tuple[sp.Matrix, sp.Matrix]:
-        """``A`` and ``b`` from ``M``, ``f`` and the constraints, with the split already made; ``check``: refuse what
-        cannot be solved (decided on the equations with the values in)."""
+    def _system(self, M, f, constraints, check: bool = False, velocity=None) -> tuple[sp.Matrix, sp.Matrix]:
+        """``A`` and ``b`` from ``M``, ``f`` and the constraints (on positions, then on velocities), with the split
+        already made; ``check``: refuse what cannot be solved (decided on the equations with the values in)."""
         n = len(self.names)
         calc = self._derivation.calc
+        velocity = sp.Matrix(velocity) if velocity is not None and len(velocity) else sp.zeros(0, 1)
+        if len(velocity):
+            Jv, cb = self._velocity_rows(velocity, check)
+            Jq, _, hb = self._constrained(constraints, check) if len(constraints) else (sp.zeros(0, n), None, sp.zeros(0, 1))
+            return self._with_rows(M, f, sp.Matrix.vstack(Jq, Jv), sp.Matrix.vstack(hb, cb), check)
         if not self.first_order and not len(constraints):
             return M.copy(), f.copy()
         vF = [self.sym.v[i] for i in self.first_order]
@@ -331,6 +360,34 @@ class Equations:
             for k in range(Jq.rows):
                 rows.append([Jq[k, j] for j in self.inertial] + [sp.Integer(0)] * (len(vF) + Jq.rows))
                 b.append(cb[k])
+        return sp.Matrix(rows), sp.Matrix(b)
+
+    def _velocity_rows(self, c, check: bool = False):
+        """The rows of the constraints on velocities ``c = A(q, t) q̇ + b(q, t) = 0``, stabilized as ``ċ + ω c = 0``:
+        ``A q̈ = −(c_q q̇ + c_t + ω c)`` (``A = c_q̇``)."""
+        q, v = self.sym.q, self.sym.v
+        Jv = c.jacobian(v)
+        involved = [self.names[i] for i in self.first_order if check and any(not _is_zero(Jv[k, i]) for k in range(Jv.rows))]
+        if involved:
+            raise ModelError(f"coordinates {', '.join(involved)} have no inertia but take part in a constraint on "
+                             f"velocities: give them mass.")
+        w = sp.Float(self.constraint_rate)
+        return Jv, -(c.jacobian(q) * sp.Matrix(v) + c.diff(t) + w * c)
+
+    def _with_rows(self, M, f, J, rhs, check: bool):
+        """``A`` and ``b`` with constraint rows ``J q̈ = rhs`` and their multipliers (forces ``Jᵀ λ``)."""
+        n = len(self.names)
+        calc = self._derivation.calc
+        vF = [self.sym.v[i] for i in self.first_order]
+        rates = [[-calc.diff(f[r], s) for s in vF] for r in range(n)]
+        at_rest = {s: sp.Integer(0) for s in vF}
+        rows = [[M[r, j] for j in self.inertial] + rates[r] for r in range(n)]
+        b = [f[r].xreplace(at_rest) for r in range(n)]
+        for r in range(n):
+            rows[r] += [-J[k, r] for k in range(J.rows)]
+        for k in range(J.rows):
+            rows.append([J[k, j] for j in self.inertial] + [sp.Integer(0)] * (len(vF) + J.rows))
+            b.append(rhs[k])
         return sp.Matrix(rows), sp.Matrix(b)
 
     def _constrained(self, Phi, check: bool = False):

@@ -308,7 +308,7 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
     for dname, view in assembly.generic_views.items():
         if len(getattr(view, "constraints", ())):
             raise NotStampable(f"the {dname} domain has loop-closure constraints")
-    held = [name for name, c in assembly.generic.items() if c.constraints]
+    held = [name for name, c in assembly.generic.items() if c.constraints or c.velocity_constraints]
     if held:
         raise NotStampable(f"{held[0]} imposes a constraint between coordinates")
     coordinates = {c.function: i for i, c in enumerate(assembly.coordinates)}

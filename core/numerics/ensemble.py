@@ -132,6 +132,9 @@ def compile_form(eq, values: dict, *, name: str, outputs: dict[str, sp.Expr] | N
     Raises :class:`~lagrangian.ModelError` when it cannot be compiled here: no C compiler, time signals given
     as Python callables, a function the tape does not know."""
     parameters = tuple(sorted(values, key=sp.default_sort_key))
+    if len(getattr(eq, "velocity_constraints", ())):
+        raise ModelError(f"model {name!r} has constraints on velocities (nonholonomic), whose start a sweep does not "
+                         f"check yet: run its samples with Model.simulate, which does.")
     q, v = list(eq.sym.q), list(eq.sym.v)
     outputs = dict(outputs or {})
     cc = compiler()

@@ -194,6 +194,10 @@ class _Setup:
         if len(eq.constraints):
             rows.append(eq.constraints.jacobian(q))
             rhs.append(eq.constraints.diff(t))
+        if len(eq.velocity_constraints):  # A(q, t) q̇ + b(q, t) = 0 holds after the blow as before it
+            c = eq.velocity_constraints
+            rows.append(c.jacobian(eq.sym.v))
+            rhs.append(c.xreplace({x: sp.Integer(0) for x in eq.sym.v}))
         self.lock_rows = []
         for lk in self.locks:
             J, b = lk.rows(model)
@@ -203,12 +207,15 @@ class _Setup:
             rhs.append(b.extract(keep, [0]) if keep else sp.zeros(0, 1))
         self.C = sp.Matrix.vstack(*rows) if rows else sp.zeros(0, len(q))
         self.c = sp.Matrix.vstack(*rhs) if rhs else sp.zeros(0, 1)
-        self.loops = len(eq.constraints)
+        self.holonomic = len(eq.constraints)
+        self.loops = self.holonomic + len(eq.velocity_constraints)
         self.e = [c.e for c in self.contacts]
 
     def row_owner(self, k: int) -> str:
-        if k < self.loops:
+        if k < self.holonomic:
             return "the loop-closure constraints"
+        if k < self.loops:
+            return "the constraints on velocities"
         k -= self.loops
         for name, count in self.lock_rows:
             if k < count:

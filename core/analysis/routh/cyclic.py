@@ -103,6 +103,12 @@ def ignorability(model: Model) -> dict[str, Ignorability]:
         if any(_depends(eq, c, qi) for c in eq.constraints):
             verdict("it takes part in a loop-closure constraint, whose force acts along it")
             continue
+        coupling = sorted({o for o, c in zip(eq.velocity_owners, eq.velocity_constraints)
+                           if _depends(eq, c, qi) or _depends(eq, c, eq.sym.v[i])})
+        if coupling:
+            verdict(f"a constraint on velocities (nonholonomic, from {_named(coupling)}) couples it: the constraint's "
+                    f"force acts along it, so its momentum is not conserved")
+            continue
         verdict("absent from L, D, the forces and the constraints: its momentum ∂L/∂q̇ is conserved", True)
     return out
 

@@ -531,6 +531,10 @@ def reduce(model: Model, ignorable: Sequence[str] | None = None, momenta: Mappin
     :class:`~lagrangian.ReductionError` saying why.
     """
     report = ignorability(model)
+    coupled = [r for r in report.values() if "nonholonomic" in r.reason]
+    if model.eq.velocity_owners:
+        why = "; ".join(f"{r.coordinate}: {r.reason}" for r in coupled) or "no coordinate is coupled, but the reduced model would drop the constraint"
+        model._holonomic_only(f"the Routhian reduction ({why})", ReductionError)
     if ignorable is None:
         ignorable = [n for n, r in report.items() if r.ignorable]
         if not ignorable:
