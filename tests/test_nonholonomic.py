@@ -127,3 +127,39 @@ def test_a_blow_across_the_edge_leaves_the_sled_moving_along_it():
     assert after["y_j"] == pytest.approx(speed * e[1], rel=1e-12)
     assert after["theta_j"] == pytest.approx(0.0, abs=1e-14)
     assert float(jump.T_after) == pytest.approx(0.5 * m * speed**2, rel=1e-12)
+
+
+def test_the_knife_edge_kind_is_the_written_constraint_and_off_the_centre_is_chaplygins_sled():
+    """The built-in knife_edge at the centre of mass gives the sled written by hand; at a distance a ahead of it,
+    Chaplygin's sled: u̇ = −a ω², (I + m a²) ω̇ = a m u ω, so the forward speed u = −U tanh(a m U t / J − atanh(u₀/U))
+    with J = I + m a² and U² = 2E/m."""
+    m, I, a = 2.0, 0.1, 0.3
+    written = sled(m, I, push=0.7, tau=0.2)
+    built = lg.Model("sled", dim=2)
+    built.add("body", "b", "b", m=m, inertia=I)
+    built.add("free", "j", ("ground", "b"))
+    built.add("knife_edge", "edge", "b")
+    built.add("force", "push", "b", F=[0.7, 0])
+    built.add("body_torque", "turn", "b", tau=0.2)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        th, speed, w = rng.uniform(-3, 3), rng.uniform(-2, 2), rng.uniform(-2, 2)
+        y = np.array([0.1, 0.2, th, speed * math.cos(th), speed * math.sin(th), w])
+        assert np.allclose(built.numeric().rhs(0.0, y), written.numeric().rhs(0.0, y), rtol=1e-13, atol=1e-13)
+
+    chaplygin = lg.Model("Chaplygin sled", dim=2)
+    chaplygin.add("body", "b", "b", m=m, inertia=I, points={"edge": (a, 0)})
+    chaplygin.add("free", "j", ("ground", "b"))
+    chaplygin.add("knife_edge", "edge", "b.edge")
+    th0, u0, w0 = 0.2, 0.4, 1.5
+    e, n = np.array([math.cos(th0), math.sin(th0)]), np.array([-math.sin(th0), math.cos(th0)])
+    v0 = u0 * e - a * w0 * n  # the centre's velocity: the edge point moves along e only
+    res = chaplygin.simulate(6.0, initial={"x_j": 0.0, "y_j": 0.0, "theta_j": th0},
+                             velocity={"x_j": v0[0], "y_j": v0[1], "theta_j": w0}, points=121, rtol=1e-12, atol=1e-14)
+    th = res["theta_j"]
+    u = np.cos(th) * res.velocity("x_j") + np.sin(th) * res.velocity("y_j")
+    J = I + m * a**2
+    U = math.sqrt(u0**2 + J * w0**2 / m)
+    exact = -U * np.tanh(a * m * U * res.t / J - math.atanh(u0 / U))
+    assert np.max(np.abs(u - exact)) < 1e-9 * U
+    assert np.ptp(res.E) < 1e-10 * res.E[0]

@@ -6,11 +6,11 @@ from lagrangian import hookimpl
 
 from .bodies import Body, Disc, Link, Rod
 from .joints import Fixed, Free, PlanarJoint, Prismatic, Revolute, Spherical
-from .loads import BodyTorque, RotationalDamper, RotationalSpring
+from .loads import BodyTorque, KnifeEdge, RotationalDamper, RotationalSpring
 
 
 @hookimpl
 def register_component_types(register):
     for cls in (Body, Link, Rod, Disc, Revolute, Prismatic, Spherical, PlanarJoint, Fixed, Free, BodyTorque,
-                RotationalSpring, RotationalDamper):
+                RotationalSpring, RotationalDamper, KnifeEdge):
         register(cls)

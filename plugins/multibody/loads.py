@@ -1,11 +1,11 @@
-"""Loads on the multibody plugin's bodies: a :class:`BodyTorque`, and a planar :class:`RotationalSpring` and
-:class:`RotationalDamper` between two bodies."""
+"""Loads on the multibody plugin's bodies: a :class:`BodyTorque`, a planar :class:`RotationalSpring` and
+:class:`RotationalDamper` between two bodies, and a planar :class:`KnifeEdge`."""
 
 from __future__ import annotations
 
 import sympy as sp
 
-from lagrangian import Component, Contribution, Example, Load, Parameter, t
+from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter, t
 
 from .checks import _need_dim
 
@@ -74,3 +74,44 @@ class RotationalDamper(Component):
         return Example(("ground", "b"), {"c": 0.5},
                        context=[("body", "b", "b", {"m": 1, "inertia": 1}), ("revolute", "j", ("ground", "b"), {}),
                                 ("rotational_spring", "k", ("ground", "b"), {"k": 2})], options={"dim": 2})
+
+
+class KnifeEdge(Component):
+    """A knife edge, a skate or a sled's runner at a point of a planar body: the point cannot move across the edge
+    (``direction``, in the body's frame; its x axis by default) — a constraint on velocities (nonholonomic),
+    ``n · v_point = 0`` with ``n`` the edge's normal, kept with a multiplier (the edge's sideways force).  At a
+    point off the centre of mass it is Chaplygin's sled.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("sled", dim=2)
+    >>> _ = m.add("body", "b", "b", m=2.0, inertia=0.1)
+    >>> _ = m.add("free", "j", ("ground", "b"))
+    >>> _ = m.add("knife_edge", "edge", "b")
+    >>> m.eq.velocity_constraints
+    Matrix([[-v_x_j*sin(q_theta_j) + v_y_j*cos(q_theta_j)]])
+    """
+
+    kind = "knife_edge"
+    domain = "mechanical"
+    terminals = ("point",)
+    multibody = True
+    parameters = {"direction": Parameter("the edge's direction in the body's frame", default=(1, 0), shape="vector",
+                                         symbolic=False)}
+
+    def contribute(self, ctx) -> Contribution:
+        _need_dim(self, ctx.view, (2,))
+        body = self.nodes[0].partition(".")[0]
+        e = sp.Matrix(self.direction) if self.direction is not None else sp.Matrix([1, 0])
+        if len(e) != 2 or all(x == 0 for x in e):
+            raise ModelError(f"knife_edge {self.name!r}: direction is a nonzero vector of 2 components in the body's "
+                             f"frame, got {list(e)}.")
+        e = ctx.view.pose(body).R * (e / sp.sqrt(e.dot(e)))
+        v = ctx.view.velocity(self.nodes[0])
+        return Contribution(velocity_constraints=[-e[1] * v[0] + e[0] * v[1]])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example("b.tip", {},
+                       context=[("body", "b", "b", {"m": 1, "inertia": 0.2, "points": {"tip": (0.3, 0)}}),
+                                ("free", "j", ("ground", "b"), {}), ("force", "F", "b", {"F": (1, 0.5)})],
+                       options={"dim": 2})
