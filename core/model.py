@@ -691,6 +691,14 @@ class Model:
             return False
         return True
 
+    def _no_state_callables(self, analysis: str) -> None:
+        """Refuse, for ``analysis`` (which differentiates the forces), loads given as Python callables of the state."""
+        held = self.assembly.state_callables
+        if held:
+            raise ModelError(f"model {self.name!r}: {analysis} differentiates the forces, and the loads given as Python "
+                             f"callables of the state ({', '.join(held)}) have no derivatives to take. Write them as "
+                             f"expressions of lagrangian.coordinate(...) and lagrangian.rate(...).")
+
     def _holonomic_only(self, analysis: str, error: type = ModelError) -> None:
         """Refuse, for ``analysis``, a model with constraints on velocities (nonholonomic), naming them."""
         owners = sorted(set(self.eq.velocity_owners))

@@ -618,7 +618,7 @@ def _mass_force_voltage(mass, ports) -> list:
 def _source(force) -> Any:
     """A force's value as the analogue's source: a signal of time (a Python callable stays one); a force of the state
     would be a controlled source, which the analogies do not map."""
-    held = force.state("F")
+    held = force.state("F") or [str(f) for f in force.state_callables()]
     if held:
         raise AnalogyError(f"force {force.name!r} depends on the state ({', '.join(map(str, held))}): its analogue "
                            f"would be a controlled source, which the analogies do not map. Map the model without it, "

@@ -212,3 +212,46 @@ def test_the_analogies_map_a_force_given_as_a_callable_and_refuse_one_of_the_sta
     assert np.max(np.abs(x - exact)) < 1e-9 and np.max(np.abs(q - exact)) < 1e-9
     with pytest.raises(AnalogyError, match=r"force 'F' depends on the state \(x_p\(t\)\).*controlled source"):
         map_model(build(-0.2 * lg.rate("x_p") ** 3), "force-current")
+
+
+def test_a_load_given_as_a_python_callable_of_the_state_runs_as_its_expression_and_is_refused_where_derivatives_are_needed():
+    from lagrangian.analogy import AnalogyError, map_model
+    from lagrangian.operating import equilibria
+
+    m, l, Kp, Kd = 0.3, 0.7, 2.5, 0.4
+
+    def controller(t, q, v):
+        return -Kp * (q["theta_j1"] + math.pi / 2) - Kd * v["theta_j1"]
+
+    written = pd_pendulum(m, l, Kp, Kd)
+    called = lg.Model("pd pendulum", dim=2)
+    called.add("link", "l1", "l1", points={"end": (l, 0)})
+    called.add("mass", "bob", "l1.end", m=m)
+    called.add("revolute", "j1", ("ground", "l1"))
+    called.add("gravity", "g", g=G)
+    called.add("generalized_force", "pd", coordinate="theta_j1", Q=controller)
+    kw = dict(initial={"theta_j1": -1.2}, velocity={"theta_j1": 0.3}, points=31, rtol=1e-11, atol=1e-13)
+    a = written.simulate(3.0, compiled=False, **kw)["theta_j1"]
+    b = called.simulate(3.0, **kw)
+    assert np.max(np.abs(a - b["theta_j1"])) < 1e-12
+    native = called.simulate(3.0, compiled=True, **kw)
+    assert any("Python callables (Q_pd)" in note for note in native.notes)
+    assert np.array_equal(native["theta_j1"], b["theta_j1"])
+    for call in (lambda: frequency.linearize(called, at={"theta_j1": -math.pi / 2}, inputs=[]),
+                 lambda: equilibria(called), lambda: called.simulate(1.0, method="exact", **kw)):
+        with pytest.raises(lg.ModelError, match=r"Python callables of the state \(Q_pd\) have no derivatives"):
+            call()
+    mech = lg.Model("driven")
+    mech.add("mass", "m1", "p", m=0.3)
+    mech.add("force", "F", "p", F=lambda t, q, v: -0.1 * v["x_p"])
+    with pytest.raises(AnalogyError, match="force 'F' depends on the state"):
+        map_model(mech, "force-voltage")
+    with pytest.raises(lg.ParameterError, match=r"callable of \(t, q, v\): a signal is a function of time alone"):
+        lg.Model("s").add("voltage_source", "V1", ("n1", "0"), E=lambda t, q, v: 1.0)
+    with pytest.raises(lg.ParameterError, match="callable of 2 required arguments"):
+        lg.Model("s").add("force", "F", "p", F=lambda t, q: 1.0)
+    bad = lg.Model("bad")
+    bad.add("mass", "m1", "p", m=0.3)
+    bad.add("force", "F", "p", F=lambda t, q, v: "strong")
+    with pytest.raises(lg.ModelError, match=r"the load F_F\(t, q, v\), a Python callable, returned 'strong'"):
+        bad.simulate(1.0, initial={"x_p": 0.0}, velocity={"x_p": 0.0})

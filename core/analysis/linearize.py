@@ -283,6 +283,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         raise ModelError(f"time must be a finite number, got {time!r}.")
     time = float(time)
     model._holonomic_only("linearization")
+    model._no_state_callables("linearization")
     twin, channels = _with_inputs(model, inputs)
     eq = twin.eq
     names = eq.names

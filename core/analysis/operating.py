@@ -81,6 +81,7 @@ def equilibria(model: Model, *, params: Mapping[str, float] | None = None, time:
     if not isinstance(model, Model):
         raise ModelError(f"equilibria takes a lagrangian.Model, got {type(model).__name__}.")
     model._holonomic_only("the search for equilibria")
+    model._no_state_callables("the search for equilibria")
     eq = model.eq
     names, q, v = eq.names, list(eq.sym.q), list(eq.sym.v)
     values = model._values(dict(params or {}), overrides=True)

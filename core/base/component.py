@@ -127,7 +127,16 @@ class Parameter:
                 raise ParameterError(component, name, f"expected the name of a component (a string), got {value!r}.")
             return value.strip()
         if self.shape == "signal" and callable(value) and not isinstance(value, sp.Basic):
-            return _CallableSignal(value, f"{name}_{component}")
+            arity = _arity(value)
+            if arity == 3 and not self.state:
+                raise ParameterError(component, name, "is a callable of (t, q, v): a signal is a function of time "
+                                                      "alone, f(t). Loads (force, torque, body_torque, "
+                                                      "generalized_force) take callables of the state.")
+            if arity not in (1, 3):
+                raise ParameterError(component, name, f"is a callable of {arity} required arguments: give f(t)"
+                                                      + (", or f(t, q, v) with q and v mappings of coordinate names "
+                                                         "to values" if self.state else "") + ".")
+            return _CallableSignal(value, f"{name}_{component}", state=arity == 3)
         if self.shape == "signal" and isinstance(value, (Sequence, sp.MatrixBase)) and not isinstance(value, (str, bytes)):
             return sp.Matrix([self._scalar(v, component, name, check="real") for v in value])
         if self.shape == "vector" and value is not None:
@@ -271,15 +280,46 @@ def _plain_number(value: Any) -> bool:
 
 
 class _CallableSignal:
-    """A Python callable of time standing in for a signal parameter."""
+    """A Python callable of time — or, for a load (``state``), of ``(t, q, v)`` with ``q`` and ``v`` mappings of
+    coordinate names to values — standing in for a signal parameter.  Its undefined function is applied to ``t``
+    alone while the component contributes; the assembly applies a state callable's to every coordinate and rate
+    (:func:`lagrangian.derivation.assembly.assemble`)."""
 
-    def __init__(self, func: Callable[[float], float], label: str):
+    def __init__(self, func: Callable[..., float], label: str, state: bool = False):
         self.func = func
+        self.state = state
         self.function = sp.Function(_identifier(label))
         self.expr = self.function(t)
 
     def __repr__(self) -> str:
-        return f"<callable {self.function}(t)>"
+        return f"<callable {self.function}({'t, q, v' if self.state else 't'})>"
+
+
+class StateCall:
+    """A load's Python callable ``f(t, q, v)`` as the equations call it, ``f(t, q₁, …, qₙ, v₁, …, vₙ)``: ``q`` and
+    ``v`` handed over as mappings of the coordinate names to values (numbers, or arrays of many states alike)."""
+
+    def __init__(self, func: Callable[..., Any], names: Sequence[str]):
+        self.func, self.names = func, list(names)
+
+    def __call__(self, time, *args):
+        n = len(self.names)
+        return self.func(time, dict(zip(self.names, args[:n])), dict(zip(self.names, args[n:])))
+
+
+def _arity(func: Callable) -> int | None:
+    """How many arguments ``func`` requires (1 for what its signature does not say: a builtin of one number)."""
+    import inspect
+
+    try:
+        sig = inspect.signature(func)
+    except (TypeError, ValueError):
+        return 1
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    required = [p for p in sig.parameters.values() if p.kind in kinds and p.default is p.empty]
+    if any(p.kind == inspect.Parameter.VAR_POSITIONAL for p in sig.parameters.values()) and not required:
+        return 1
+    return len(required)
 
 
 def _identifier(label: str) -> str:
@@ -569,8 +609,13 @@ class Component:
         raise NotImplementedError(f"{self.kind}: components with more than two terminals must define branches()")
 
     def signals(self) -> dict[sp.Function, Callable[[float], float]]:
-        """Python callables standing behind the component's signal parameters."""
+        """Python callables standing behind the component's signal parameters (of time; a load's of the state too,
+        marked by their ``state``)."""
         return {v.function: v.func for v in self.params.values() if isinstance(v, _CallableSignal)}
+
+    def state_callables(self) -> list[sp.Function]:
+        """The undefined functions standing for this component's callables of ``(t, q, v)``."""
+        return [v.function for v in self.params.values() if isinstance(v, _CallableSignal) and v.state]
 
     #: the quantities :meth:`quantity` names, with what each is (for error messages and documentation)
     quantities: ClassVar[Mapping[str, str]] = {}

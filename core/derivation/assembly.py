@@ -15,7 +15,7 @@ from typing import Any
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..base.component import GROUND, Component, Contribution, Load, MovingFrame, t
+from ..base.component import GROUND, Component, Contribution, Load, MovingFrame, StateCall, t
 from ..base.domain import Context, Coordinate, DomainView, Network
 from ..errors import DomainError, LagrangianError, ModelError, closest
 from ..base.graph import ComponentGraph
@@ -46,6 +46,12 @@ class Assembly:
     generic: dict[str, Contribution] = field(default_factory=dict)
     values: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
     build_views: Any = field(default=None, repr=False)  # () -> the views with the values in
+
+    @property
+    def state_callables(self) -> list[str]:
+        """Names of the loads' Python callables of ``(t, q, v)`` (their derivatives are unknown: what needs them —
+        linearization, equilibria, the exact solution — refuses the model)."""
+        return sorted(f.__name__ for f, fn in self.signals.items() if isinstance(fn, StateCall))
 
     @property
     def views(self) -> dict[str, DomainView]:
@@ -148,6 +154,14 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     signals: dict[sp.Function, Any] = {}
     for comp in components:
         signals.update(comp.signals())
+    # a load's callable of (t, q, v): its function applied to t, every coordinate and every rate
+    names = [c.name for c in coordinates]
+    state_args = (t, *[c.function for c in coordinates], *[sp.Derivative(c.function, t) for c in coordinates])
+    applied = {}
+    for comp in components:
+        for f in comp.state_callables():
+            applied[f(t)] = f(*state_args)
+            signals[f] = StateCall(signals[f], names)
     generic, values = {}, {}
     for comp in components:
         values.update(comp.values)
@@ -161,11 +175,18 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
             raise ModelError(
                 f"{comp.kind} {comp.name!r} failed to contribute its energy: {exc.__class__.__name__}: {exc}"
             ) from exc
+        if applied and contribution.loads:
+            contribution.loads = [Load(_applied(load.force, applied), load.velocity) for load in contribution.loads]
         _check_contribution(comp, contribution, allowed | set(signals), [c.name for c in coordinates])
         generic[comp.name] = contribution
     contributions = _Valued(generic, values)
     valued = None if all(view is comp for comp, view in zip(components, symbolic)) else (lambda: build(None))
     return Assembly(coordinates, views, contributions, signals, generic, values, valued)
+
+
+def _applied(force: Any, applied: Mapping) -> Any:
+    """``force`` with the functions of the load's state callables applied to the state."""
+    return force.xreplace(applied) if isinstance(force, (sp.Basic, sp.MatrixBase)) else force
 
 
 class _Valued(Mapping):

@@ -308,6 +308,8 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
     for dname, view in assembly.generic_views.items():
         if len(getattr(view, "constraints", ())):
             raise NotStampable(f"the {dname} domain has loop-closure constraints")
+    if assembly.state_callables:
+        raise NotStampable(f"loads given as Python callables of the state ({', '.join(assembly.state_callables)})")
     held = [name for name, c in assembly.generic.items() if c.constraints or c.velocity_constraints]
     if held:
         raise NotStampable(f"{held[0]} imposes a constraint between coordinates")

@@ -83,8 +83,9 @@ def _generic_programs(eq, parameters: tuple) -> tuple[Program, Program]:
     callables = scan["callables"]
     if callables or scan["derivatives"]:
         raise _Unavailable(
-            f"the model uses time signal(s) given as Python callables ({', '.join(callables) or 'derivatives'}), "
-            f"which compiled code cannot call; give them as SymPy expressions of t to compile"
+            f"the model uses signals or loads given as Python callables ({', '.join(callables) or 'derivatives'}), "
+            f"which compiled code cannot call; give them as SymPy expressions (of t, or of the state for a load) to "
+            f"compile"
         )
     q, v = list(eq.sym.q), list(eq.sym.v)
     try:

@@ -165,6 +165,7 @@ def state_space(model, params: Mapping[str, float] | None = None) -> StateSpace:
 def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
     eq = model.eq
     model._holonomic_only("the exact solution by the matrix exponential")
+    model._no_state_callables("the exact solution by the matrix exponential")
     if len(eq.constraints):
         owners = sorted({o for o in getattr(eq, "constraint_owners", ()) if o})
         what = f"the constraints of {', '.join(map(repr, owners))}" if owners else "loop-closure constraints"

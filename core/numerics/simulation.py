@@ -21,7 +21,7 @@ import sympy as sp
 
 from .codegen import compile_model
 from .result import Result
-from ..base.component import t
+from ..base.component import StateCall, t
 from ..derivation.equations import Equations
 from ..errors import ExpressionError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
 from ..errors import warn as _warn
@@ -42,7 +42,11 @@ class InitialConditionWarning(UserWarning):
 
 
 def _checked_signal(name: str, fn: Callable) -> Callable:
-    """A user's callable signal, whose value must be one number per time (a scalar, or an array shaped as ``t``)."""
+    """A user's callable signal, whose value must be one number per time (a scalar, or an array shaped as ``t``);
+    a load's callable of the state is called with ``(t, q, v)`` (:class:`~lagrangian.base.component.StateCall`),
+    one state at a time."""
+    if isinstance(fn, StateCall):
+        return _checked_state(name, fn)
 
     def signal(time):
         value = fn(time)
@@ -60,6 +64,34 @@ def _checked_signal(name: str, fn: Callable) -> Callable:
             raise ModelError(f"the signal {name}(t), a Python callable, returned {value!r:.60} at t={time!r:.30}: it must "
                              f"return a finite number.")
         return out
+
+    return signal
+
+
+def _checked_state(name: str, call: StateCall) -> Callable:
+    """A load's callable ``f(t, q, v)``: called once per state (many states are taken one at a time), its value
+    one finite number."""
+
+    def one(time, args):
+        value = call(time, *args)
+        try:
+            if value is None:
+                raise TypeError
+            out = float(value)
+        except (TypeError, ValueError):
+            raise ModelError(f"the load {name}(t, q, v), a Python callable, returned {value!r:.60} at t={time!r:.30}: it "
+                             f"must return one number.") from None
+        if not np.isfinite(out):
+            raise ModelError(f"the load {name}(t, q, v), a Python callable, returned {value!r:.60} at t={time!r:.30}: it "
+                             f"must return a finite number.")
+        return out
+
+    def signal(time, *args):
+        if np.ndim(time) == 0 and all(np.ndim(a) == 0 for a in args):
+            return one(float(time), [float(a) for a in args])
+        arrays = np.broadcast_arrays(time, *args)
+        return np.array([one(float(x[0]), [float(a) for a in x[1:]])
+                         for x in zip(*(a.ravel() for a in arrays))]).reshape(arrays[0].shape)
 
     return signal
 
