@@ -246,6 +246,18 @@ class Model:
         """Generalized forces ``Q`` from the components' loads."""
         return self.eq.Q.applyfunc(self.eq.display)
 
+    def load_power(self, *components: str) -> sp.Expr:
+        """The power ``Σ Q_i q̇_i`` the loads of ``components`` (every load by default) deliver, in ``q(t)``,
+        ``q̇(t)`` and ``t``: ``result.cumulative(model.load_power("pd"))`` is the work they have done, which the
+        energy balance ``E(t) − E(0) = W(t) − (energy dissipated)`` holds (see :meth:`Result.cumulative`)."""
+        shares = dict(self.eq.load_shares)
+        for name in components:
+            if name not in shares:
+                raise UnknownNameError("component with a load", name, list(shares))
+        v = self.eq.sym.v
+        return self.eq.display(sp.Add(*[e * v[i] for name, share in self.eq.load_shares
+                                        if not components or name in components for i, e in enumerate(share)]))
+
     @property
     def mass_matrix(self) -> sp.Matrix:
         """``M(q, t)`` of ``M q̈ = f``."""

@@ -255,3 +255,23 @@ def test_a_load_given_as_a_python_callable_of_the_state_runs_as_its_expression_a
     bad.add("force", "F", "p", F=lambda t, q, v: "strong")
     with pytest.raises(lg.ModelError, match=r"the load F_F\(t, q, v\), a Python callable, returned 'strong'"):
         bad.simulate(1.0, initial={"x_p": 0.0}, velocity={"x_p": 0.0})
+
+
+def test_the_work_of_the_loads_closes_the_energy_balance():
+    m, l, Kp, Kd = 0.3, 0.7, 2.5, 0.4
+    model = pd_pendulum(m, l, Kp, Kd)
+    res = model.simulate(3.0, initial={"theta_j1": -0.4}, velocity={"theta_j1": 1.0}, points=3001, rtol=1e-12,
+                         atol=1e-14)
+    W = res.cumulative(model.load_power("pd"))
+    assert np.max(np.abs(res.E - res.E[0] - W)) < 1e-9 * np.max(np.abs(res.E))
+    assert W[-1] < 0  # the controller took energy out on the whole
+    # a damper's linear Rayleigh function: the energy it dissipated is ∫ 2D dt, and no load does work
+    damped = lg.Model("damped")
+    damped.add("mass", "m1", "p", m=0.3)
+    damped.add("spring", "k1", ("ground", "p"), k=40.0)
+    damped.add("damper", "c1", ("ground", "p"), c=0.25)
+    run = damped.simulate(2.0, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=2001, rtol=1e-12, atol=1e-15)
+    assert damped.load_power() == 0
+    assert np.max(np.abs(run.E - run.E[0] + run.cumulative(2 * run.D))) < 1e-9 * run.E[0]
+    with pytest.raises(lg.UnknownNameError, match="component with a load"):
+        model.load_power("bob")
