@@ -78,6 +78,15 @@ def test_a_free_sled_turns_on_a_circle_and_keeps_its_energy():
     assert np.max(np.abs(res["x_j"] - v / w * (np.sin(th) - math.sin(th0)))) < 1e-11
     assert np.max(np.abs(res["y_j"] + v / w * (np.cos(th) - math.cos(th0)))) < 1e-11
     assert np.ptp(res.E) < 1e-11 * res.E[0]  # the edge's force does no work
+    assert any(note.startswith("energy (Jacobi integral) kept to") for note in res.notes)  # and the run checks it
+    moving = lg.Model("sled on a turning track", dim=2)  # an edge whose direction is driven: its force does work
+    moving.add("body", "b", "b", m=2.0, inertia=0.1)
+    moving.add("free", "j", ("ground", "b"))
+    moving.add("velocity_constraint", "edge", c=-sp.sin(0.5 * lg.t) * lg.rate("x_j") + sp.cos(0.5 * lg.t) * lg.rate("y_j"))
+    run = moving.simulate(1.0, initial={"x_j": 0, "y_j": 0, "theta_j": 0}, velocity={"x_j": 1.0, "y_j": 0, "theta_j": 0},
+                          method="auto", points=11)
+    assert any("constraints move with time" in note for note in run.notes)
+    assert not any(note.startswith("energy (Jacobi integral) kept") for note in run.notes)
 
 
 def test_the_start_must_satisfy_the_constraint_and_the_analyses_that_do_not_cover_it_say_so():

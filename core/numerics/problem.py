@@ -137,7 +137,7 @@ class Problem:
         self.dim = self.n + self.nI
         self.inertial: list[int] = list(eq.inertial)
         self.first_order: list[str] = [eq.names[i] for i in eq.first_order]
-        self.constrained = len(getattr(eq, "constraints", ())) > 0
+        self.constrained = len(getattr(eq, "constraints", ())) + len(getattr(eq, "velocity_constraints", ())) > 0
         self.nfev = 0
         self._report: Callable[[float], None] | None = None
         self._pace: tuple[float, float, int, str] | None = None  # (t0, t1, nfev at the start, model) of a run
@@ -309,7 +309,14 @@ class Problem:
             reasons.append("applied forces or sources do work on it (generalized forces Q ≠ 0)")
         if depends_on(eq.L.xreplace(subs), time_symbol):
             reasons.append("its Lagrangian depends on time (prescribed motions or time-varying parameters)")
-        return not reasons and not self.constrained, "; ".join(reasons)
+        # constraints fixed in time (Φ(q), A(q)·q̇ = 0) do no work: their forces are perpendicular to every motion
+        # they allow; moving ones (a driven loop, A(q, t)·q̇ + b(q, t)) put energy in or take it out
+        velocity = getattr(eq, "velocity_constraints", sp.zeros(0, 1))
+        at_rest = {x: 0 for x in eq.sym.v}
+        if any(depends_on(c.xreplace(subs), time_symbol) for c in [*eq.constraints, *velocity]) or \
+                any(not is_zero(c.xreplace(subs).xreplace(at_rest)) for c in velocity):
+            reasons.append("its constraints move with time, and their forces do work")
+        return not reasons, "; ".join(reasons)
 
     @functools.cached_property
     def structure(self) -> Structure:
@@ -324,7 +331,7 @@ class Problem:
         if self.first_order:
             why["first_order"] = f"coordinate(s) {', '.join(self.first_order)} have no inertia (first-order)"
         if self.constrained:
-            why["constrained"] = "it has loop-closure constraints kept with Lagrange multipliers"
+            why["constrained"] = "it has constraints kept with Lagrange multipliers"
         M = s["M"]
         m_dep = _dependence(M, q)
         constant_mass = not m_dep and not _dependence(M, [time_symbol])
