@@ -87,6 +87,11 @@ def test_a_free_sled_turns_on_a_circle_and_keeps_its_energy():
                           method="auto", points=11)
     assert any("constraints move with time" in note for note in run.notes)
     assert not any(note.startswith("energy (Jacobi integral) kept") for note in run.notes)
+    from lagrangian import routh
+
+    assert routh.jacobi_integral(model).conserved  # the fixed edge keeps the Jacobi integral
+    moved = routh.jacobi_integral(moving)
+    assert not moved.conserved and "constraint on velocities moves with time (from 'edge')" in moved.reasons[0]
 
 
 def test_the_start_must_satisfy_the_constraint_and_the_analyses_that_do_not_cover_it_say_so():

@@ -112,6 +112,11 @@ def jacobi_integral(model: Model) -> JacobiIntegral:
         reasons.append(f"generalized forces act (from {_named(forced)})")
     if any(_depends(eq, c, t) for c in eq.constraints):
         reasons.append("a loop constraint moves with time")
+    at_rest = {x: 0 for x in eq.sym.v}
+    moving = sorted({o for o, c in zip(eq.velocity_owners, eq.velocity_constraints)
+                     if _depends(eq, c, t) or not is_zero(c.xreplace(at_rest))})
+    if moving:
+        reasons.append(f"a constraint on velocities moves with time (from {_named(moving)}): its force does work")
     conserved = not reasons
     if conserved:
         reasons.append("L has no explicit time dependence and no dissipation, force or moving constraint acts")
