@@ -224,6 +224,40 @@ class Damper(Component):
         )
 
 
+class CoulombFriction(Component):
+    """Dry (Coulomb) friction between two nodes in one dimension, regularized: the force ``−F_c tanh(v / v_s)`` on
+    the relative velocity ``v = ẋ_b − ẋ_a``, with ``F_c = μ N`` the sliding friction force and ``v_s`` the speed
+    below which it fades (smooth, so any integrator runs it; the smaller ``v_s``, the stiffer the equations once the
+    motion stops, where an implicit method such as ``"Radau"`` or ``"LSODA"`` takes far fewer steps).  A block held
+    by a force ``F < F_c`` creeps at ``v_s atanh(F/F_c)`` instead of sticking: true sticking (an event-based
+    stick–slip) is not modelled.  Its power (``Model.load_power``) is the rate it turns energy into heat.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("block")
+    >>> _ = m.add("mass", "m1", "p", m=0.3)
+    >>> _ = m.add("coulomb_friction", "f", ("ground", "p"), F_c=0.6, v_s=1e-3)
+    >>> m.equations
+    [Eq(0.3*Derivative(x_p(t), (t, 2)), -0.6*tanh(1000.0*Derivative(x_p(t), t)))]
+    """
+
+    kind = "coulomb_friction"
+    domain = "mechanical"
+    parameters = {"F_c": Parameter("sliding friction force μ N", unit="N", check="nonnegative"),
+                  "v_s": Parameter("speed below which the friction fades (regularization)", default=1e-4, unit="m/s")}
+
+    def contribute(self, ctx) -> Contribution:
+        if ctx.view.dim != 1:
+            raise ModelError(f"coulomb_friction {self.name!r} acts along one dimension (Model(dim=1)); in a plane "
+                             f"write the force of the state with lagrangian.rate(...).")
+        rate = ctx.view.velocity(self.nodes[1])[0] - ctx.view.velocity(self.nodes[0])[0]
+        return Contribution(loads=[Load(-self.F_c * sp.tanh(rate / self.v_s), rate)])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example(("ground", "p"), {"F_c": 0.3, "v_s": 0.05},
+                       context=[("mass", "m", "p", {"m": 1}), ("spring", "k", ("ground", "p"), {"k": 2})])
+
+
 class Gravity(Component):
     """Uniform gravity acting on every mass of the model: V = −Σ m g (u · r).
 
@@ -553,8 +587,8 @@ def register_domains(register):
 
 @hookimpl
 def register_component_types(register):
-    for cls in (Mass, Spring, Damper, Gravity, Force, GeneralizedForce, Constraint, VelocityConstraint, Gear,
-                RackAndPinion, CentralForce, PrescribedMotion):
+    for cls in (Mass, Spring, Damper, CoulombFriction, Gravity, Force, GeneralizedForce, Constraint,
+                VelocityConstraint, Gear, RackAndPinion, CentralForce, PrescribedMotion):
         register(cls)
 
 

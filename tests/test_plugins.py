@@ -26,7 +26,7 @@ import lagrangian.hookspecs as hookspecs
 from lagrangian.registry import ENTRY_POINT_GROUP
 
 BUILTIN_KINDS = {
-    "mechanics": ["mass", "spring", "damper", "gravity", "force", "generalized_force", "constraint",
+    "mechanics": ["mass", "spring", "damper", "coulomb_friction", "gravity", "force", "generalized_force", "constraint",
                   "velocity_constraint", "gear", "rack_and_pinion", "central_force", "prescribed_motion"],
     "circuits": ["inductor", "capacitor", "resistor", "voltage_source", "current_source", "gyrator"],
 }
@@ -154,7 +154,8 @@ def test_describe_lists_plugins_and_origins(registry):
     assert "cubic_spring  (lagrangian-cubic-spring 0.1.0)" in text
     assert "mechanics  (lagrangian 0.1.0)" in text
     assert "circuits  (lagrangian 0.1.0)" in text
-    assert ("kinds:   mass, spring, damper, gravity, force, generalized_force, constraint, velocity_constraint, gear, "
+    assert ("kinds:   mass, spring, damper, coulomb_friction, gravity, force, generalized_force, constraint, "
+            "velocity_constraint, gear, "
             "rack_and_pinion, central_force, prescribed_motion") in text
     assert "domains: electrical" in text
 

@@ -72,6 +72,9 @@ _POINTS = 3
 _TRIES = 12
 _SEED = 20261124
 _FAST_TOLERANCE = 1e-6  # a float evaluation this far from zero proves "not zero" at once
+#: Beyond these arguments tanh is ±1 to within the working precision (e^(−2x) below 1e-35, and below 1e-13 in
+#: double precision): such a point cannot tell an expression in tanh from a constant, and is drawn again.
+_SATURATED, _SATURATED_FLOAT = 40.0, 15.0
 
 
 class _Inadmissible(Exception):
@@ -192,6 +195,10 @@ class _Evaluator:
         name = _MP_NAMES.get(type(e))
         if name is not None and len(args) == 1:
             xa, ma = args[0]
+            if name == "tanh" and abs(xa) > (_SATURATED_FLOAT if ctx is _FLOAT else _SATURATED):
+                # tanh is ±1 there to beyond the working precision, so 1 − tanh² (its derivative) would read 0: a
+                # steep tanh (friction regularized over 1e-4 m/s) would look constant at every point
+                raise _Inadmissible
             fn = getattr(ctx, name)
             try:
                 x = fn(xa)
