@@ -447,7 +447,12 @@ def _property_test():
     def check(m1, l1, m2, l2, L, R, tilt, turn, spins, rates, q):
         """Scene at rtol 1e-11 against the full model at 1e-13 over 3/ω₀ (ω₀ = √(g/l₁), under half a swing):
         1e-8 on the angles, 1e-8 relative on the azimuth rate.  Each pendulum spins (its angular momentum
-        keeps it off the vertical, where the azimuth of these angles is undetermined)."""
+        keeps it off the vertical, where the azimuth of these angles is undetermined).  The reference runs the
+        whole model with DOP853, which refuses a stiff circuit (R/L beyond some 1e5/s over the span): such draws
+        are left out, the scene prunes the circuit either way."""
+        from hypothesis import assume
+
+        assume(R / L * 3 / math.sqrt(9.81 / l1) < 1e5)
         model = pendulums_and_circuit(m1, l1, m2, l2, L=L, C=0.1, R=R)
         w0, w2 = math.sqrt(9.81 / l1), math.sqrt(9.81 / l2)
         full = {"initial": {"theta_turn1": turn, "theta_tilt1": tilt, "theta_turn2": -turn, "theta_tilt2": 3.1 - tilt,
