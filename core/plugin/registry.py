@@ -256,6 +256,10 @@ def _component_type_problem(cls: Any) -> str | None:
         return "terminals must be a tuple of names"
     if not all(isinstance(p, Parameter) for p in cls.parameters.values()):
         return "every entry of parameters must be a lagrangian.Parameter"
+    hidden = sorted(p for p in cls.parameters if hasattr(Component, p) or p.startswith("_"))
+    if hidden:  # self.<name> would give Component's attribute (a method such as state or given), not the value
+        return (f"its parameter {hidden[0]!r} is hidden by lagrangian.Component.{hidden[0]}, which every component "
+                f"has: rename the parameter")
     if cls.terminal_domains is not None and (
         not isinstance(cls.terminal_domains, tuple) or len(cls.terminal_domains) != len(cls.terminals)
     ):
