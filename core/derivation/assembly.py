@@ -9,7 +9,7 @@ function; ``L = T - V``.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import sympy as sp
@@ -175,8 +175,9 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
             raise ModelError(
                 f"{comp.kind} {comp.name!r} failed to contribute its energy: {exc.__class__.__name__}: {exc}"
             ) from exc
-        if applied and contribution.loads:
-            contribution.loads = [Load(_applied(load.force, applied), load.velocity) for load in contribution.loads]
+        if applied and isinstance(contribution, Contribution) and contribution.loads:  # a copy: never the plugin's own
+            contribution = replace(contribution, loads=[Load(_applied(load.force, applied), load.velocity)
+                                                        for load in contribution.loads])
         _check_contribution(comp, contribution, allowed | set(signals), [c.name for c in coordinates])
         generic[comp.name] = contribution
     contributions = _Valued(generic, values)
