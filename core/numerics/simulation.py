@@ -75,15 +75,12 @@ def _checked_state(name: str, call: StateCall) -> Callable:
     def one(time, args):
         value = call(time, *args)
         try:
-            if value is None:
-                raise TypeError
-            out = float(value)
+            out = float(value)  # None, text and arrays are refused here
         except (TypeError, ValueError):
-            raise ModelError(f"the load {name}(t, q, v), a Python callable, returned {value!r:.60} at t={time!r:.30}: it "
-                             f"must return one number.") from None
+            out = np.nan
         if not np.isfinite(out):
             raise ModelError(f"the load {name}(t, q, v), a Python callable, returned {value!r:.60} at t={time!r:.30}: it "
-                             f"must return a finite number.")
+                             f"must return one finite number.")
         return out
 
     def signal(time, *args):
