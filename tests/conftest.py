@@ -40,8 +40,10 @@ def registry_with():
     return build
 
 
-#: Modules whose tests run subprocesses, ngspice, clusters or long property searches: `make test-fast` skips them
-#: (and every test named for ngspice); `make test` and CI run everything.
+#: Modules whose tests run subprocesses, ngspice, clusters or long property searches: `make test-fast` skips them,
+#: every test named for ngspice, and the tests marked ``@pytest.mark.slow`` one by one (those that take more than
+#: about half a second: examples, processes, derivations checked against another engine); `make test` and CI run
+#: everything.
 SLOW_MODULES = {"test_examples", "test_sweep_dask", "test_transducer_spice", "test_fuzz", "test_robustness",
                 "test_ngspice", "test_spatial_chains", "test_untrusted_code", "test_compare_params", "test_site",
                 "test_notebook"}

@@ -191,6 +191,7 @@ def _pendulum():
     return m
 
 
+@pytest.mark.slow
 def test_auto_in_a_work_precision_run_keeps_the_energy_of_a_long_conservative_run():
     # a 0.3 kg bob on 0.7 m let go 0.35 rad below the horizontal (θ = 0 is +x, gravity along −y), 250 s: about 130
     # periods of its swing.  Its energy is conserved (no dissipation, no forces, L independent of t), so the

@@ -166,6 +166,7 @@ def test_failures_while_running_exit_1_with_one_line(tmp, capsys, name):
 
 
 @pytest.mark.parametrize("name", IN_A_PROCESS)
+@pytest.mark.slow
 def test_exit_status_of_the_process(ran, tmp, name):
     proc = ran[name]
     if name in USAGE_ERRORS:
@@ -218,6 +219,7 @@ def test_no_command_prints_usage_and_exits_2(ran):
     assert proc.stderr.splitlines()[-1].startswith("lagrangian: error: no command given")
 
 
+@pytest.mark.slow
 def test_stdout_closed_before_anything_is_written():
     read, write = os.pipe()
     os.close(read)
@@ -229,6 +231,7 @@ def test_stdout_closed_before_anything_is_written():
     assert proc.stderr == ""  # no traceback, no "Exception ignored ... BrokenPipeError"
 
 
+@pytest.mark.slow
 def test_reader_that_stops_after_one_line():
     # `lagrangian kinds | head -1`: the reader may close before or after everything was written
     proc = subprocess.Popen(_command(["kinds"], Path(".")), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -264,6 +267,7 @@ def test_warning_display_is_restored_after_an_in_process_run(capsys):
     assert len(err.splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_the_readme_command_lines_run_as_written(tmp_path, monkeypatch, capsys):
     """Every ``lagrangian scene``, ``ac`` and ``sweep`` line of the README, on the files it names under examples/
     (``bench`` lines are the benchmarks' own tests)."""

@@ -135,6 +135,7 @@ def pick(built, tapes, name, kind):
 
 
 @pytest.mark.parametrize("name", list(MODELS))
+@pytest.mark.slow
 def test_compiled_rhs_equals_the_numpy_rhs_on_random_states(built, tapes, name, kind):
     model, numeric, compiled = pick(built, tapes, name, kind)
     numeric.use_compiled(False)  # the reference: NumPy
@@ -151,6 +152,7 @@ def test_compiled_rhs_equals_the_numpy_rhs_on_random_states(built, tapes, name, 
 
 
 @pytest.mark.parametrize("name", list(MODELS))
+@pytest.mark.slow
 def test_compiled_energies_and_velocities_equal_the_numpy_ones(built, tapes, name, kind):
     _, numeric, compiled = pick(built, tapes, name, kind)
     numeric.use_compiled(False)  # the reference: NumPy
@@ -193,6 +195,7 @@ def test_every_choice_of_compiled_matches_numpy_and_auto_runs_the_tape_until_nat
         codegen.compile_model(model.numeric(), "fast")
 
 
+@pytest.mark.slow
 def test_the_tape_compiles_nothing_per_model_and_the_runtime_is_built_once(tmp_path, monkeypatch):
     monkeypatch.setattr(c_build, "_settings", {"cache_dir": str(tmp_path), "compiler": None})
     path = codegen.runtime()
@@ -257,6 +260,7 @@ def test_second_build_of_the_same_model_comes_from_the_cache(built, cache):
     assert np.allclose(two.rhs(0.0, np.array([1.0, 0.0])), [0.0, -5.0])
 
 
+@pytest.mark.slow
 def test_cache_directory_is_configurable_and_safe_to_delete(tmp_path, monkeypatch):
     model = oscillator()
     monkeypatch.setattr(c_build, "_settings", {"cache_dir": None, "compiler": None})
@@ -276,6 +280,7 @@ def test_cache_directory_is_configurable_and_safe_to_delete(tmp_path, monkeypatc
     assert np.allclose(rebuilt.rhs(0.0, np.array([1.0, 0.0])), [0.0, -4.0])
 
 
+@pytest.mark.slow
 def test_a_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch):
     monkeypatch.setattr(c_build, "_settings", {"cache_dir": str(tmp_path), "compiler": None})
     model = oscillator(k=9.0)
@@ -308,6 +313,7 @@ def test_without_a_compiler_simulate_falls_back_to_numpy_with_a_note(monkeypatch
     assert np.allclose(loop["x_p"], np.cos(2 * loop.t), atol=1e-7)
 
 
+@pytest.mark.slow
 def test_python_callable_signals_fall_back_with_a_note():
     model = lg.Model("forced")
     model.add("mass", "m", "p", m=1)
@@ -388,6 +394,7 @@ def test_dopri5_c_converges_at_order_five_with_its_step_held_fixed(pend3):
 
 
 @pytest.mark.parametrize("method, order", [("rk4_c", 4), ("verlet_c", 2)])
+@pytest.mark.slow
 def test_fixed_step_loops_converge_at_their_order_and_agree_with_python(pend3, elastic, method, order):
     model, ref = pend3 if method == "rk4_c" else elastic
     start = {"initial": INIT3, "velocity": VEL3} if method == "rk4_c" else ELASTIC

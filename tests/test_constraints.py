@@ -53,6 +53,7 @@ def kane_rack(m, k, J, r, c):
 @settings(max_examples=15)
 @given(decade(0.05, 20), decade(1.0, 1e4), decade(1e-5, 1e-1), decade(5e-3, 0.2), decade(1e-3, 10),
        st.floats(-2, 2), st.floats(-20, 20))
+@pytest.mark.slow
 def test_rack_and_pinion_accelerations_match_kane_over_decades(m, k, J, r, c, theta, omega):
     model = rack(m, k, J, r, c)
     y = np.array([r * theta, theta, r * omega, omega])  # on the constraint: x = r θ
@@ -96,6 +97,7 @@ def gear_train(J1, J2, J3, N1, N2a, N2b, N3, k, internal=False):
 @settings(max_examples=10)
 @given(decade(1e-4, 1), decade(1e-4, 1), decade(1e-4, 1), st.integers(8, 80), st.integers(8, 80), st.integers(8, 80),
        st.integers(8, 80), decade(0.1, 100), st.booleans(), st.floats(-3, 3), st.floats(-5, 5), st.floats(0, 6))
+@pytest.mark.slow
 def test_a_gear_train_matches_kane_over_decades(J1, J2, J3, N1, N2a, N2b, N3, k, internal, theta, omega, time):
     model = gear_train(J1, J2, J3, N1, N2a, N2b, N3, k, internal)
     # θ2 = −(N1/N2a) θ1; θ3 = ∓(N2b/N3) θ2 (external: opposite senses; internal: the same)

@@ -43,6 +43,7 @@ def test_round_off_between_float_coefficients_is_not_a_term(a, b, c):
 
 @settings(max_examples=40)
 @given(a=decades(1e-4, 1e4), w=decades(1e-2, 1e2))
+@pytest.mark.slow
 def test_trigonometric_identities_with_float_amplitudes(a, w):
     t = lg.t
     assert is_zero(a * sp.sin(w * t) ** 2 + a * sp.cos(w * t) ** 2 - a)
@@ -85,6 +86,7 @@ def effective_potential_at(red, theta, C, values=None):
     return float(eq.V.xreplace(at))
 
 
+@pytest.mark.slow
 def test_readme_spherical_pendulum_reduces_with_ordinary_values():
     m, length, g = 0.3, 0.7, 9.81
     red = routh.reduce(spherical(m, length, g))
@@ -96,6 +98,7 @@ def test_readme_spherical_pendulum_reduces_with_ordinary_values():
 
 @settings(max_examples=8)
 @given(m=decades(1e-2, 1e2), length=decades(1e-2, 1e2), g=decades(0.1, 100), theta0=st.floats(0.15, 1.4))
+@pytest.mark.slow
 def test_spherical_pendulum_steady_precession_over_decades(m, length, g, theta0):
     """Steady precession at θ₀: Ω² = g/(l cos θ₀); small oscillations ω² = (g/l)(3 cos θ₀ + sec θ₀): stable."""
     red = routh.reduce(spherical(m, length, g))
@@ -110,6 +113,7 @@ def test_spherical_pendulum_steady_precession_over_decades(m, length, g, theta0)
     assert stability.frequencies[0] == pytest.approx(expected, rel=1e-7)
 
 
+@pytest.mark.slow
 def test_heavy_symmetric_top_reduces_with_ordinary_values():
     """Two ignorable angles; V_eff = (C_φ − C_ψ cos θ)²/(2 A sin²θ) + C_ψ²/(2 I₃) + m g l cos θ, A = I₁ + m l²."""
     m, l, I1, I3, g = 0.3, 0.4, 0.3, 0.5, 9.81
@@ -124,6 +128,7 @@ def test_heavy_symmetric_top_reduces_with_ordinary_values():
             assert got == pytest.approx(expected, rel=1e-11)
 
 
+@pytest.mark.slow
 def test_heavy_top_numbers_and_symbols_give_one_verdict():
     values = {"m": 0.3, "l": 0.4, "I1": 0.3, "I3": 0.5, "g": 9.81}
     symbols = {k: sp.Symbol(k, positive=True) for k in values}
@@ -146,6 +151,7 @@ def test_heavy_top_numbers_and_symbols_give_one_verdict():
 
 @settings(max_examples=6)
 @given(m=decades(1e-2, 1e2), R=decades(1e-2, 1e1))
+@pytest.mark.slow
 def test_verdict_does_not_flip_with_m_r_squared(m, R):
     """A bead on a hoop turning freely about its vertical diameter (the hoop's inertia J): steady motion at
     the bottom is stable or unstable by the sign of g/R − Ω², never 'marginal' for want of an effective
@@ -173,6 +179,7 @@ def test_verdict_does_not_flip_with_m_r_squared(m, R):
 # -- the Jacobi integral of a rheonomic model whose time dependence cancels -------------------------
 
 
+@pytest.mark.slow
 def test_jacobi_integral_conserved_when_time_dependence_cancels():
     w, A, k = 1.7, 0.05, 3.0
     model = lg.Model("mass between two supports turning on a circle", dim=2)

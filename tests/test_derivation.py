@@ -106,12 +106,14 @@ def vanishes(expr) -> bool:
 
 
 @pytest.mark.parametrize("n", [2, 3, 5])
+@pytest.mark.slow
 def test_pendulum_structured_equals_general_path(n):
     model, _ = chain(n)
     check_against_reference(model.eq, random.Random(n), symbolic=n <= 3)
 
 
 @pytest.mark.parametrize("n", [2, 3, 5])
+@pytest.mark.slow
 def test_pendulum_equals_kanes_method(n):
     model, params = chain(n)
     eq = model.eq
@@ -139,6 +141,7 @@ def test_pendulum_with_shared_parameters_and_compact_mass_matrix():
     check_against_reference(eq, random.Random(3), symbolic=True)
 
 
+@pytest.mark.slow
 def test_count_ops_stay_below_kanes_for_the_pendulum():
     n = 5
     model, params = chain(n)
@@ -162,6 +165,7 @@ def example_models():
         yield kind, model
 
 
+@pytest.mark.slow
 def test_every_example_model_matches_the_general_path():
     rng = random.Random(2)
     for kind, model in example_models():

@@ -60,6 +60,7 @@ def test_a_reduced_model_shows_the_routhian_and_its_equations():
     assert "$$R = " in html and r"V_{\mathrm{eff}}" in html and r"\ddot{\theta}_{tilt}" in html
 
 
+@pytest.mark.slow
 def test_steady_motions_and_their_stability_show_the_verdict_and_eigenvalues():
     red = routh.reduce(models.spherical_pendulum(1.0, 1.0))
     C = math.sin(0.7) ** 2 * math.sqrt(9.81 / math.cos(0.7))

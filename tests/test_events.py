@@ -48,6 +48,7 @@ def test_a_falling_mass_stops_at_the_floor_at_the_closed_form_time(method):
 
 
 @pytest.mark.parametrize("method", ["DOP853", "RK45", "rk4", "verlet", "dopri5_c", "rk4_c", "verlet_c"])
+@pytest.mark.slow
 def test_a_pendulum_passes_the_vertical_after_a_quarter_of_its_elliptic_period(method):
     """From rest at α from the vertical: T/4 = K(sin²(α/2)) / √(g/L) (complete elliptic integral)."""
     L, g, alpha = 0.7, 9.81, 1.1
@@ -63,6 +64,7 @@ def test_a_pendulum_passes_the_vertical_after_a_quarter_of_its_elliptic_period(m
 @settings(max_examples=10, deadline=None)
 @given(m=st.floats(0.01, 100.0), k=st.floats(0.1, 1e4), A=st.floats(1e-3, 10.0),
        method=st.sampled_from(["DOP853", "RK45", "rk4"]))
+@pytest.mark.slow
 def test_every_zero_crossing_of_an_oscillator_is_found(m, k, A, method):
     """x = A cos ωt crosses zero at (j + ½) π/ω: a non-terminal event records each, and the run goes on."""
     m, k, A = (float(f"{x:.3g}") for x in (m, k, A))

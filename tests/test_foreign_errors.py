@@ -316,6 +316,7 @@ def test_netlist_times_that_are_numbers_are_written():
 NESTED = "sin(" * 10 + "t" + ")" * 10
 
 
+@pytest.mark.slow
 def test_an_input_that_does_not_expand_in_time_is_refused_by_the_exact_solution():
     start = time.monotonic()
     with pytest.raises(lg.ModelError, match=rf"did not expand into exponentials within {linear.EXPAND_SECONDS:g} s"):
@@ -323,6 +324,7 @@ def test_an_input_that_does_not_expand_in_time_is_refused_by_the_exact_solution(
     assert time.monotonic() - start < linear.EXPAND_SECONDS + 5
 
 
+@pytest.mark.slow
 def test_auto_integrates_an_input_that_does_not_expand_in_time_with_a_note():
     res = oscillator(F=NESTED).simulate(1e-3, points=3, method="auto", initial={"x_p": 0.1})
     assert res.method != "exact" and any("did not expand into exponentials" in n for n in res.notes)

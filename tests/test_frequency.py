@@ -58,6 +58,7 @@ def test_series_rlc_transfer_functions_and_impedance_are_the_hand_forms_in_symbo
 
 @settings(max_examples=25)
 @given(decade(0.1, 1e4), decade(1e-6, 1.0), decade(1e-9, 1e-3))
+@pytest.mark.slow
 def test_series_rlc_impedance_poles_and_zeros_match_the_closed_form(R, L, C):
     m = series_rlc(R, L, C)
     Z = impedance(m, "V1")
@@ -78,6 +79,7 @@ def test_series_rlc_impedance_poles_and_zeros_match_the_closed_form(R, L, C):
 
 @settings(max_examples=25)
 @given(decade(1.0, 1e4), decade(1e-5, 1.0), decade(1e-9, 1e-3))
+@pytest.mark.slow
 def test_parallel_rlc_impedance_seen_by_a_current_source_in_both_formulations(R, L, C):
     w = 1 / np.sqrt(L * C) * np.array([0.02, 0.5, 1.0, 2.0, 50.0])
     closed = 1 / (1 / R + 1j * w * C + 1 / (1j * w * L))
@@ -96,6 +98,7 @@ def test_parallel_rlc_impedance_seen_by_a_current_source_in_both_formulations(R,
 
 @settings(max_examples=25)
 @given(decade(0.01, 100.0), decade(0.1, 1e5), st.floats(0.005, 3.0))
+@pytest.mark.slow
 def test_transmissibility_of_a_base_excited_mass_spring_damper(mass, k, zeta):
     c = 2 * zeta * np.sqrt(k * mass)
     m = lg.Model("isolator")
@@ -115,6 +118,7 @@ def test_transmissibility_of_a_base_excited_mass_spring_damper(mass, k, zeta):
 
 @settings(max_examples=20)
 @given(decade(1e-6, 1.0), decade(1e-12, 1e-3), st.floats(0.01, 0.95))
+@pytest.mark.slow
 def test_normal_modes_of_two_inductively_coupled_lc_tanks(L, C, k):
     closed = np.sort(1 / np.sqrt(np.array([1 + k, 1 - k]) * L * C))
     for formulation in ("charge", "flux"):
@@ -129,6 +133,7 @@ def test_normal_modes_of_two_inductively_coupled_lc_tanks(L, C, k):
         assert np.allclose(np.abs(found.shapes), 1.0, rtol=1e-9)  # in phase and in antiphase
 
 
+@pytest.mark.slow
 def test_parallelogram_linkage_swings_as_its_closed_form_through_its_loop_constraints():
     """Two equal cranks (uniform rods m_c, L) and a coupler (m_p) that translates: ω² = g (m_c + m_p) / (L (2/3 m_c + m_p))."""
     mc, mp, L, d = 0.35, 0.8, 0.6, 1.1
@@ -183,6 +188,7 @@ def test_symbolic_transfer_function_of_a_two_mass_chain_equals_the_hand_derived_
 
 @settings(max_examples=15)
 @given(decade(0.05, 20.0), decade(0.05, 20.0), decade(1.0, 1e4), decade(1e-3, 10.0))
+@pytest.mark.slow
 def test_a_model_given_numbers_and_its_symbolic_twin_linearize_alike(m1, m2, k, c):
     def build(values):
         m = lg.Model("chain")
@@ -234,6 +240,7 @@ def kane_cart_double_pendulum(Mc, m1, L1, m2, L2):
 
 
 @pytest.mark.parametrize("side", [-1, 1], ids=["hanging", "inverted"])
+@pytest.mark.slow
 def test_cart_with_a_double_pendulum_linearizes_as_sympy_mechanics_linearizer(side):
     angle = side * np.pi / 2
     Mc, m1, L1, m2, L2 = 1.7, 0.4, 0.8, 0.25, 0.55
@@ -360,6 +367,7 @@ def test_responses_carry_units_for_their_charts():
     assert frequency_response(series_rlc(10.0, 7e-3, 2.2e-6), [1.0], outputs=[sp.Symbol("z") * 0]).unit("0", "V1") == ""
 
 
+@pytest.mark.slow
 def test_frequency_response_charts_are_written(tmp_path):
     m = series_rlc(10.0, 7e-3, 2.2e-6)
     resp = frequency_response(m, decades(10, 1e5, 20), outputs=["v(C1)", "i(L1)"])

@@ -30,6 +30,7 @@ def block(m, F_c, v_s, push=0.0):
 
 @settings(max_examples=10)
 @given(decade(0.05, 20), st.floats(0.05, 1.2), st.floats(0.05, 0.9), st.floats(0.2, 5.0))
+@pytest.mark.slow
 def test_a_block_sliding_down_an_incline_follows_the_kinetic_closed_form(m, alpha, mu, v0):
     """Sliding down (v > 0 throughout): a = g (sin α − μ cos α), whatever its sign."""
     a = G * (math.sin(alpha) - mu * math.cos(alpha))
@@ -53,6 +54,7 @@ def test_a_block_thrown_on_the_floor_stops_where_the_closed_form_says_and_its_he
 
 @settings(max_examples=10)
 @given(decade(0.05, 20), decade(1e-6, 1e-2), st.floats(0.05, 0.95))
+@pytest.mark.slow
 def test_a_block_held_below_the_friction_force_creeps_at_the_regularizations_speed(m, v_s, fraction):
     F_c = 2.0
     model = block(m, F_c, v_s, push=fraction * F_c)
@@ -62,6 +64,7 @@ def test_a_block_held_below_the_friction_force_creeps_at_the_regularizations_spe
     assert np.max(np.abs(res.velocity("x_p") - creep)) <= 1e-6 * creep
 
 
+@pytest.mark.slow
 def test_a_steep_tanh_is_a_dependence_not_a_constant_so_friction_is_never_solved_as_linear():
     """Random points at |v| ≥ 0.1 put tanh(10⁴ v) at ±1 to beyond 50 digits: read there, 1 − tanh² is zero, and the
     friction would pass for linear damping (the exact solution once solved it so)."""

@@ -162,6 +162,7 @@ def test_four_bar_generalized_impulses_are_the_notes(four_bar):
     assert zero(got["theta"] - 2 * b * sp.sin(th) * F)
 
 
+@pytest.mark.slow
 def test_four_bar_acquired_velocities_from_rest(four_bar):
     model, config = four_bar
     (X, Th, Xd, Thd), T, xA = rhombus_by_hand()
@@ -469,6 +470,7 @@ def test_pendulum_rebounds_from_wall_with_e():
                                              ("dopri5_c", {}), ("rk4_c", {"step": 1 / 20})])
 @settings(max_examples=4, deadline=None, derandomize=True)
 @given(h=st.floats(0.05, 20.0), e=st.floats(0.1, 0.95), m=st.floats(1e-3, 1e3))
+@pytest.mark.slow
 def test_hybrid_runs_through_every_kind_of_integrator_plugin(method, options, h, e, m):
     """Free flight is a polynomial of degree 2, which every one of these methods integrates exactly, so the
     impact times of t_k = t₁ + 2v₁(e + … + e^k)/g hold to the location tolerance whatever the method (and

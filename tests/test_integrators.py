@@ -271,6 +271,7 @@ ORDERS = [
 
 @pytest.mark.parametrize(("method", "options", "h", "order"), ORDERS,
                          ids=[f"{m}{'-' + '-'.join(map(str, o.values())) if o else ''}" for m, o, _, _ in ORDERS])
+@pytest.mark.slow
 def test_order_of_convergence_from_two_step_sizes(method, options, h, order):
     # Global error ∝ h^p: p = log2(e(h) / e(h/2)), on the nonlinear Duffing oscillator against SciPy.
     t_eval = np.linspace(0, 4, 5)
@@ -347,6 +348,7 @@ def test_first_order_coordinates_with_fixed_step_methods():
         assert "gauss_legendre" in str(info.value) and "Radau" in str(info.value)
 
 
+@pytest.mark.slow
 def test_verlet_refuses_a_configuration_dependent_mass_matrix_and_says_what_to_use():
     with pytest.raises(lg.ModelError, match=r"verlet .*constant mass matrix.*mass matrix depends on x_p\..*"
                                             r"'variational' with rule='trapezoidal'"):
@@ -396,6 +398,7 @@ def test_verlet_damped_oscillator_follows_the_closed_form_over_decades(m, k, zet
     assert np.max(np.abs(res["x_p"] - exact(res.t))) < 0.3 * 1e-3
 
 
+@pytest.mark.slow
 def test_structure_preserving_methods_with_a_configuration_dependent_mass_matrix():
     # M = diag(L(x), 1) with L(x) = 1/(1 + x/4): Gauss–Legendre runs on (q, p), the variational integrator on L_d;
     # both keep the energy (no dissipation, no sources) and follow a tight DOP853 run.
@@ -452,6 +455,7 @@ def rk4_stability_boundary(direction: complex) -> float:
     return lo
 
 
+@pytest.mark.slow
 def test_explicit_methods_go_unstable_at_the_theoretical_step_on_a_stiff_chain():
     # Eigenvalues of the stiff chain are ±iω; leapfrog is stable for hω_max < 2, RK4 for hω_max < 2√2
     # (its stability region meets the imaginary axis at 2√2 ≈ 2.828).
@@ -511,6 +515,7 @@ def test_auto_never_picks_an_explicit_method_for_a_stiff_model():
         assert "stiff" in res.notes[0] and "auto: picked" in res.notes[0]
 
 
+@pytest.mark.slow
 def test_auto_on_non_stiff_models():
     # Duffing: not linear, not stiff; DOP853 for tight tolerances, RK45 for loose ones
     assert duffing().simulate(1.0, method="auto", initial={"x_p": 1}).method == "DOP853"
@@ -536,6 +541,7 @@ def spherical_pendulum(m=0.3, length=0.7, g=9.81) -> lg.Model:
 @given(m=decades(1e-2, 1e2), length=decades(1e-2, 1e2), g=decades(0.1, 100), theta=st.floats(0.2, 1.4),
        rate=decades(0.1, 10), span=decades(10, 1e5))
 @settings(max_examples=6)
+@pytest.mark.slow
 def test_auto_measures_stiffness_on_the_non_zero_spectrum(m, length, g, theta, rate, span):
     # Spherical pendulum at θ, θ' = 0, φ' = Ω.  From θ'' = sin θ cos θ φ'² − (g/l) sin θ and φ'' = −2 cot θ θ' φ',
     # the linearization in (φ, θ, φ', θ') has the characteristic polynomial λ² (λ² + ω²) with
@@ -552,6 +558,7 @@ def test_auto_measures_stiffness_on_the_non_zero_spectrum(m, length, g, theta, r
     assert "2 zero" in choice.notes[0]
 
 
+@pytest.mark.slow
 def test_auto_on_the_readme_spherical_pendulum_over_a_long_run_is_not_stiff_but_symplectic():
     # 0.3 kg at 0.7 m, 1000 s at rtol 1e-4: ω ≈ 3.72 rad/s, ≈ 590 periods — a long conservative run, so a
     # symplectic method (the mass matrix depends on θ: Gauss–Legendre), not LSODA
@@ -574,6 +581,7 @@ def double_pendulum(m=0.3, length=0.7) -> lg.Model:
     return model
 
 
+@pytest.mark.slow
 def test_auto_keeps_the_energy_of_a_long_conservative_run_started_at_rest_away_from_equilibrium():
     # Let go from the horizontal, the double pendulum's linearization at the start has no frequency in it
     # (∂(torque)/∂θ ∝ sin θ = 0 there, and the velocities are zero).  auto must still see a long conservative run
@@ -617,6 +625,7 @@ def readme_models() -> dict[str, lg.Model]:
     return models
 
 
+@pytest.mark.slow
 def test_readme_integrator_examples_run_as_written():
     block = next(b for b in re.findall(r"```python\n(.*?)```", README.read_text(), re.S) if 'method="verlet"' in b)
     statements = [line for line in block.splitlines() if line.strip()]
@@ -652,6 +661,7 @@ def long_run_grid(h, periods, every=321):
     return np.arange(n_out + 1) * every * h
 
 
+@pytest.mark.slow
 def test_energy_over_1e5_periods_bounded_for_symplectic_methods_drifting_for_rk4():
     # Oscillator m = k = 1 (ω = 1), h = T/32 (y = hω = 2π/32), 3.2·10⁶ steps.  On this linear model every
     # fixed-step method is one constant matrix per step, applied here by its powers (fast_linear).
@@ -684,6 +694,7 @@ def test_energy_over_1e5_periods_bounded_for_symplectic_methods_drifting_for_rk4
     assert runs["rk4"].E[-1] / runs["rk4"].E[0] == pytest.approx(expected, rel=1e-6)
 
 
+@pytest.mark.slow
 def test_linear_fast_path_gives_the_same_iterates_as_stepping():
     t_eval = long_run_grid(2 * math.pi / 32, 100)
     model = oscillator()
@@ -694,6 +705,7 @@ def test_linear_fast_path_gives_the_same_iterates_as_stepping():
         assert any("powers" in n for n in a.notes) and not any("powers" in n for n in b.notes)
 
 
+@pytest.mark.slow
 def test_energy_of_a_nonlinear_oscillator_bounded_for_symplectic_methods_drifting_otherwise():
     # Duffing, E = ½ẋ² + ½x² + ¼x⁴ = 3/4 from x = 1.  Stepped one by one (it is not linear).
     model = duffing()

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import networkx as nx
+import pytest
 
 CORE = Path(__file__).resolve().parent.parent / "core"
 
@@ -34,6 +35,7 @@ def imports() -> nx.DiGraph:
     return graph
 
 
+@pytest.mark.slow
 def test_no_module_takes_part_in_an_import_cycle():
     graph = imports()
     assert len(graph) > 40 and graph.number_of_edges() > 100  # it reads the package
@@ -49,6 +51,7 @@ def test_the_layer_contract_holds():
     assert "0 broken" in run.stdout
 
 
+@pytest.mark.slow
 def test_every_module_keeps_its_short_name():
     """``lagrangian.routh`` is ``lagrangian.analysis.routh`` — the same object, imported when first asked for — in a
     fresh process, by ``import``, ``from … import`` and attribute access."""

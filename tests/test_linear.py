@@ -246,6 +246,7 @@ def test_non_uniform_output_times_are_exact():
 @settings(max_examples=12, deadline=None, derandomize=True)
 @given(m=_decades(-2, 2), k=_decades(-1, 4), zeta=_decades(-3, -0.05), r=_decades(-1, 0.7), F0=_decades(-2, 2),
        seed=st.integers(0, 2**16))
+@pytest.mark.slow
 def test_uneven_output_times_under_a_sine_force_are_exact(m, k, zeta, r, F0, seed):
     """Outputs at uneven times (ngspice's time points, say) are evaluated at once from the eigendecomposition of F
     and the particular solution; against the closed form they are as exact as stepping on an even grid, for
@@ -352,6 +353,7 @@ def rc_piecewise_linear(R, C, knots, values, T, q0=0.0):
     return out
 
 
+@pytest.mark.slow
 def test_rc_driven_by_a_periodic_trapezoidal_pulse_matches_the_piecewise_closed_form():
     # SPICE PULSE(V1 V2 TD TR TF PW PER) written with Mod: rise, flat top, fall, flat bottom each period.
     V1, V2, TD, TR, TF, PW, PER = -0.5, 1.0, 0.1, 0.05, 0.1, 0.3, 1.0
@@ -526,6 +528,7 @@ def test_random_rlc_ladder_agrees_with_tight_numerical_integration(seed):
         assert max_err(getattr(exact, key), getattr(ref, key)) < VS_SIMULATE_TOL * scale
 
 
+@pytest.mark.slow
 def test_square_wave_drive_with_a_first_order_coordinate_agrees_with_integration_between_switches():
     # parallel RLC in the charge formulation (q_R1 first-order), current source 0.8 sign(sin 2t):
     # the square wave switches at t = kπ/2.  Reference: Model.simulate restarted at each switch,
@@ -595,7 +598,8 @@ def _chain_in_mpmath(ms, ks, cs, F0, W, x0, times, digits=40):
             Z[n + i, 2 * n] = Mi[i, n - 1] * mp.mpf(F0)
         Z[2 * n, 2 * n + 1], Z[2 * n + 1, 2 * n] = -mp.mpf(W), mp.mpf(W)  # (cos, sin)' = W (−sin, cos)
         z0 = mp.matrix([mp.mpf(x) for x in x0] + [0] * n + [1, 0])
-        return np.array([[float((mp.expm(Z * mp.mpf(tt)) * z0)[i]) for tt in times] for i in range(n)])
+        states = [mp.expm(Z * mp.mpf(tt)) * z0 for tt in times]
+        return np.array([[float(z[i]) for z in states] for i in range(n)])
 
 
 @settings(max_examples=6, deadline=None, derandomize=True)
@@ -604,6 +608,7 @@ def _chain_in_mpmath(ms, ks, cs, F0, W, x0, times, digits=40):
 @example(ms=[0.12, 13.2, 0.00999], ks=[164.0, 0.144, 198.0], cs=[5.62, 1.39, 0.635], F0=72.4, r=0.0)
 @example(ms=[0.296, 7.78, 0.00736], ks=[1740.0, 2.24, 7320.0], cs=[0.237, 10.9, 0.193], F0=43.2, r=0.0)
 @example(ms=[2.33, 0.000158, 1.0], ks=[0.0279, 281.0, 1.0], cs=[7.43e-05, 0.00018, 1.0], F0=1.82, r=1.58)
+@pytest.mark.slow
 def test_badly_scaled_chains_under_a_constant_or_harmonic_force_are_exact(ms, ks, cs, F0, r):
     """Masses, springs and dampers drawn over four decades (a 1e-4 kg mass next to 2 kg, say): the particular
     solution of the input keeps the error at rounding, where expm of the augmented matrix lost 4e-9 to 2e-8

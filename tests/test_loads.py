@@ -46,6 +46,7 @@ def same_roots(found, expected, rel):
 
 @settings(max_examples=25)
 @given(decade(0.05, 20.0), decade(0.1, 5.0), decade(1e-3, 1e3), decade(1e-4, 1e2))
+@pytest.mark.slow
 def test_pd_pendulum_poles_are_the_closed_form_over_decades(m, l, Kp, Kd):
     lin = frequency.linearize(pd_pendulum(m, l, Kp, Kd), at={"theta_j1": -math.pi / 2}, inputs=[])
     A = np.asarray(lin.state_space()[0], dtype=float)

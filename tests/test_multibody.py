@@ -228,6 +228,7 @@ def test_double_pendulum_matches_sympy_mechanics():
     assert agree(model, *theirs(MM, F, [q1, q2], [q1.diff(), q2.diff()])) < 1e-10
 
 
+@pytest.mark.slow
 def test_five_link_chain_with_joint_springs_and_dampers_matches_sympy_mechanics():
     n = 5
     q = me.dynamicsymbols(f"q0:{n}")
@@ -280,6 +281,7 @@ def test_planar_body_pendulum_with_spring_matches_sympy_mechanics():
     assert agree(model, *theirs(MM, F, [th], [th.diff()])) < 1e-10
 
 
+@pytest.mark.slow
 def test_spatial_body_on_spherical_joint_matches_sympy_kane():
     a, b, c = me.dynamicsymbols("a b c")
     ua, ub, uc = me.dynamicsymbols("ua ub uc")
@@ -331,6 +333,7 @@ def angular_momentum(R, I):
     return R * sp.Matrix(I) * w_body
 
 
+@pytest.mark.slow
 def test_torque_free_spinning_body_conserves_energy_and_angular_momentum():
     I = [[2.0, 0.1, 0.0], [0.1, 1.5, -0.2], [0.0, -0.2, 1.0]]
     model = lg.Model("spinning body", dim=3)
@@ -852,6 +855,7 @@ def figures(pattern: str, out: str) -> list[float]:
     return [float(x) for x in (found[0] if isinstance(found[0], tuple) else found)]
 
 
+@pytest.mark.slow
 def test_example_pendulums(examples):
     out = run_example(examples, "pendulums")
     sim, exact = figures(r"period simulated (\S+) s, exact 4√\(L/g\) K\(sin²\(A/2\)\) = (\S+) s", out)
@@ -890,6 +894,7 @@ def test_example_cart_pendulum(examples):
     assert h_drift < 1e-9 and e_drift > 1e-2  # the Jacobi integral is conserved, the energy is not
 
 
+@pytest.mark.slow
 def test_example_four_bar(examples):
     out = run_example(examples, "four_bar")
     assert "independent ['theta_A'], dependent ['theta_D', 'theta_B'], 1 degree of freedom" in out
@@ -1026,12 +1031,14 @@ def test_heavy_top_in_zxz_angles_keeps_both_textbook_momenta_along_a_run():
     assert np.ptp(p_psi) < 1e-8 * abs(p_psi[0]) and np.ptp(p_phi) < 1e-8 * abs(p_phi[0])
 
 
+@pytest.mark.slow
 def test_heavy_top_in_zxz_angles_matches_sympy_kane():
     MM, F, q, u = kane_body_on_ball("zxz", 0.3, (0.3, 0.3, 0.5), (0, 0, 0.4))
     assert agree(heavy_top(inertia=(0.3, 0.3, 0.5)), *theirs(MM, F, q, u)) < 1e-12
 
 
 @pytest.mark.parametrize("sequence", ["zxz", "zyx", "yzy", "xzy"])
+@pytest.mark.slow
 def test_general_body_on_a_spherical_joint_matches_sympy_kane_in_each_family(sequence):
     """A full inertia tensor, the pivot away from the body origin and the centre of mass: every term of M and f."""
     MM, F, q, u = kane_body_on_ball(sequence, SB["m"], SB["I"], SB["com"], SB["pivot"], SB["at"])
@@ -1077,6 +1084,7 @@ def test_the_sequence_names_its_gimbal_lock_in_the_coordinate_descriptions():
     assert "beta_ball = ±π/2" in xyz["gamma_ball"]
 
 
+@pytest.mark.slow
 def test_multibody_docstrings_run():
     import doctest
 
@@ -1149,6 +1157,7 @@ def _property_test():
 
     @settings(max_examples=30)
     @given(sequence=st.sampled_from(ALL_SEQUENCES), q=angles, v=rates, p=params)
+    @pytest.mark.slow
     def test_joint_kinematics_and_body_energy_match_sympy_vector_for_every_sequence(sequence, q, v, p):
         mass, (I1, I2, frac), com = p
         values = (mass, I1, I2, frac * (I1 + I2), *com)

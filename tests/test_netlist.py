@@ -637,6 +637,7 @@ def _kinds_and_values(model):
 
 
 @pytest.mark.parametrize("formulation", ["charge", "flux"])
+@pytest.mark.slow
 def test_export_then_import_gives_the_same_model(formulation):
     """lagrangian.spice.netlist writes the model; read_netlist reads it back: same elements, same response."""
     from lagrangian.spice import netlist as export

@@ -58,6 +58,7 @@ def kane_sled():
 @settings(max_examples=15)
 @given(decade(0.05, 20), decade(1e-4, 1), st.floats(-10, 10), st.floats(-2, 2), st.floats(-math.pi, math.pi),
        st.floats(-5, 5), st.floats(-5, 5))
+@pytest.mark.slow
 def test_knife_edge_accelerations_match_kane_over_decades(m, I, push, tau, theta, speed, omega):
     model = sled(m, I, push, tau)
     y = np.array([0.3, -0.2, theta, speed * math.cos(theta), speed * math.sin(theta), omega])

@@ -45,6 +45,7 @@ def test_a_pendulum_hangs_stably_and_balances_unstably():
 
 @settings(max_examples=15)
 @given(decade(0.01, 100.0), decade(1.0, 1e4), decade(1e-3, 10.0), decade(1e-2, 10.0))
+@pytest.mark.slow
 def test_a_damped_spring_under_a_constant_force_settles_where_the_forces_balance(mass, k, c, force):
     m = lg.Model("hanging")
     m.add("mass", "m", "p", m=mass)
@@ -73,6 +74,7 @@ def actuator(V, eps_A=1.0, gap=1.0, k=1.0, mass=1.0, c=1.0, R=0.1):
 @settings(max_examples=12)
 @given(decade(1e-3, 1e3), decade(1e-6, 1e-2), decade(1e-12, 1e-6), st.floats(0.05, 0.97))
 @example(k=100.0, gap=1e-6, eps_A=1e-6, fraction=0.5)  # an RC of 1e3 s beside a resonance at 1e4 rad/s: stiff
+@pytest.mark.slow
 def test_electrostatic_equilibria_are_the_cubics_roots_and_stable_below_pull_in(k, gap, eps_A, fraction):
     v_pi = math.sqrt(8 * k * gap**3 / (27 * eps_A))
     V = fraction * v_pi
@@ -95,6 +97,7 @@ def test_electrostatic_equilibria_are_the_cubics_roots_and_stable_below_pull_in(
     assert stable.point["q_R"] == pytest.approx(eps_A / (gap - stable.point["x_plate"]) * V, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_past_pull_in_no_equilibrium_is_left_in_the_gap():
     v_pi = math.sqrt(8 / 27)
     assert not [e for e in equilibria(actuator(1.05 * v_pi)) if e.point["x_plate"] < 1.0]
@@ -102,6 +105,7 @@ def test_past_pull_in_no_equilibrium_is_left_in_the_gap():
     assert len(at) == 2 and all(abs(e.point["x_plate"] - 1 / 3) < 0.05 for e in at)  # the branches meet at g/3
 
 
+@pytest.mark.slow
 def test_small_oscillations_about_a_steady_motion_are_the_routhian_ones():
     m = lg.Model("spherical pendulum", dim=3)
     m.add("link", "yoke", "yoke")
@@ -126,6 +130,7 @@ def test_small_oscillations_about_a_steady_motion_are_the_routhian_ones():
             assert at_rest.stability.verdict == "stable" == sm.stability().verdict
 
 
+@pytest.mark.slow
 def test_transcendental_equilibria_need_a_guess_and_newton_finds_them():
     m = lg.Model("pendulum on a torsion spring", dim=2)
     m.add("rod", "r", "r", m=0.3, length=0.7)

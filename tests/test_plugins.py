@@ -371,6 +371,7 @@ def test_plugin_failing_to_import_is_a_plugin_error(broken_dist):
     assert lg.Registry(entry_points=False).plugins() == []
 
 
+@pytest.mark.slow
 def test_cli_reports_a_broken_plugin(broken_dist):
     paths = [str(broken_dist), *filter(None, os.environ.get("PYTHONPATH", "").split(os.pathsep))]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(paths))
@@ -530,6 +531,7 @@ def run_python(code: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
 
 
+@pytest.mark.slow
 def test_plugin_manager_is_not_built_at_import():
     code = (
         "import sys, lagrangian, lagrangian.registry as r\n"
@@ -553,6 +555,7 @@ def run_cli(*args: str, exe: list[str] | None = None) -> subprocess.CompletedPro
     return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_cli_plugins():
     proc = run_cli("plugins")
     assert proc.returncode == 0, proc.stderr
@@ -570,6 +573,7 @@ def test_cli_plugins():
     assert "kinds:   cubic_spring" in text
 
 
+@pytest.mark.slow
 def test_cli_kinds_lists_parameters():
     proc = run_cli("kinds")
     assert proc.returncode == 0, proc.stderr
@@ -584,6 +588,7 @@ def test_cli_kinds_lists_parameters():
     assert "    g = 9.81 [m/s²]: gravitational acceleration" in text
 
 
+@pytest.mark.slow
 def test_console_script_matches_module():
     script = Path(sys.executable).with_name("lagrangian")
     if not script.exists():
@@ -593,6 +598,7 @@ def test_console_script_matches_module():
     assert proc.stdout == run_cli("plugins").stdout
 
 
+@pytest.mark.slow
 def test_cli_needs_a_command():
     proc = run_cli()
     assert proc.returncode == 2

@@ -125,6 +125,7 @@ def test_potential_and_first_order_coordinates_are_not_ignorable():
 # -- the Routhian: the notes' results symbolically ---------------------------------------------------
 
 
+@pytest.mark.slow
 def test_spherical_pendulum_routhian_equation_and_effective_potential(sph_symbolic):
     red = sph_symbolic
     th = fn("theta_tilt")
@@ -144,6 +145,7 @@ def test_spherical_pendulum_routhian_equation_and_effective_potential(sph_symbol
     assert same(singular, sp.sin(th))
 
 
+@pytest.mark.slow
 def test_spherical_pendulum_steady_motion_and_perturbation_equation(sph_symbolic):
     red = sph_symbolic
     motions = red.steady_motions(solve_for=["C_theta_turn"])
@@ -312,6 +314,7 @@ def cart(speed=None, M=2.0, m=0.5, L=0.7):
     return model
 
 
+@pytest.mark.slow
 def test_cart_at_constant_speed_conserves_the_jacobi_integral_but_not_the_energy():
     M, m, L, v = 2.0, 0.5, 0.7, 1.5
     model = cart(v, M, m, L)
@@ -391,6 +394,7 @@ def test_unsolvable_momentum_equations_are_diagnosed():
         routh.reduce(model, ["s_p1", "s_p2"])
 
 
+@pytest.mark.slow
 def test_steady_motion_at_a_bifurcation_is_marginal_and_stability_changes_across_it():
     """Central force k/rⁿ: circular orbits are stable for n < 3, unstable for n > 3, and at n = 3 they exist only
     for C² = m k, at every radius — a zero eigenvalue the linearization cannot decide."""
@@ -455,6 +459,7 @@ def output(scripts, name: str) -> str:
     return out
 
 
+@pytest.mark.slow
 def test_example_kepler(scripts):
     out = output(scripts, "kepler")
     lin, closed, sim = map(float, re.search(r"radial frequency: linear (\S+), closed form .* = (\S+), simulated (\S+) rad/s", out).groups())
@@ -469,6 +474,7 @@ def test_example_kepler(scripts):
     assert "k/r^2.5: circular orbit r0 = 1.000000: stable" in out and "k/r^3.5: circular orbit r0 = 1.000000: unstable" in out
 
 
+@pytest.mark.slow
 def test_example_spherical_steady(scripts):
     out = output(scripts, "spherical_steady")
     assert "equals (g/l)(3 cos θ₀ + sec θ₀): True" in out
@@ -481,6 +487,7 @@ def test_example_spherical_steady(scripts):
     assert 0 < turn < 0.05 and through < -1.0
 
 
+@pytest.mark.slow
 def test_steady_motions_solved_symbolically_keep_to_the_search_ranges():
     """Kepler (k/r²) circular orbits r₀ = C²/(m k), solved exactly: the radius coordinate s may be negative
     (the bead across the axis), so s = ±r₀; search= keeps those in its range."""

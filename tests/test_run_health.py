@@ -25,6 +25,7 @@ def damped(c):
     return model
 
 
+@pytest.mark.slow
 def test_an_explicit_method_on_a_stiff_model_warns_before_it_crawls(monkeypatch):
     # rates k/c = 4e-3 and c/m = 3.3e4 1/s: a 1 s run needs some 3e4 explicit steps (warned from 1e5 on; a
     # lower threshold here keeps the test short)
@@ -84,6 +85,7 @@ def test_a_stiff_run_that_would_crawl_for_minutes_is_refused_at_once_and_auto_so
 
 
 @pytest.mark.parametrize("method", ["auto", "DOP853", "RK45"])
+@pytest.mark.slow
 def test_a_run_whose_pace_would_never_finish_is_refused_on_the_way(method):
     """A rod 4.91e-96 m long let go horizontal: at the start θ'' = −(3g/2L) cos θ ≈ −3e96 but the linearization is
     zero (sin θ = 0), so nothing warns before the run; then it swings at ~5e47 rad/s. The run is judged on its pace
@@ -118,6 +120,7 @@ def test_a_pendulum_too_short_to_integrate_is_refused_at_once(method):
 
 
 @pytest.mark.parametrize("method", ["DOP853", "dopri5_c", "RK45"])  # loops in C, and SciPy's in Python
+@pytest.mark.slow
 def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs(method):
     """A 1e-12 kg mass on a 137 N/m spring for 0.7 s: ω = 1.17e7 rad/s, some 1.3e6 periods and ~3e8 evaluations
     of DOP853 — a legitimate run of minutes, which a service running models it did not write bounds with
@@ -139,6 +142,7 @@ def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs(me
 
 
 @pytest.mark.parametrize("method", ["DOP853", "dopri5_c"])
+@pytest.mark.slow
 def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt(method):
     """A loop in C (DOP853's, dopri5_c's) runs on a thread of its own: the caller's reports progress on the way and, on Ctrl-C
     (simulated by ``_thread.interrupt_main``), stops the loop and raises ``KeyboardInterrupt``, as a run stepped in
@@ -164,6 +168,7 @@ def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt(method):
 
 
 @pytest.mark.parametrize("method", ["rk4_c", "verlet_c"])
+@pytest.mark.slow
 def test_the_fixed_step_loops_in_c_are_watched_and_budgeted(method):
     """rk4_c and verlet_c run on a thread of their own like the adaptive loops (progress on the way, Ctrl-C stops
     them); their evaluations are known before they start, so a run beyond max_evaluations is refused at once."""

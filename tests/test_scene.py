@@ -137,6 +137,7 @@ def test_ignorable_coordinates_not_asked_for_are_never_integrated():
     assert np.max(np.abs(res["E"] - ref.E)) < 1e-10  # E needs φ̇: evaluated from ∂R/∂C
 
 
+@pytest.mark.slow
 def test_a_reduction_is_done_only_when_it_pays_and_the_report_says_why():
     """reduce="auto": over a few swings integrating φ costs less than eliminating it, so the part is integrated
     as it is (the report gives both estimates); over many, φ is eliminated.  Both agree with the full model."""
@@ -197,6 +198,7 @@ def test_a_part_of_only_ignorable_coordinates_moves_uniformly():
     assert np.max(np.abs(res["x_b"] - 0.1 * np.cos(res.t))) < 1e-10
 
 
+@pytest.mark.slow
 def test_linear_electromechanical_network_is_solved_exactly():
     """A moving-coil loudspeaker: RL coil driven by a sine, mass–spring–damper cone."""
     m = lg.Model("loudspeaker")
@@ -255,6 +257,7 @@ def test_zero_valued_components_vanish_with_a_note():
     assert plan.dropped == {"c": "contributes nothing (c = 0)", "F": "contributes nothing (F = 0)"}
 
 
+@pytest.mark.slow
 def test_command_line_scene_reduce_option(tmp_path):
     source = tmp_path / "sph.py"
     source.write_text(
@@ -276,6 +279,7 @@ def test_command_line_scene_reduce_option(tmp_path):
     assert "eliminated through the Routhian: theta_turn" in proc.stdout
 
 
+@pytest.mark.slow
 def test_command_line_scene(tmp_path):
     source = tmp_path / "machine.py"
     source.write_text(
@@ -356,6 +360,7 @@ FULL = {"initial": {"theta_turn1": 0.4, "theta_tilt1": 0.9, "theta_turn2": -1.1,
         "velocity": {"theta_turn1": 1.7, "theta_tilt1": -0.3, "theta_turn2": 0.6, "theta_tilt2": 0.5, "q_L1": 0.02}}
 
 
+@pytest.mark.slow
 def test_the_whole_state_given_to_a_scene_that_eliminates_and_prunes():
     """Every coordinate's value and velocity given; each pendulum's azimuth eliminated (its momentum from its
     velocity in the given state), the circuit pruned.  Scene at rtol 1e-12 against the full model at 1e-13 over
@@ -444,6 +449,7 @@ def _property_test():
     @given(m1=decades(1e-2, 1e2), l1=decades(1e-2, 1e2), m2=decades(1e-2, 1e2), l2=decades(1e-2, 1e2),
            L=decades(1e-4, 1.0), R=decades(1e-2, 1e2), tilt=st.floats(0.3, 2.8), turn=st.floats(-math.pi, math.pi),
            spins=st.tuples(spin, spin), rates=st.tuples(unit, unit, unit), q=unit)
+    @pytest.mark.slow
     def check(m1, l1, m2, l2, L, R, tilt, turn, spins, rates, q):
         """Scene at rtol 1e-11 against the full model at 1e-13 over 3/ω₀ (ω₀ = √(g/l₁), under half a swing):
         1e-8 on the angles, 1e-8 relative on the azimuth rate.  Each pendulum spins (its angular momentum

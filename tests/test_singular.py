@@ -112,6 +112,7 @@ def test_a_body_at_the_gimbal_lock_of_xyz_names_beta_and_suggests_zyz():
 
 
 @pytest.mark.parametrize("sequence", SEQUENCES)
+@pytest.mark.slow
 def test_each_sequence_locks_where_its_description_says(sequence):
     """The lock the description states (middle angle at 0 for proper Euler, π/2 for Tait–Bryan; the body's last
     axis along the parent's first) is where sympy.physics.vector's angular velocity map loses rank, where our mass

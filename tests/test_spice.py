@@ -78,6 +78,7 @@ def test_circuit_compared_directly_with_parallel_elements_and_current_source():
     assert "c1 n1 0 3 ic=0.2" in cmp.netlist and "l1 n1 0 0.25 ic=0.2" in cmp.netlist and "l2 n1 0 0.5 ic=0.1" in cmp.netlist
 
 
+@pytest.mark.slow
 def test_comparison_report_and_chart(tmp_path):
     cmp = compare_with_ngspice(msd(), 5, analogy="force-voltage", initial={"x_p": 0.1}, velocity={"x_p": 0}, step=0.01)
     text = cmp.table()
@@ -146,6 +147,7 @@ def test_ngspice_errors_carry_its_message():
     assert run_transient(netlist(c)).quantities["v(C1)"][-1] == pytest.approx(1 - np.exp(-1), abs=1e-4)
 
 
+@pytest.mark.slow
 def test_many_runs_in_threads_neither_crash_nor_leak():
     c = lg.Model("rc")
     c.add("voltage_source", "V1", ("in", "0"), E=1)
@@ -179,6 +181,7 @@ def test_many_runs_in_threads_neither_crash_nor_leak():
     assert rss_kb() - before < 20_000  # 80 runs of a 100-point transient: no per-run retention to speak of
 
 
+@pytest.mark.slow
 def test_missing_library_says_how_to_install(tmp_path):
     code = (
         "import lagrangian as lg\n"
@@ -215,6 +218,7 @@ def test_loudspeaker_equivalent_circuit_agrees_with_ngspice():
 
 
 @pytest.mark.parametrize("formulation", ["charge", "flux"])
+@pytest.mark.slow
 def test_coupled_inductors_export_as_a_k_line_and_agree(formulation):
     m = lg.Model("tanks", formulation=formulation)
     m.add("capacitor", "C1", ("a", "0"), C=1)

@@ -77,6 +77,7 @@ def _symbolic_reference(model):
 
 @settings(max_examples=40, deadline=None)
 @given(linear_models())
+@pytest.mark.slow
 def test_stamps_agree_with_the_symbolic_equations(model):
     st_ = stamps(model.assembly, model.assembly.values)
     M, C, K, rest = _symbolic_reference(model)
@@ -123,6 +124,7 @@ def _three_ways(build, monkeypatch, **run):
 
 @pytest.mark.parametrize("kind", ["masses, a harmonic force and gravity", "massless damped nodes (first-order)",
                                   "a pulse, on an uneven grid"])
+@pytest.mark.slow
 def test_dense_sparse_and_symbolic_exact_solutions_agree(kind, monkeypatch):
     run = dict(t_end=1.5, initial={"x_p0": 0.01, "x_p3": -0.02}, points=61)
     if kind.startswith("masses"):
@@ -147,6 +149,7 @@ def test_dense_sparse_and_symbolic_exact_solutions_agree(kind, monkeypatch):
             assert np.abs(a - b).max() <= 1e-10 * max(np.abs(b).max(), 1e-300), part
 
 
+@pytest.mark.slow
 def test_a_uniform_chain_of_700_masses_swings_in_its_closed_form_normal_mode():
     """Sparse path (1,400 states): x_i(t) = sin(i θ_j) cos(ω_j t), ω_j = 2√(k/m) sin(θ_j/2)."""
     N, mass, k, j = 700, 0.3, 40.0, 3
@@ -176,6 +179,7 @@ def test_a_uniform_chain_of_700_masses_swings_in_its_closed_form_normal_mode():
         m.simulate(0.1, initial={f"x_p{i}": 0.0 for i in range(N)}, method="exact", points=2)
 
 
+@pytest.mark.slow
 def test_symbolic_parameters_given_values_are_stamped_like_numbers():
     k = sp.Symbol("k", positive=True)
     a = _chain(45)
@@ -197,6 +201,7 @@ def test_symbolic_parameters_given_values_are_stamped_like_numbers():
     assert max(np.abs(rc.q[n] - rb.q[n]).max() for n in ra.q) <= TOL * 0.01
 
 
+@pytest.mark.slow
 def test_models_the_stamps_do_not_take_go_the_symbolic_way_with_its_messages():
     m = _chain(41, force=False)
     m.add("force", "F", "p40", F=lambda time: 0.1)

@@ -65,6 +65,7 @@ def test_grid_zip_and_random_designs_have_the_shapes_and_values_asked_for():
 
 
 @pytest.mark.parametrize("kind", ["lhs", "sobol"])
+@pytest.mark.slow
 def test_quasi_random_designs_cover_the_unit_interval_in_strata(kind):
     s = design({"a": Uniform(0, 1), "b": Normal(5, 2)}, kind=kind, samples=64, seed=3)
     if kind == "lhs":  # one draw in each of the 64 strata
@@ -112,6 +113,7 @@ def test_axis_text_is_read_as_numbers_never_evaluated():
 @settings(max_examples=15)
 @given(decade(1e-2, 1e2), st.lists(st.tuples(decade(1e-1, 1e4), decade(1e-4, 1e1)), min_size=1, max_size=4),
        st.floats(-1e-2, 1e-2), st.floats(-1.0, 1.0))
+@pytest.mark.slow
 def test_damped_oscillator_sweeps_match_the_matrix_exponential(m, rows, x0, v0):
     """Mass, stiffnesses and damping drawn over decades: every sample is the exact solution exp(A t) y0."""
     k = [r[0] for r in rows]

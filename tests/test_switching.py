@@ -59,6 +59,7 @@ def test_switching_times_of_a_square_wave_are_its_corners():
     delay=st.floats(0.05, 2.0),
     high=st.floats(0.1, 30.0),
 )
+@pytest.mark.slow
 def test_dop853_across_the_corners_of_a_square_wave_matches_the_closed_form(R, C, period, duty, delay, high):
     """Ordinary values (a 4.7 nF capacitor charges to 1e-8 C): 1e-9 of the peak at rtol=1e-11, with a scaled atol."""
     R, C, high = (float(f"{x:.3g}") for x in (R, C, high))

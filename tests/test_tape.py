@@ -168,6 +168,7 @@ def test_cases_cover_every_operation():
 
 @needs_cc
 @pytest.mark.parametrize("case", ALL_CASE_PARAMS)
+@pytest.mark.slow
 def test_interpreter_matches_sympy(case):
     prog = record(case.exprs, INPUTS)
     got = codegen.run_program(prog, case.points())
@@ -374,6 +375,7 @@ def test_many_outputs():
 
 
 @needs_cc
+@pytest.mark.slow
 def test_large_program_beyond_the_stack_registers():
     n = 3000
     exprs = [sp.Add(*(sp.sin(k * X) for k in range(1, n + 1))) + X * Y,

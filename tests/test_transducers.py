@@ -638,6 +638,7 @@ def test_lossless_solenoid_conserves_T_plus_V():
 
 
 @pytest.mark.parametrize("module", [rotational, transducers], ids=lambda m: m.__name__)
+@pytest.mark.slow
 def test_plugin_docstring_examples_run(module):
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0
@@ -653,6 +654,7 @@ def run_example(script: str, tmp_path: Path, *args: str) -> str:
     return proc.stdout
 
 
+@pytest.mark.slow
 def test_loudspeaker_example_finds_the_impedance_peak_at_resonance(tmp_path):
     import re
 
@@ -664,6 +666,7 @@ def test_loudspeaker_example_finds_the_impedance_peak_at_resonance(tmp_path):
     assert peak == pytest.approx(6 + 49 / 1.5, rel=1e-4)
 
 
+@pytest.mark.slow
 def test_dc_motor_example_matches_its_closed_form(tmp_path):
     import re
 
@@ -673,6 +676,7 @@ def test_dc_motor_example_matches_its_closed_form(tmp_path):
     assert "ω_ss = K V / (R b + K²) = 239.043825 rad/s" in out  # 0.05·12/(1e-5 + 0.0025)
 
 
+@pytest.mark.slow
 def test_electrostatic_pullin_example_reports_pull_in_and_contact(tmp_path):
     import re
 
