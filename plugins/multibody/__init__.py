@@ -24,7 +24,7 @@ sequence such as ``"zxz"``: ``phi``, ``theta``, ``psi``, singular at
 The plugin's modules: :mod:`.rotations` (poses, rotation matrices, the angle
 sequences), :mod:`.checks` (parameter checks they share), :mod:`.bodies`,
 :mod:`.joints`, :mod:`.loads` (torques, rotational springs and dampers on
-bodies), :mod:`.kinematics` (poses from the joint tree, loop closures),
+bodies, a knife edge), :mod:`.rolling` (rolling without slipping on the ground), :mod:`.kinematics` (poses from the joint tree, loop closures),
 :mod:`.constraints` (consistent initial conditions) and :mod:`.hooks` (the
 hook implementation); this package re-exports their public names.
 
@@ -53,10 +53,11 @@ from .hooks import register_component_types  # noqa: F401 - pluggy registers thi
 from .joints import Fixed, Free, PlanarJoint, Prismatic, Revolute, Spherical
 from .kinematics import build_kinematics  # noqa: F401 - the mechanics plugin's domain calls it
 from .loads import BodyTorque, RotationalDamper, RotationalSpring  # noqa: F401
+from .rolling import Rolling
 from .rotations import E3, PROPER_EULER, SEQUENCES, TAIT_BRYAN, Pose, transform  # noqa: F401
 
 __all__ = [
-    "Pose", "Body", "Link", "Rod", "Disc", "Revolute", "Prismatic", "Spherical", "PlanarJoint", "Fixed", "Free",
+    "Pose", "Body", "Link", "Rod", "Disc", "Revolute", "Prismatic", "Spherical", "PlanarJoint", "Fixed", "Free", "Rolling",
     "CoordinatePartition", "ConsistentStart", "independent_coordinates", "consistent_initial", "constraint_residual",
 ]
 

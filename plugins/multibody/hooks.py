@@ -7,10 +7,11 @@ from lagrangian import hookimpl
 from .bodies import Body, Disc, Link, Rod
 from .joints import Fixed, Free, PlanarJoint, Prismatic, Revolute, Spherical
 from .loads import BodyTorque, KnifeEdge, RotationalDamper, RotationalSpring
+from .rolling import Rolling
 
 
 @hookimpl
 def register_component_types(register):
     for cls in (Body, Link, Rod, Disc, Revolute, Prismatic, Spherical, PlanarJoint, Fixed, Free, BodyTorque,
-                RotationalSpring, RotationalDamper, KnifeEdge):
+                RotationalSpring, RotationalDamper, KnifeEdge, Rolling):
         register(cls)
