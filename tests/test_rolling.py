@@ -227,3 +227,30 @@ def test_a_disc_struck_at_its_top_rolls_off_at_four_thirds_of_the_blow_over_its_
     for k in ("y_j", "z_j", "phi_j", "theta_j"):
         assert abs(after[k]) < 1e-14 * after["x_j"] / r
     assert float(jump.T_after) == pytest.approx(0.75 * m * after["x_j"] ** 2, rel=1e-12)  # ½(m + I/r²)v²
+
+
+def test_a_ball_on_a_turntable_circles_at_two_sevenths_of_its_rate():
+    """A uniform ball on a table turning at Ω: v̇ = (2/7) Ω ẑ × v (friction turns it, I/(I + m r²) = 2/7), so
+    released at (a, 0) with velocity (0, u) its centre runs on a circle at k = 2Ω/7:
+    x = a + (u/k)(cos kt − 1), y = (u/k) sin kt."""
+    m, r, Omega, a, u = 0.05, 0.02, 3.3, 0.4, 0.15
+    I = 2 * m * r**2 / 5
+    model = lg.Model("ball on a turntable", dim=3)
+    model.add("body", "b", "b", m=m, inertia=(I, I, I))
+    model.add("free", "j", ("ground", "b"))  # x-y-z angles: at zero, their rates are ω's components
+    model.add("rolling", "roll", "b", radius=r, shape="sphere", turntable=Omega)
+    model.add("gravity", "g", g=G)
+    names = model.coordinate_names
+    spin = 0.7  # about the vertical: kept, the contact's forces have no moment about it
+    res = model.simulate(10.0, initial={**dict.fromkeys(names, 0.0), "x_j": a, "z_j": r},
+                         velocity={**dict.fromkeys(names, 0.0), "y_j": u, "alpha_j": (Omega * a - u) / r, "gamma_j": spin},
+                         points=101, rtol=1e-12, atol=1e-14)
+    k = 2 * Omega / 7
+    assert np.max(np.abs(res["x_j"] - (a + u / k * (np.cos(k * res.t) - 1)))) < 1e-8
+    assert np.max(np.abs(res["y_j"] - u / k * np.sin(k * res.t))) < 1e-8
+    with pytest.raises(lg.ModelError, match="turntable turns the ground of a model in space"):
+        planar = lg.Model("planar", dim=2)
+        planar.add("disc", "d", "d", m=1.0, radius=0.1)
+        planar.add("free", "j", ("ground", "d"))
+        planar.add("rolling", "roll", "d", radius=0.1, turntable=1.0)
+        planar.eq  # noqa: B018

@@ -24,7 +24,9 @@ class Rolling(Component):
     - *on velocities* (nonholonomic): the body's material point at the contact does not slide,
       ``v_centre + ω × (contact − centre) = 0`` along the ground (two components in space, one in the plane).
 
-    In the plane the second is integrable (``x + r θ`` stays constant) but is kept as given.  In space a disc's
+    On a ``turntable`` (the ground turning at Ω about the vertical through the origin; in space) the contact moves
+    with the ground's point under it, ``Ω ẑ × contact``, instead of resting: a ball released on it circles at
+    2Ω/7.  In the plane the second is integrable (``x + r θ`` stays constant) but is kept as given.  In space a disc's
     contact lies on its rim, below the centre, in the disc's plane: ``contact − centre = r (c n − ẑ)/√(1 − c²)``,
     ``c = n · ẑ``; a disc lying flat (``c = ±1``) is outside the model.  ``axis`` is the disc's axis in the body's
     frame (the z axis of a :class:`~lagrangian.plugins.multibody.Disc`).  Nothing is assumed of the body's mass:
@@ -56,6 +58,8 @@ class Rolling(Component):
                            shape="name"),
         "axis": Parameter("a disc's axis in the body's frame (space only)", default=(0, 0, 1), shape="vector",
                           symbolic=False),
+        "turntable": Parameter("the ground's angular velocity about the vertical through the origin (space only; "
+                               "a signal of t)", default=0, check="real", shape="signal", unit="rad/s"),
     }
 
     def __init__(self, name, nodes, params):
@@ -74,6 +78,8 @@ class Rolling(Component):
         r = self.radius
         centre, v = pose.p, ctx.view.velocity(body)
         if dim == 2:  # a circle on the line y = 0: ω ẑ × (0, −r) = (ω r, 0)
+            if self.turntable != 0:
+                raise ModelError(f"rolling {self.name!r}: a turntable turns the ground of a model in space (dim=3).")
             return Contribution(constraints=[centre[1] - r], velocity_constraints=[v[0] + pose.omega * r])
         if self.shape == "sphere":
             reach = sp.Matrix([0, 0, -r])
@@ -89,6 +95,9 @@ class Rolling(Component):
             reach = r * (c * n - sp.Matrix([0, 0, 1])) / s
             height = r * s
         slip = v + pose.omega.cross(reach)
+        if self.turntable != 0:  # the ground turns under the contact: its point there moves at Ω ẑ × contact
+            contact = centre + reach
+            slip = slip - sp.Matrix([-self.turntable * contact[1], self.turntable * contact[0], 0])
         return Contribution(constraints=[centre[2] - height], velocity_constraints=[slip[0], slip[1]])
 
     @classmethod
