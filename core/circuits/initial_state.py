@@ -11,6 +11,7 @@ formulation cannot take that state.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -107,8 +108,10 @@ def _operating_point(model: Model, deck: _Parsed) -> dict[str, float]:
     return out
 
 
-def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float]]:
-    """Coordinates and inertial velocities at ``t = 0`` that put every capacitor and inductor at ``ic``."""
+def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
+    """Coordinates and inertial velocities at ``t = 0`` that put every capacitor and inductor at ``ic``, and (flux
+    formulation) the capacitors that a loop of capacitors and voltage sources moves away from theirs, with the
+    voltage each starts at."""
     view = model.assembly.views["electrical"]
     eq = model.eq
     coords = model.coordinates
@@ -135,10 +138,43 @@ def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, flo
             positions.append((n, at_zero(view.branch[n]), flux))
         rates = [(n, at_zero(view.branch[n].diff(t)), ic[n]) for n in capacitors]
     q0 = _solve(positions, q, model, view.formulation, "position")
-    v0 = _solve(rates, v, model, view.formulation, "rate")
+    moved: dict[str, float] = {}
+    if view.formulation == "flux":
+        # capacitor voltages that break Kirchhoff's voltage law around a loop of capacitors and voltage sources (a
+        # capacitor across a source) cannot be held: the sources move charge through them at t = 0, as a circuit
+        # does, and that charge is conserved at every node the sources do not hold.  The voltages that conserve it
+        # are those least far from the ones asked in the capacitors' energy norm, Σ C (ΔV)².
+        weights = [math.sqrt(float(components[n].C)) for n in capacitors]
+        v0, moved = _jump(rates, v, weights)
+    else:
+        v0 = _solve(rates, v, model, view.formulation, "rate")
     initial = {c.name: float(x) + 0.0 for c, x in zip(coords, q0)}
     velocity = {eq.names[i]: float(v0[i]) + 0.0 for i in eq.inertial}
-    return initial, velocity
+    return initial, velocity, moved
+
+
+def _jump(rows: list[tuple[str, sp.Expr, float]], unknowns: list[sp.Symbol], weights: list[float]):
+    """``(x, moved)``: the node voltages at ``t = 0`` nearest to the capacitors' ``rows`` in the norm the ``weights``
+    (√C) make, and the capacitors that do not start where asked, with the voltage they start at."""
+    A, b = _linear(rows, unknowns)
+    w = np.asarray(weights, dtype=float)
+    x = np.linalg.lstsq(A * w[:, None], b * w, rcond=None)[0] if len(unknowns) and len(rows) else np.zeros(len(unknowns))
+    got = A @ x - b
+    scale = max(np.abs(b).max(initial=0.0), np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0), 1e-300)
+    moved = {rows[r][0]: float(rows[r][2] + got[r]) for r in np.flatnonzero(np.abs(got) > 1e-9 * scale)}
+    return x, moved
+
+
+def _linear(rows: list[tuple[str, sp.Expr, float]], unknowns: list[sp.Symbol]) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, b)`` of the linear conditions ``expr = value`` in ``unknowns``, one row each."""
+    A = np.zeros((len(rows), len(unknowns)))
+    b = np.zeros(len(rows))
+    for r, (name, expr, value) in enumerate(rows):
+        expr = sp.expand(expr)
+        for j, u in enumerate(unknowns):
+            A[r, j] = float(expr.coeff(u))
+        b[r] = value - float(expr.xreplace({u: 0 for u in unknowns}))
+    return A, b
 
 
 def _mutuals(model: Model, inductor: str) -> list[tuple[str, sp.Expr]]:
@@ -168,11 +204,6 @@ _TROUBLE = {
         "add up to zero around a loop of inductors and voltage sources. Check their ic= values, or use "
         "formulation='charge'."
     ),
-    ("flux", "rate"): (
-        "capacitors {names} cannot start at these voltages: they break Kirchhoff's voltage law around a loop of "
-        "capacitors and voltage sources (a capacitor across a source starts at the source's value). Check their "
-        "ic= values and the .ic line."
-    ),
 }
 
 
@@ -186,13 +217,7 @@ def _solve(
         if bad:
             raise ModelError(f"model {model.name!r}: " + _TROUBLE[formulation, level].format(names=", ".join(bad)))
         return np.zeros(n)
-    A = np.zeros((len(rows), n))
-    b = np.zeros(len(rows))
-    for r, (name, expr, value) in enumerate(rows):
-        expr = sp.expand(expr)
-        for j, u in enumerate(unknowns):
-            A[r, j] = float(expr.coeff(u))
-        b[r] = value - float(expr.xreplace({u: 0 for u in unknowns}))
+    A, b = _linear(rows, unknowns)
     x = np.linalg.lstsq(A, b, rcond=None)[0]
     residual = np.abs(A @ x - b)
     scale = np.abs(b).max() + np.abs(A).max() * np.abs(x).max()

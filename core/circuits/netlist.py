@@ -79,7 +79,14 @@ formulation cannot take raise a ModelError naming the elements: in loop
 charges, capacitor charges that would not balance at a node where only
 capacitors meet, and inductor currents that break Kirchhoff's current law;
 in node fluxes, inductor flux linkages that would not add up around a loop
-of inductors, and capacitor voltages that break Kirchhoff's voltage law.
+of inductors.  Capacitor voltages that break Kirchhoff's voltage law around
+a loop of capacitors and voltage sources (a capacitor across a source)
+cannot be held either; in node fluxes the run starts, as the circuit does,
+where the sources put them: the charge they move at ``t = 0`` is conserved
+at every node they do not hold (the voltages nearest the ones asked in the
+norm ``Σ C ΔV²``), :attr:`ImportedNetlist.ic` records the voltages started
+from and a :class:`NetlistWarning` names the capacitors moved.  (In loop
+charges such a loop has neither inertia nor dissipation and is refused.)
 A ``.tran`` without ``uic`` starts, as SPICE does, from the DC operating
 point at ``t = 0``: the sources at their values there, capacitors open,
 inductors shorted, nodes named on a ``.ic`` line held at their voltages;
@@ -279,7 +286,15 @@ def read_netlist(
         ic = _operating_point(model, deck)
     else:
         ic = _initial_values(deck)
-    initial, velocity = _initial_state(model, ic)
+    initial, velocity, moved = _initial_state(model, ic)
+    if moved:
+        warn(
+            f"netlist {deck.title!r}: " + ", ".join(f"{n} starts at {v:.6g} V, not {ic[n]:.6g} V" for n, v in moved.items())
+            + ": a loop of capacitors and voltage sources fixes their voltages, so the sources move charge through "
+            "them at t = 0 (conserved at every node they do not hold), as in the circuit itself.",
+            NetlistWarning,
+        )
+        ic = {**ic, **moved}
     return ImportedNetlist(
         model=model,
         initial=initial,

@@ -348,7 +348,8 @@ class Equations:
                     raise ModelError(
                         f"coordinate {self.names[i]!r} has neither inertia nor dissipation, so nothing determines its "
                         f"motion (a node with only springs, or a loop with only capacitors and sources). Add a mass or "
-                        f"damper (an inductor or resistor), or remove the node."
+                        f"damper (an inductor or resistor), or remove the node; a capacitor across a voltage source "
+                        f"is held at the source's voltage in formulation='flux'."
                     )
         at_rest = {s: sp.Integer(0) for s in vF}
         rows = [[M[r, j] for j in self.inertial] + rates[r] for r in range(n)]
