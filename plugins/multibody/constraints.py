@@ -61,11 +61,22 @@ class _Closure:
             rows = [name for name, k in closures or [] for _ in range(k)]
             self.owners += rows if len(rows) == len(view.constraints) else [None] * len(view.constraints)
         self.owners += [name for name in getattr(eq, "constraint_owners", [])[len(self.owners):]]  # components' own
+        # constraints on velocities, c = A(q, t) q̇ + b(q, t) = 0: their rows A and b
+        self.k = len(eq.velocity_constraints)
+        self.velocity_owners = list(getattr(eq, "velocity_owners", []))
+        values = model.numeric(params).values if (self.m or self.k) else {}
+        subs = {s: sp.Float(v) for s, v in values.items()}
+        if self.k:
+            C = eq.velocity_constraints.xreplace(subs)
+            A = C.jacobian(eq.sym.v)
+            b = C.xreplace(dict.fromkeys(eq.sym.v, 0))
+            self.rate_structure = np.array([[A[r, i] != 0 for i in range(A.cols)] for r in range(A.rows)], dtype=bool)
+            self._rates = sp.lambdify((t, eq.sym.q), [A, b], modules="numpy", cse=True)
+        else:
+            self.rate_structure = np.zeros((0, len(self.names)), dtype=bool)
         if not self.m:
             self.structure = np.zeros((0, len(self.names)), dtype=bool)
             return
-        values = model.numeric(params).values
-        subs = {s: sp.Float(v) for s, v in values.items()}
         Phi = eq.constraints.xreplace(subs)
         J = Phi.jacobian(eq.sym.q)
         self.structure = np.array([[J[k, i] != 0 for i in range(J.cols)] for k in range(J.rows)], dtype=bool)
@@ -80,6 +91,13 @@ class _Closure:
         Phi, J, Pt = self._fn(float(time), list(q))
         return (np.asarray(Phi, dtype=float).reshape(self.m), np.asarray(J, dtype=float).reshape(self.m, len(self.names)),
                 np.asarray(Pt, dtype=float).reshape(self.m))
+
+    def rates(self, time: float, q):
+        """``(A, b)`` of the constraints on velocities at ``(t, q)``."""
+        import numpy as np
+
+        A, b = self._rates(float(time), list(q))
+        return np.asarray(A, dtype=float).reshape(self.k, len(self.names)), np.asarray(b, dtype=float).reshape(self.k)
 
     def joints(self, rows) -> str:
         labels = dict.fromkeys(f"joint {self.owners[k]!r}" if self.owners[k] else f"constraint {k}" for k in rows)
@@ -172,8 +190,11 @@ def consistent_initial(model, initial, velocity=None, *, independent=None, param
     that take part in a constraint are solved from Φ(q, t) = 0 by Newton's method, starting from their values
     in ``initial`` (a guess; 0 when absent — the guess picks the assembly mode, e.g. a four-bar's open or
     crossed form).  Velocities follow from Φ_q q̇ + Φ_t = 0 the same way: those of the held coordinates are kept
-    (0 when absent), the others corrected as little as possible.  Returns ``(initial, velocity)`` for every
-    coordinate, ready for ``model.simulate(..., initial=..., velocity=...)``.
+    (0 when absent), the others corrected as little as possible.  Constraints on velocities (nonholonomic:
+    ``rolling``, ``knife_edge``, ``velocity_constraint``) then hold too: the rates given in ``velocity`` are kept
+    and every other rate they involve is solved for (a rolling disc's centre velocity from its turning rates).
+    Returns ``(initial, velocity)`` for every coordinate, ready for ``model.simulate(..., initial=...,
+    velocity=...)``.
 
     No solution near the guess (held values that put a loop out of reach), more coordinates held than the loop
     leaves free, held coordinates the constraints tie together, or an over-constrained loop: a
@@ -239,6 +260,8 @@ def consistent_initial(model, initial, velocity=None, *, independent=None, param
                                {n: float(x) for n, x in zip(names, v) if n in inertial})
 
     if not cl.m:
+        if cl.k:
+            _rates_on_velocity_constraints(cl, time, q, v, velocity, np.zeros((0, len(names))), np.zeros(0))
         return result()
     involved = cl.structure.any(axis=0)
     unknown = [i for i, n in enumerate(names) if involved[i] and n not in held]
@@ -308,7 +331,33 @@ def consistent_initial(model, initial, velocity=None, *, independent=None, param
             f"the velocities cannot satisfy the constraints of {cl.joints(range(cl.m))} (max |Φ_q q̇ + Φ_t| = {gap:.3g}): "
             f"the held velocities are inconsistent with each other; hold fewer coordinates."
         )
+    if cl.k:
+        _rates_on_velocity_constraints(cl, time, q, v, velocity, J, Pt)
     return result()
+
+
+def _rates_on_velocity_constraints(cl: _Closure, time: float, q, v, velocity: dict, J, Pt) -> None:
+    """Correct ``v`` in place so that the constraints on velocities hold with the loops' (Φ_q q̇ + Φ_t = 0): the rates
+    given in ``velocity`` are kept, every other rate a constraint involves is corrected as little as possible."""
+    import numpy as np
+
+    A, b = cl.rates(time, q)
+    rows, rest = np.vstack([J, A]), np.concatenate([Pt, b])
+    involved = cl.structure.any(axis=0) | cl.rate_structure.any(axis=0)
+    free = [i for i, n in enumerate(cl.names) if involved[i] and n not in velocity]
+    if free:
+        v[free] += np.linalg.lstsq(rows[:, free], -(rows @ v + rest), rcond=None)[0]
+    gap = np.abs(A @ v + b)
+    size = max(1.0, float(np.max(np.abs(A), initial=0.0)) * float(np.max(np.abs(v), initial=0.0)))
+    if float(np.max(gap, initial=0.0)) > 1e-9 * size or float(np.max(np.abs(J @ v + Pt), initial=0.0)) > 1e-9 * size:
+        worst = int(np.argmax(gap))
+        owner = cl.velocity_owners[worst] if worst < len(cl.velocity_owners) else None
+        held = ", ".join(n for i, n in enumerate(cl.names) if involved[i] and n in velocity) or "none"
+        raise ModelError(
+            f"the rates given ({held}) cannot satisfy the constraints on velocities"
+            f"{f' of {owner!r}' if owner else ''} (max |A q̇ + b| = {float(gap.max()):.3g}): they tie those rates "
+            f"together; give fewer of them in `velocity` (the others are then solved for)."
+        )
 
 
 def constraint_residual(model, result) -> float:
