@@ -331,10 +331,11 @@ def test_initial_values_the_coordinates_cannot_take_are_clear_errors():
     net = read_netlist(series_caps, formulation="flux")  # node voltages can take them
     res = net.simulate(0.1, points=2)
     assert net.capacitor_voltage(res, "C1")[0] == pytest.approx(1.0) and net.capacitor_voltage(res, "C2")[0] == pytest.approx(0.0)
-    # two inductors in series carry one current
-    series_coils = "coils\nL1 a b 1 ic=1\nL2 b c 1 ic=0.5\nC1 c 0 1\nR1 a 0 1\n.tran 0.1 1 uic\n"
-    with pytest.raises(lg.ModelError, match=r"inductors L1, L2 cannot start.*current law"):
-        read_netlist(series_coils)
+    # two inductors in series carry one current: they start at the one that keeps their flux, L1 i1 + L2 i2
+    series_coils = "coils\nL1 a b 1 ic=1\nL2 b c 3 ic=0.5\nC1 c 0 1\nR1 a 0 1\n.tran 0.1 1 uic\n"
+    with pytest.warns(NetlistWarning, match=r"L1 starts at 0.625 A, not 1 A, L2 starts at 0.625 A, not 0.5 A"):
+        net = read_netlist(series_coils)
+    assert net.inductor_current(net.simulate(0.1, points=2), "L2")[0] == pytest.approx(0.625, rel=1e-12)
     # a capacitor across a voltage source: loop charges cannot hold it (neither inertia nor dissipation)
     across = "across\nV1 a 0 DC 1\nC1 a 0 1 ic=0\nR1 a b 1\nC2 b 0 1\n.tran 0.1 1 uic\n"
     with pytest.raises(lg.ModelError, match=r"neither inertia nor dissipation.*formulation='flux'"):
@@ -354,6 +355,33 @@ R2 m 0 3k
 .tran 10u 20m 0 2u uic
 .end
 """
+
+
+#: A current source feeding two inductors in parallel (each through its resistor), both asked to start at 0 A.
+FED = """inductors fed by a current source
+I1 0 a DC 3m
+L1 a b 1m ic=0
+R1 b 0 1k
+L2 a c 2m ic=0
+R2 c 0 1k
+.tran 1n 6u 0 2n uic
+.end
+"""
+
+
+def test_inductors_fed_by_a_current_source_start_where_it_puts_them_as_in_ngspice():
+    """At t = 0 the source's 3 mA splits so that the flux around the loop L1 R1 R2 L2 stays 0: L1 i1 = L2 i2, so
+    i1 = 2 mA and i2 = 1 mA; then they relax to the resistive split, 1.5 mA each, with τ = (L1 + L2)/(R1 + R2):
+    i1 = 1.5 + 0.5 e^(−t/τ) mA, as ngspice running the same deck has it."""
+    with pytest.warns(NetlistWarning, match=r"L1 starts at 0.002 A, not 0 A, L2 starts at 0.001 A, not 0 A"):
+        net = read_netlist(FED)
+    assert net.ic == pytest.approx({"L1": 2e-3, "L2": 1e-3})
+    spice = ngspice(FED)
+    keep = spice["time"] > 0
+    res = net.simulate(t_eval=spice["time"][keep], **TIGHT)
+    tau = 3e-3 / 2e3
+    assert np.max(np.abs(net.inductor_current(res, "L1") - (1.5e-3 + 0.5e-3 * np.exp(-res.t / tau)))) < 1e-14
+    assert relative_gap(net.inductor_current(res, "L1"), spice["l1#branch"][keep]) < 1e-6  # measured 1.4e-8
 
 
 def test_capacitors_across_a_source_start_where_the_source_puts_them_as_in_ngspice():

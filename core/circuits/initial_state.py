@@ -109,9 +109,9 @@ def _operating_point(model: Model, deck: _Parsed) -> dict[str, float]:
 
 
 def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, float], dict[str, float], dict[str, float]]:
-    """Coordinates and inertial velocities at ``t = 0`` that put every capacitor and inductor at ``ic``, and (flux
-    formulation) the capacitors that a loop of capacitors and voltage sources moves away from theirs, with the
-    voltage each starts at."""
+    """Coordinates and inertial velocities at ``t = 0`` that put every capacitor and inductor at ``ic``, and the
+    elements the sources move away from theirs (flux formulation: capacitors in a loop with voltage sources;
+    charge formulation: inductors in series with current sources), with the value each starts at."""
     view = model.assembly.views["electrical"]
     eq = model.eq
     coords = model.coordinates
@@ -144,21 +144,44 @@ def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, flo
         # capacitor across a source) cannot be held: the sources move charge through them at t = 0, as a circuit
         # does, and that charge is conserved at every node the sources do not hold.  The voltages that conserve it
         # are those least far from the ones asked in the capacitors' energy norm, Σ C (ΔV)².
-        weights = [math.sqrt(float(components[n].C)) for n in capacitors]
-        v0, moved = _jump(rates, v, weights)
+        weight = np.diag([math.sqrt(float(components[n].C)) for n in capacitors])
     else:
-        v0 = _solve(rates, v, model, view.formulation, "rate")
+        # the dual: inductor currents that break Kirchhoff's current law with current sources (an inductor in
+        # series with one) jump at t = 0, the flux linkage around every loop the sources do not drive kept: the
+        # currents nearest the ones asked in the inductors' energy norm, ΔIᵀ 𝐋 ΔI (𝐋 with the mutual inductances).
+        weight = _root(_inductances(model, inductors))
+    v0, moved = _jump(rates, v, weight)
     initial = {c.name: float(x) + 0.0 for c, x in zip(coords, q0)}
     velocity = {eq.names[i]: float(v0[i]) + 0.0 for i in eq.inertial}
     return initial, velocity, moved
 
 
-def _jump(rows: list[tuple[str, sp.Expr, float]], unknowns: list[sp.Symbol], weights: list[float]):
-    """``(x, moved)``: the node voltages at ``t = 0`` nearest to the capacitors' ``rows`` in the norm the ``weights``
-    (√C) make, and the capacitors that do not start where asked, with the voltage they start at."""
+def _inductances(model: Model, inductors: list[str]) -> np.ndarray:
+    """The inductance matrix of ``inductors``: L on the diagonal, k√(L₁L₂) between coupled ones."""
+    components = model.components
+    index = {n: i for i, n in enumerate(inductors)}
+    out = np.diag([float(components[n].L) for n in inductors])
+    for n in inductors:
+        for other, m in _mutuals(model, n):
+            if other in index:
+                out[index[n], index[other]] = float(m)
+    return out
+
+
+def _root(matrix: np.ndarray) -> np.ndarray:
+    """``W`` with ``WᵀW = matrix`` (symmetric, positive semidefinite: a perfect coupling's zero direction kept)."""
+    if not matrix.size:
+        return matrix
+    w, V = np.linalg.eigh(matrix)
+    return (V * np.sqrt(np.clip(w, 0.0, None))).T
+
+
+def _jump(rows: list[tuple[str, sp.Expr, float]], unknowns: list[sp.Symbol], weight: np.ndarray):
+    """``(x, moved)``: the rates at ``t = 0`` nearest to the elements' ``rows`` (capacitor voltages, inductor
+    currents) in the norm ``|W (A x − b)|`` of the ``weight`` W, and the elements that do not start where asked,
+    with the value they start at."""
     A, b = _linear(rows, unknowns)
-    w = np.asarray(weights, dtype=float)
-    x = np.linalg.lstsq(A * w[:, None], b * w, rcond=None)[0] if len(unknowns) and len(rows) else np.zeros(len(unknowns))
+    x = np.linalg.lstsq(weight @ A, weight @ b, rcond=None)[0] if len(unknowns) and len(rows) else np.zeros(len(unknowns))
     got = A @ x - b
     scale = max(np.abs(b).max(initial=0.0), np.abs(A).max(initial=0.0) * np.abs(x).max(initial=0.0), 1e-300)
     moved = {rows[r][0]: float(rows[r][2] + got[r]) for r in np.flatnonzero(np.abs(got) > 1e-9 * scale)}
@@ -194,10 +217,6 @@ _TROUBLE = {
         "capacitors {names} cannot start at these voltages in the charge formulation: their charges would not "
         "balance at a node where only capacitors (and current sources) meet, and charge is conserved there. "
         "Check their ic= values and the .ic line, or use formulation='flux'."
-    ),
-    ("charge", "rate"): (
-        "inductors {names} cannot start at these currents: they break Kirchhoff's current law (inductors in series, "
-        "or in series with a current source, carry one current). Check their ic= values."
     ),
     ("flux", "position"): (
         "inductors {names} cannot start at these currents in the flux formulation: their flux linkages would not "

@@ -77,16 +77,20 @@ Directions those relations leave free change no capacitor or inductor
 state; they are set to zero (the least-norm solution).  States a
 formulation cannot take raise a ModelError naming the elements: in loop
 charges, capacitor charges that would not balance at a node where only
-capacitors meet, and inductor currents that break Kirchhoff's current law;
-in node fluxes, inductor flux linkages that would not add up around a loop
-of inductors.  Capacitor voltages that break Kirchhoff's voltage law around
-a loop of capacitors and voltage sources (a capacitor across a source)
-cannot be held either; in node fluxes the run starts, as the circuit does,
-where the sources put them: the charge they move at ``t = 0`` is conserved
-at every node they do not hold (the voltages nearest the ones asked in the
-norm ``Σ C ΔV²``), :attr:`ImportedNetlist.ic` records the voltages started
-from and a :class:`NetlistWarning` names the capacitors moved.  (In loop
-charges such a loop has neither inertia nor dissipation and is refused.)
+capacitors meet; in node fluxes, inductor flux linkages that would not add
+up around a loop of inductors.  Values the circuit itself cannot hold start,
+as the circuit does, where the sources put them, with a
+:class:`NetlistWarning` naming the elements moved and
+:attr:`ImportedNetlist.ic` the values started from: in node fluxes,
+capacitor voltages that break Kirchhoff's voltage law around a loop of
+capacitors and voltage sources (a capacitor across a source), the charge
+moved at ``t = 0`` conserved at every node the sources do not hold (the
+voltages nearest the ones asked in the norm ``Σ C ΔV²``); in loop charges,
+inductor currents that break Kirchhoff's current law (an inductor in series
+with a current source, or with another inductor), the flux linkage around
+every loop the sources do not drive kept (the norm ``ΔIᵀ 𝐋 ΔI``).  (A loop
+of capacitors and voltage sources has neither inertia nor dissipation in
+loop charges, and is refused.)
 A ``.tran`` without ``uic`` starts, as SPICE does, from the DC operating
 point at ``t = 0``: the sources at their values there, capacitors open,
 inductors shorted, nodes named on a ``.ic`` line held at their voltages;
@@ -288,10 +292,16 @@ def read_netlist(
         ic = _initial_values(deck)
     initial, velocity, moved = _initial_state(model, ic)
     if moved:
+        kinds = {model.components[n].kind for n in moved}
+        unit = {n: "V" if model.components[n].kind == "capacitor" else "A" for n in moved}
+        why = ("a loop of capacitors and voltage sources fixes their voltages, so the sources move charge through them "
+               "at t = 0 (conserved at every node they do not hold)" if kinds == {"capacitor"} else
+               "current sources or inductors in series fix their currents, which jump at t = 0 (the flux linkage "
+               "around every loop the sources do not drive kept)")
         warn(
-            f"netlist {deck.title!r}: " + ", ".join(f"{n} starts at {v:.6g} V, not {ic[n]:.6g} V" for n, v in moved.items())
-            + ": a loop of capacitors and voltage sources fixes their voltages, so the sources move charge through "
-            "them at t = 0 (conserved at every node they do not hold), as in the circuit itself.",
+            f"netlist {deck.title!r}: "
+            + ", ".join(f"{n} starts at {v:.6g} {unit[n]}, not {ic[n]:.6g} {unit[n]}" for n, v in moved.items())
+            + f": {why}, as in the circuit itself.",
             NetlistWarning,
         )
         ic = {**ic, **moved}
