@@ -74,3 +74,55 @@ def test_a_steep_tanh_is_a_dependence_not_a_constant_so_friction_is_never_solved
     with pytest.raises(lg.ModelError, match="nonlinear in x_p'"):
         model.simulate(1.0, initial={"x_p": 0.0}, velocity={"x_p": 0.5}, method="exact")
     assert model.simulate(0.5, initial={"x_p": 0.0}, velocity={"x_p": 0.5}, method="auto", points=3).method != "exact"
+
+
+def slope(m, alpha, mu, v_s=1e-6):
+    """A block on a slide inclined at α (``prismatic``, s down the slope) with friction μ m g cos α on the joint."""
+    model = lg.Model("block on a slope", dim=2)
+    model.add("body", "b", "b", m=m, inertia=1e-3)
+    model.add("prismatic", "slide", ("ground", "b"), axis=(math.cos(alpha), -math.sin(alpha)))
+    model.add("gravity", "g", g=G)
+    model.add("joint_friction", "f", coordinate="s_slide", F_c=mu * m * G * math.cos(alpha), v_s=v_s)
+    return model
+
+
+@settings(max_examples=8)
+@given(decade(0.05, 20), st.floats(0.3, 1.2), st.floats(0.05, 0.25), st.floats(0.5, 4.0))
+@pytest.mark.slow
+def test_a_block_thrown_up_a_slope_stops_and_slides_back_at_the_closed_forms_and_heats_by_the_path(m, alpha, mu, v0):
+    """Up the slope it decelerates at g (sin α + μ cos α), stops at t* = v₀ / that, and (tan α > μ) slides back
+    at g (sin α − μ cos α); the heat is μ m g cos α times the path, and the energy lost equals it."""
+    assert math.tan(alpha) > mu
+    up, down = G * (math.sin(alpha) + mu * math.cos(alpha)), G * (math.sin(alpha) - mu * math.cos(alpha))
+    stop = v0 / up
+    model = slope(m, alpha, mu)
+    t = np.linspace(0, 2 * stop, 801)  # the heat's power has a corner at the stop: Simpson's rule needs fine steps
+    res = model.simulate(2 * stop, initial={"s_slide": 0.0}, velocity={"s_slide": -v0}, t_eval=t, method="Radau",
+                         rtol=1e-11, atol=1e-13)
+    s = res["s_slide"]
+    before, after = t <= stop, t > stop
+    assert np.max(np.abs(s[before] - (-v0 * t[before] + up * t[before] ** 2 / 2))) < 1e-5 * v0 * stop
+    top = -v0 * stop + up * stop**2 / 2
+    # past the stop: the regularization delays the turn by about v_s / down, far inside the tolerance
+    assert np.max(np.abs(s[after] - (top + down * (t[after] - stop) ** 2 / 2))) < 1e-4 * v0 * stop
+    heat = -res.cumulative(model.load_power("f"))
+    path = np.where(before, v0 * t - up * t**2 / 2, -top + down * (t - stop) ** 2 / 2)
+    assert np.max(np.abs(heat - mu * m * G * math.cos(alpha) * path)) < 1e-4 * m * v0**2
+
+
+def test_a_wheel_braked_by_friction_in_its_bearing_stops_at_the_closed_form_time():
+    """A torque T_c in a revolute joint decelerates a wheel of inertia I uniformly: ω = ω₀ − T_c t / I until
+    t = I ω₀ / T_c, then (no other torque) it stays stopped."""
+    I, w0, T = 0.02, 30.0, 0.15
+    model = lg.Model("braked wheel", dim=2)
+    model.add("body", "w", "w", m=1.0, inertia=I)
+    model.add("revolute", "axle", ("ground", "w"))
+    model.add("joint_friction", "f", coordinate="theta_axle", F_c=T, v_s=1e-6)
+    stop = I * w0 / T
+    res = model.simulate(1.5 * stop, initial={"theta_axle": 0.0}, velocity={"theta_axle": w0}, points=31,
+                         method="Radau", rtol=1e-11, atol=1e-13)
+    w = res.v["theta_axle"]
+    running = res.t < 0.98 * stop
+    assert np.max(np.abs(w[running] - (w0 - T * res.t[running] / I))) < 1e-6 * w0
+    assert np.max(np.abs(w[res.t > 1.02 * stop])) < 1e-4
+    assert res["theta_axle"][-1] == pytest.approx(w0 * stop / 2, rel=1e-5)

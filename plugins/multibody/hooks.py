@@ -6,12 +6,12 @@ from lagrangian import hookimpl
 
 from .bodies import Body, Disc, Link, Rod
 from .joints import Fixed, Free, PlanarJoint, Prismatic, Revolute, Spherical
-from .loads import BodyTorque, KnifeEdge, RotationalDamper, RotationalSpring
+from .loads import BodyTorque, JointFriction, KnifeEdge, RotationalDamper, RotationalSpring
 from .rolling import Rolling
 
 
 @hookimpl
 def register_component_types(register):
     for cls in (Body, Link, Rod, Disc, Revolute, Prismatic, Spherical, PlanarJoint, Fixed, Free, BodyTorque,
-                RotationalSpring, RotationalDamper, KnifeEdge, Rolling):
+                RotationalSpring, RotationalDamper, KnifeEdge, JointFriction, Rolling):
         register(cls)

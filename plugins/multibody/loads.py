@@ -1,11 +1,12 @@
 """Loads on the multibody plugin's bodies: a :class:`BodyTorque`, a planar :class:`RotationalSpring` and
-:class:`RotationalDamper` between two bodies, and a planar :class:`KnifeEdge`."""
+:class:`RotationalDamper` between two bodies, a planar :class:`KnifeEdge`, and :class:`JointFriction` on a joint's
+coordinate."""
 
 from __future__ import annotations
 
 import sympy as sp
 
-from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter, t
+from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter, rate, t
 
 from .checks import _need_dim
 
@@ -115,3 +116,43 @@ class KnifeEdge(Component):
                        context=[("body", "b", "b", {"m": 1, "inertia": 0.2, "points": {"tip": (0.3, 0)}}),
                                 ("free", "j", ("ground", "b"), {}), ("force", "F", "b", {"F": (1, 0.5)})],
                        options={"dim": 2})
+
+
+class JointFriction(Component):
+    """Dry (Coulomb) friction on one coordinate — a prismatic joint's slide, a revolute joint's turn — regularized as
+    ``coulomb_friction`` is: the generalized force ``−F_c tanh(q̇ / v_s)``, with ``F_c`` the sliding friction force
+    (``μ N``, or a torque on an angle) and ``v_s`` the rate below which it fades.  A load held below ``F_c`` creeps
+    at ``v_s atanh(F/F_c)`` rather than sticking (an event-based stick–slip is not modelled).  Its power
+    (``Model.load_power``) is the rate it turns energy into heat.
+
+    A block on a slide inclined at α, with friction μ m g cos α on the slide:
+
+    >>> import math, lagrangian as lg
+    >>> m = lg.Model("block on an incline", dim=2)
+    >>> _ = m.add("body", "b", "b", m=0.3, inertia=1e-3)
+    >>> _ = m.add("prismatic", "slide", ("ground", "b"), axis=(math.cos(0.5), -math.sin(0.5)))
+    >>> _ = m.add("gravity", "g")
+    >>> _ = m.add("joint_friction", "f", coordinate="s_slide", F_c=0.2 * 0.3 * 9.81 * math.cos(0.5), v_s=1e-6)
+    >>> res = m.simulate(1.0, initial={"s_slide": 0}, velocity={"s_slide": 0}, points=3, method="Radau")
+    >>> round(float(res["s_slide"][-1]), 4), round(9.81 * (math.sin(0.5) - 0.2 * math.cos(0.5)) / 2, 4)
+    (1.4907, 1.4907)
+    """
+
+    kind = "joint_friction"
+    domain = "mechanical"
+    terminals = ()
+    parameters = {
+        "coordinate": Parameter("the coordinate it acts on (one of Model.coordinate_names)", shape="name"),
+        "F_c": Parameter("sliding friction force μ N (a torque on an angle)", unit="N", check="nonnegative"),
+        "v_s": Parameter("rate below which the friction fades (regularization)", default=1e-4, unit="m/s"),
+    }
+
+    def contribute(self, ctx) -> Contribution:
+        q_dot = rate(self.coordinate)
+        return Contribution(loads=[Load(-self.F_c * sp.tanh(q_dot / self.v_s), q_dot)])
+
+    @classmethod
+    def example(cls) -> Example:
+        return Example((), {"coordinate": "s_p", "F_c": 0.3, "v_s": 0.05},
+                       context=[("body", "b", "b", {"m": 1, "inertia": 1}), ("prismatic", "p", ("ground", "b"), {}),
+                                ("force", "F", "b", {"F": (1, 0)})], options={"dim": 2})
