@@ -173,7 +173,11 @@ def check_simulation(kind, m):
         from lagrangian.plugins.multibody import consistent_initial, independent_coordinates
 
         free = independent_coordinates(m, initial).independent
-        initial, velocity = consistent_initial(m, {k: initial[k] for k in free}, {k: velocity[k] for k in free})
+        # rates a constraint on velocities involves are moved onto it below, not held here (held, they may conflict)
+        tied = {n for n, s in zip(eq.names, eq.sym.v) if any(c.has(s) for c in eq.velocity_constraints)}
+        initial, held = consistent_initial(m, {k: initial[k] for k in free},
+                                           {k: velocity[k] for k in free if k not in tied})
+        velocity = {**held, **{k: velocity[k] for k in tied if k in velocity}}
     if len(eq.velocity_constraints):  # the rates moved (least change) onto A(q)·q̇ + b(q) = 0
         at = {**{s: sp.Float(x) for s, x in eq.values.items()}, **{q: initial[n] for q, n in zip(eq.sym.q, eq.names)},
               lg.t: 0}
