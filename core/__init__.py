@@ -40,7 +40,7 @@ MODULES = {
     "derivation": ("assembly", "derive", "equations"),
     "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench", "ensemble",
                  "result"),
-    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating", "sweep"),
+    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating", "sweep", "stick_slip"),
     "circuits": ("analogy", "spice", "netlist", "compare", "ac"),
 }
 _WHERE = {name: f"{__name__}.{layer}.{name}" for layer, names in MODULES.items() for name in names}

@@ -224,13 +224,47 @@ class Damper(Component):
         )
 
 
+#: The parameters of friction with a stick–slip option (coulomb_friction, joint_friction).
+STICK_SLIP = {
+    "F_s": Parameter("static friction: the largest force sticking holds (stick_slip; default F_c)", default=None,
+                     check="nonnegative", unit="N"),
+    "stick_slip": Parameter("stick and slip (event-based, lagrangian.stick_slip.simulate) instead of the smooth "
+                            "regularization", default=False, shape="flag"),
+    "phase": Parameter("'smooth', or the phase stick_slip.simulate runs it in: 'stick', 'slip+', 'slip-'",
+                       default="smooth", shape="name"),
+}
+PHASES = ("smooth", "stick", "slip+", "slip-")
+
+
+def _check_phase(kind: str, name: str, params) -> None:
+    phase = params.get("phase", "smooth")
+    if phase not in PHASES:
+        raise ModelError(f"{kind} {name!r}: phase is one of {', '.join(map(repr, PHASES))}, got {phase!r:.40}.")
+
+
+def friction_contribution(comp: Component, rate) -> Contribution:
+    """Dry friction on ``rate`` in the component's phase: smooth (``−F_c tanh(rate/v_s)``), sliding (``∓F_c``), or
+    stuck (``rate = 0``, a constraint on velocities whose multiplier is the friction force)."""
+    if comp.phase == "stick":
+        return Contribution(velocity_constraints=[rate])
+    if comp.phase in ("slip+", "slip-"):
+        return Contribution(loads=[Load(-comp.F_c if comp.phase == "slip+" else comp.F_c, rate)])
+    if comp.stick_slip:
+        raise ModelError(f"{comp.kind} {comp.name!r} sticks and slips (stick_slip=True): run the model with "
+                         f"lagrangian.stick_slip.simulate(model, t_end, ...), or drop stick_slip for the smooth "
+                         f"(regularized) friction Model.simulate runs.")
+    return Contribution(loads=[Load(-comp.F_c * sp.tanh(rate / comp.v_s), rate)])
+
+
 class CoulombFriction(Component):
     """Dry (Coulomb) friction between two nodes in one dimension, regularized: the force ``−F_c tanh(v / v_s)`` on
     the relative velocity ``v = ẋ_b − ẋ_a``, with ``F_c = μ N`` the sliding friction force and ``v_s`` the speed
     below which it fades (smooth, so any integrator runs it; the smaller ``v_s``, the stiffer the equations once the
     motion stops, where an implicit method such as ``"Radau"`` or ``"LSODA"`` takes far fewer steps).  A block held
-    by a force ``F < F_c`` creeps at ``v_s atanh(F/F_c)`` instead of sticking: true sticking (an event-based
-    stick–slip) is not modelled.  Its power (``Model.load_power``) is the rate it turns energy into heat.
+    by a force ``F < F_c`` creeps at ``v_s atanh(F/F_c)`` instead of sticking.  With ``stick_slip=True`` it sticks
+    and slips instead (event-based), run by :func:`lagrangian.stick_slip.simulate`: sliding, the force is ``∓F_c``;
+    stopped, the nodes move together for as long as the force that takes stays within ``F_s`` (default ``F_c``).
+    Its power (``Model.load_power``) is the rate it turns energy into heat.
 
     >>> import lagrangian as lg
     >>> m = lg.Model("block")
@@ -243,14 +277,23 @@ class CoulombFriction(Component):
     kind = "coulomb_friction"
     domain = "mechanical"
     parameters = {"F_c": Parameter("sliding friction force μ N", unit="N", check="nonnegative"),
-                  "v_s": Parameter("speed below which the friction fades (regularization)", default=1e-4, unit="m/s")}
+                  "v_s": Parameter("speed below which the friction fades (regularization)", default=1e-4, unit="m/s"),
+                  **STICK_SLIP}
 
-    def contribute(self, ctx) -> Contribution:
+    def __init__(self, name, nodes, params):
+        _check_phase(self.kind, name, params)
+        super().__init__(name, nodes, params)
+
+    def sliding_rate(self, ctx):
+        """The relative velocity the friction opposes (the stick–slip driver's contract, with ``phase``, ``F_s``)."""
         if ctx.view.dim != 1:
             raise ModelError(f"coulomb_friction {self.name!r} acts along one dimension (Model(dim=1)); in a plane "
-                             f"write the force of the state with lagrangian.rate(...).")
-        rate = ctx.view.velocity(self.nodes[1])[0] - ctx.view.velocity(self.nodes[0])[0]
-        return Contribution(loads=[Load(-self.F_c * sp.tanh(rate / self.v_s), rate)])
+                             f"use joint_friction on a joint's coordinate, or write the force of the state with "
+                             f"lagrangian.rate(...).")
+        return ctx.view.velocity(self.nodes[1])[0] - ctx.view.velocity(self.nodes[0])[0]
+
+    def contribute(self, ctx) -> Contribution:
+        return friction_contribution(self, self.sliding_rate(ctx))
 
     @classmethod
     def example(cls) -> Example:

@@ -9,6 +9,7 @@ import sympy as sp
 from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter, rate, t
 
 from .checks import _need_dim
+from lagrangian.plugins.mechanics import STICK_SLIP, _check_phase, friction_contribution
 
 
 class BodyTorque(Component):
@@ -122,7 +123,8 @@ class JointFriction(Component):
     """Dry (Coulomb) friction on one coordinate — a prismatic joint's slide, a revolute joint's turn — regularized as
     ``coulomb_friction`` is: the generalized force ``−F_c tanh(q̇ / v_s)``, with ``F_c`` the sliding friction force
     (``μ N``, or a torque on an angle) and ``v_s`` the rate below which it fades.  A load held below ``F_c`` creeps
-    at ``v_s atanh(F/F_c)`` rather than sticking (an event-based stick–slip is not modelled).  Its power
+    at ``v_s atanh(F/F_c)`` rather than sticking; with ``stick_slip=True`` it sticks and slips instead, in
+    :func:`lagrangian.stick_slip.simulate` (``F_s``: the largest force sticking holds).  Its power
     (``Model.load_power``) is the rate it turns energy into heat.
 
     A block on a slide inclined at α, with friction μ m g cos α on the slide:
@@ -145,11 +147,19 @@ class JointFriction(Component):
         "coordinate": Parameter("the coordinate it acts on (one of Model.coordinate_names)", shape="name"),
         "F_c": Parameter("sliding friction force μ N (a torque on an angle)", unit="N", check="nonnegative"),
         "v_s": Parameter("rate below which the friction fades (regularization)", default=1e-4, unit="m/s"),
+        **STICK_SLIP,
     }
 
+    def __init__(self, name, nodes, params):
+        _check_phase(self.kind, name, params)
+        super().__init__(name, nodes, params)
+
+    def sliding_rate(self, ctx):
+        """The rate the friction opposes (the stick–slip driver's contract, with ``phase`` and ``F_s``)."""
+        return rate(self.coordinate)
+
     def contribute(self, ctx) -> Contribution:
-        q_dot = rate(self.coordinate)
-        return Contribution(loads=[Load(-self.F_c * sp.tanh(q_dot / self.v_s), q_dot)])
+        return friction_contribution(self, self.sliding_rate(ctx))
 
     @classmethod
     def example(cls) -> Example:
