@@ -586,7 +586,8 @@ def _run(text: str, probes: Mapping[str, tuple[str, ...]], dtype, axis: str) -> 
         kind, *names = probe
         if kind == "i":
             return vectors[f"{names[0]}#branch"]
-        v = [np.zeros_like(time) if n == "0" else vectors[n] for n in names]
+        # ngspice names a node's vector after the node, and a numbered node's "v(<number>)"
+        v = [np.zeros_like(time) if n == "0" else vectors[n] if n in vectors else vectors[f"v({n})"] for n in names]
         return v[0] - v[1] if len(v) == 2 else v[0]
 
     try:
