@@ -103,15 +103,17 @@ class _Phases:
 
     def numbers(self, phases: tuple[str, ...]):
         """``(numeric, rows)`` of the model in ``phases``: its numeric form and, per component, ``(a, b, k, limit,
-        F_c)`` — its rate ``a(t, q)·q̇ + b(t, q)``, where its multiplier sits in the solve when it sticks (else
-        ``None``), its static limit and its sliding force."""
+        F_c, exact)`` — its rate ``a(t, q)·q̇ + b(t, q)``, where its multiplier sits in the solve when it sticks
+        (else ``None``), its static limit, its sliding force, and ``a`` as numbers when it is constant and ``b``
+        zero (else ``None``)."""
         if phases not in self._numbers:
             model = self.model_in(phases)
             numeric = model.numeric(self.params)
             eq = numeric.eq
-            values = {s: sp.Float(v) for s, v in numeric.values.items()}
             q, v = list(eq.sym.q), list(eq.sym.v)
-            stuck = self.model_in(("stick",) * len(self.names)).eq  # every rate as a constraint row: its a and b
+            held = self.model_in(("stick",) * len(self.names))  # every rate as a constraint row: its a and b
+            stuck = held.eq
+            values = {s: sp.Float(x) for s, x in held.numeric(self.params).values.items()}  # that model's own symbols
             rows = []
             for j, comp in enumerate(self.frictions):
                 r = stuck.velocity_constraints[stuck.velocity_owners.index(comp.name)].xreplace(values)
