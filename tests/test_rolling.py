@@ -288,3 +288,11 @@ def test_consistent_initial_holds_a_knife_edge_without_loops():
     start = consistent_initial(model, {"x_j": 0.0, "y_j": 0.0, "theta_j": 0.4}, {"x_j": 1.0, "theta_j": 0.3})
     assert start.velocity["y_j"] == pytest.approx(math.tan(0.4), rel=1e-12)  # along the edge: ẏ/ẋ = tan θ
     assert start.velocity["theta_j"] == 0.3
+
+
+def test_consistent_initial_names_a_rolling_contact_as_the_component_it_is():
+    from lagrangian.plugins.multibody import consistent_initial
+
+    model = disc(0.3, 0.07)
+    with pytest.raises(lg.ModelError, match=r"the constraints do not hold .* at component 'roll'\)"):
+        consistent_initial(model, {"x_j": 0, "y_j": 0, "z_j": 0.05, "phi_j": 0.2, "theta_j": 1.3, "psi_j": 0.0})

@@ -60,7 +60,8 @@ class _Closure:
             closures = getattr(view, "closures", None)
             rows = [name for name, k in closures or [] for _ in range(k)]
             self.owners += rows if len(rows) == len(view.constraints) else [None] * len(view.constraints)
-        self.owners += [name for name in getattr(eq, "constraint_owners", [])[len(self.owners):]]  # components' own
+        self.joint_rows = len(self.owners)  # the loops' closures; the components' own constraints follow
+        self.owners += [name for name in getattr(eq, "constraint_owners", [])[len(self.owners):]]
         # constraints on velocities, c = A(q, t) q̇ + b(q, t) = 0: their rows A and b
         self.k = len(eq.velocity_constraints)
         self.velocity_owners = list(getattr(eq, "velocity_owners", []))
@@ -99,8 +100,13 @@ class _Closure:
         A, b = self._rates(float(time), list(q))
         return np.asarray(A, dtype=float).reshape(self.k, len(self.names)), np.asarray(b, dtype=float).reshape(self.k)
 
+    def what(self, rows) -> str:
+        """``"loop-closure constraints"`` when every row of ``rows`` closes a loop, else ``"constraints"``."""
+        return "loop-closure constraints" if all(k < self.joint_rows for k in rows) else "constraints"
+
     def joints(self, rows) -> str:
-        labels = dict.fromkeys(f"joint {self.owners[k]!r}" if self.owners[k] else f"constraint {k}" for k in rows)
+        labels = dict.fromkeys((f"joint {self.owners[k]!r}" if k < self.joint_rows else f"component {self.owners[k]!r}")
+                               if self.owners[k] else f"constraint {k}" for k in rows)
         return ", ".join(labels)
 
     def check_rank(self, J, q) -> int:
@@ -113,7 +119,7 @@ class _Closure:
             rows = sorted({k for col in range(rank, self.m) for k in np.flatnonzero(np.abs(U[:, col]) > 1e-8)})
             at = ", ".join(f"{n} = {v:.6g}" for n, v, used in zip(self.names, q, self.structure.any(axis=0)) if used)
             raise ModelError(
-                f"the loop-closure constraints of {self.joints(rows)} are dependent at {at} (rank {rank} of Φ_q for "
+                f"the {self.what(rows)} of {self.joints(rows)} are dependent at {at} (rank {rank} of Φ_q for "
                 f"{self.m} equations): the loop is over-constrained — one of those joints repeats what the others "
                 f"already impose, so its reaction is not determined — or the configuration is singular (links in line, "
                 f"a dead centre). Remove or replace the redundant joint, or choose a configuration away from the singular one."
@@ -272,7 +278,7 @@ def consistent_initial(model, initial, velocity=None, *, independent=None, param
     if not unknown and res > 1e-10 * scale:
         rank = cl.check_rank(J, q)
         raise ModelError(
-            f"the loop-closure constraints do not hold at the values given (max |Φ| = {res:.3g} at "
+            f"the {cl.what(range(cl.m))} do not hold at the values given (max |Φ| = {res:.3g} at "
             f"{cl.joints([int(np.argmax(np.abs(Phi)))])}), and every coordinate they involve is held ({', '.join(fixed)}). "
             f"Pass independent=[...] with the {int(involved.sum()) - rank} coordinate(s) to keep; the others are then "
             f"solved for, from their given values as guesses."
