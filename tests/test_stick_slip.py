@@ -120,3 +120,25 @@ def test_stick_slip_input_is_checked():
     held.add("coulomb_friction", "f", ("ground", "p"), F_c=0.7, F_s=1.0, stick_slip=True)
     res = simulate(held, 2.0, initial={"x_p": 0.0}, velocity={"x_p": 0.0}, points=11)
     assert res.switches == [] and np.all(res["x_p"] == 0.0) and np.all(res.heat == 0.0)
+
+
+def test_a_symbolic_friction_force_given_in_params_runs_as_the_number_does():
+    """F_c as a symbol (only the sliding phases use it) with its value in params: the same switches and heat as the
+    number; without a value, or with a name no phase has, a clear refusal."""
+    def pushed(F_c):
+        model = lg.Model("pushed block")
+        model.add("mass", "m1", "p", m=0.5)
+        model.add("force", "push", "p", F=sp.Piecewise((2.0, lg.t < 1), (0.0, True)))
+        model.add("coulomb_friction", "f", ("ground", "p"), F_c=F_c, F_s=1.0, stick_slip=True)
+        return model
+
+    run = {"initial": {"x_p": 0.0}, "velocity": {"x_p": 0.0}, "points": 31}
+    number = simulate(pushed(0.8), 3.0, **run)
+    symbol = simulate(pushed(sp.Symbol("Fc", positive=True)), 3.0, params={"Fc": 0.8}, **run)
+    assert [s.after for s in symbol.switches] == [s.after for s in number.switches]
+    assert [s.t for s in symbol.switches] == pytest.approx([s.t for s in number.switches], rel=1e-12)
+    assert symbol.heat == pytest.approx(number.heat, rel=1e-12)
+    with pytest.raises(lg.ModelError, match=r"F_c needs a value: give params=\{'Fc': ...\}"):
+        simulate(pushed(sp.Symbol("Fc", positive=True)), 3.0, **run)
+    with pytest.raises(lg.ModelError, match="unknown parameter 'bogus'"):
+        simulate(pushed(sp.Symbol("Fc", positive=True)), 3.0, params={"Fc": 0.8, "bogus": 1.0}, **run)

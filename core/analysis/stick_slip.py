@@ -42,7 +42,7 @@ import numpy as np
 import sympy as sp
 
 from ..base.component import t
-from ..errors import ModelError
+from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..numerics.events import Event
 from ..numerics.result import Result
@@ -101,6 +101,30 @@ class _Phases:
             self._models[phases] = variant
         return self._models[phases]
 
+    def params_of(self, model: Model) -> dict[str, float]:
+        """The values of ``params`` that the model in one combination of phases takes: a parameter only sliding uses
+        (a symbolic ``F_c``) is not one of a stuck model's; a name no phase takes is refused."""
+        def names(m: Model) -> set[str]:
+            return {s.name for s in m.parameters} | set(m.parameter_values)
+
+        if not hasattr(self, "_known"):
+            self._known = names(self.model_in(("stick",) * len(self.names))) | names(
+                self.model_in(("slip+",) * len(self.names)))
+            unknown = [k for k in self.params if k not in self._known]
+            if unknown:
+                raise UnknownNameError("parameter", unknown[0], sorted(self._known))
+        own = names(model)
+        return {k: x for k, x in self.params.items() if k in own}
+
+    def number(self, value, numeric, name: str, what: str) -> float:
+        """A friction's ``F_c`` or ``F_s`` as a number: the model's values, then ``params`` by name (a symbol only
+        sliding uses is not one of a stuck model's parameters)."""
+        expr = sp.sympify(value, strict=True).xreplace({s: sp.Float(x) for s, x in numeric.values.items()})
+        expr = expr.xreplace({s: sp.Float(self.params[s.name]) for s in expr.free_symbols if s.name in self.params})
+        if expr.free_symbols:
+            raise ModelError(f"{name}: {what} needs a value: give params={{{', '.join(sorted(repr(s.name) for s in expr.free_symbols))}: ...}}.")
+        return float(expr)
+
     def numbers(self, phases: tuple[str, ...]):
         """``(numeric, rows)`` of the model in ``phases``: its numeric form and, per component, ``(a, b, k, limit,
         F_c, exact)`` — its rate ``a(t, q)·q̇ + b(t, q)``, where its multiplier sits in the solve when it sticks
@@ -108,12 +132,12 @@ class _Phases:
         zero (else ``None``)."""
         if phases not in self._numbers:
             model = self.model_in(phases)
-            numeric = model.numeric(self.params)
+            numeric = model.numeric(self.params_of(model))
             eq = numeric.eq
             q, v = list(eq.sym.q), list(eq.sym.v)
             held = self.model_in(("stick",) * len(self.names))  # every rate as a constraint row: its a and b
             stuck = held.eq
-            values = {s: sp.Float(x) for s, x in held.numeric(self.params).values.items()}  # that model's own symbols
+            values = {s: sp.Float(x) for s, x in held.numeric(self.params_of(held)).values.items()}  # its own symbols
             rows = []
             for j, comp in enumerate(self.frictions):
                 r = stuck.velocity_constraints[stuck.velocity_owners.index(comp.name)].xreplace(values)
@@ -129,20 +153,10 @@ class _Phases:
                          + eq.velocity_owners.index(comp.name))
                 own = model.components[comp.name]
                 limit = own.F_c if own.F_s is None else own.F_s
-                rows.append((a, b, k, _number(limit, self.params, comp.name, "F_s"),
-                             _number(own.F_c, self.params, comp.name, "F_c"), exact))
+                rows.append((a, b, k, self.number(limit, numeric, comp.name, "F_s"),
+                             self.number(own.F_c, numeric, comp.name, "F_c"), exact))
             self._numbers[phases] = (numeric, rows)
         return self._numbers[phases]
-
-
-def _number(value, params: Mapping[str, float], name: str, what: str) -> float:
-    expr = sp.sympify(value, strict=True) if not isinstance(value, (int, float)) else value
-    if isinstance(expr, sp.Basic):
-        by_name = {str(k): v for k, v in params.items()}
-        expr = expr.xreplace({s: sp.Float(by_name[s.name]) for s in expr.free_symbols if s.name in by_name})
-        if expr.free_symbols:
-            raise ModelError(f"{name}: {what} needs a value: give params={{{', '.join(repr(s.name) for s in expr.free_symbols)}: ...}}.")
-    return float(expr)
 
 
 def _rate(row, time: float, q: np.ndarray, v: np.ndarray) -> float:
@@ -182,7 +196,7 @@ def simulate(model: Model, t_end: float | tuple[float, float], *, initial: Mappi
         v = _onto(rows, phases, tt, q, v)
         events = [_event(numeric, rows[j], phases[j], j) for j in range(len(phases))]
         times = grid[grid > tt]
-        res = variant.simulate((tt, t1), initial=dict(zip(names, q)), velocity=dict(zip(names, v)), params=params,
+        res = variant.simulate((tt, t1), initial=dict(zip(names, q)), velocity=dict(zip(names, v)), params=phases_of.params_of(variant),
                                t_eval=np.concatenate([[tt], times]) if times.size else np.array([tt, t1]),
                                method=method, rtol=rtol, atol=atol, max_step=max_step, events=events,
                                energy_tol=False)
