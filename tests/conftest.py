@@ -5,8 +5,13 @@ without a deadline (symbolic work varies in time, and tests assert nothing
 about wall time) and, under CI, derandomized so a run can be repeated.
 """
 
+import contextlib
+import io
 import os
+import runpy
+import sys
 import types
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -54,3 +59,56 @@ def pytest_collection_modifyitems(config, items):
         module = item.nodeid.split("::")[0].rsplit("/", 1)[-1].removesuffix(".py")
         if module in SLOW_MODULES or "ngspice" in item.name:
             item.add_marker(pytest.mark.slow)
+
+
+def _run_script(path: Path, *args: str, cwd: Path) -> str:
+    """Run the script ``path`` with ``args`` in ``cwd`` as ``python path args...`` runs it — its own ``__main__``,
+    ``sys.argv`` and working directory — in this process; its standard output.  A nonzero exit fails with its
+    error output."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # as a process without a display: charts to files only
+    import matplotlib.pyplot as plt
+
+    out, err = io.StringIO(), io.StringIO()
+    saved = sys.argv
+    sys.argv = [str(path), *map(str, args)]
+    try:
+        with contextlib.chdir(cwd), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                runpy.run_path(str(path), run_name="__main__")
+            except SystemExit as exc:
+                if exc.code not in (None, 0):
+                    raise AssertionError(f"{Path(path).name} exited with status {exc.code}:\n{err.getvalue()}") from None
+    finally:
+        sys.argv = saved
+        plt.close("all")
+    return out.getvalue()
+
+
+@pytest.fixture(scope="session")
+def run_script():
+    """``run_script(path, *args, cwd=...)``: an example script run in this process (:func:`_run_script`).  A process
+    per example would spend a second of CPU importing NumPy, SymPy and the package before the example's own work;
+    the README's demo, the command line and the scripts that start process pools still run as processes."""
+    return _run_script
+
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.fixture(scope="session")
+def example(tmp_path_factory):
+    """``example(script, *args) -> (output, directory)``: an example of ``examples/`` run in this process once per
+    session and arguments (``"{dir}"`` in an argument is its own directory, where it writes its files), its output
+    shared by the tests that read it."""
+    done: dict[tuple, tuple[str, Path]] = {}
+
+    def run(script: str, *args: str) -> tuple[str, Path]:
+        key = (script, *args)
+        if key not in done:
+            where = tmp_path_factory.mktemp(Path(script).stem)
+            done[key] = _run_script(EXAMPLES / script, *(a.replace("{dir}", str(where)) for a in args), cwd=where), where
+        return done[key]
+
+    return run

@@ -1,4 +1,5 @@
-"""Every example script runs as a user would run it and prints what it promises."""
+"""Every example script runs as a user would run it and prints what it promises: the demo as a process (the
+README's command), the others as their own ``__main__`` in this process (the ``run_script`` fixture)."""
 
 import re
 import subprocess
@@ -10,16 +11,16 @@ import pytest
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-def run(script: str, *args: str, cwd: Path) -> str:
-    proc = subprocess.run(
-        [sys.executable, str(EXAMPLES / script), *args], capture_output=True, text=True, cwd=cwd, timeout=300
-    )
-    assert proc.returncode == 0, proc.stderr
-    return proc.stdout
+@pytest.fixture
+def run(run_script):
+    return lambda script, *args, cwd: run_script(EXAMPLES / script, *args, cwd=cwd)
 
 
 def test_demo_prints_both_models_agreement_and_writes_chart(tmp_path):
-    out = run("demo.py", "--out", str(tmp_path / "chart.png"), cwd=tmp_path)
+    proc = subprocess.run([sys.executable, str(EXAMPLES / "demo.py"), "--out", str(tmp_path / "chart.png")],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    out = proc.stdout
     assert "model 'mass-spring-damper'" in out and "model 'series-RLC'" in out
     assert "L = " in out and "Derivative(q_L(t), (t, 2))" in out
     gap = float(re.search(r"max \|x\(t\) − q\(t\)\|\s+= (\S+)", out).group(1))
@@ -35,19 +36,19 @@ def test_demo_prints_both_models_agreement_and_writes_chart(tmp_path):
         assert (tmp_path / f"chart-ngspice-{suffix}.png").read_bytes().startswith(b"\x89PNG")
 
 
-def test_two_mass_chain_finds_golden_ratio_frequencies(tmp_path):
+def test_two_mass_chain_finds_golden_ratio_frequencies(run, tmp_path):
     out = run("two_mass_chain.py", cwd=tmp_path)
     freqs = [float(x) for x in re.search(r"normal-mode frequencies: \[([^\]]+)\]", out).group(1).split()]
     assert freqs == pytest.approx([(5**0.5 - 1) / 2, (5**0.5 + 1) / 2], rel=1e-7)  # printed to 8 decimals
 
 
-def test_parallel_rlc_amplitude_matches_impedance(tmp_path):
+def test_parallel_rlc_amplitude_matches_impedance(run, tmp_path):
     out = run("parallel_rlc_flux.py", cwd=tmp_path)
     sim, z = map(float, re.search(r"simulated (\S+) V, \|Z\|·I = (\S+) V", out).groups())
     assert sim == pytest.approx(z, rel=1e-4)
 
 
-def test_duffing_plugin_periods_match_quadrature(tmp_path):
+def test_duffing_plugin_periods_match_quadrature(run, tmp_path):
     out = run("duffing_plugin.py", cwd=tmp_path)
     pairs = re.findall(r"period simulated (\S+), quadrature (\S+)", out)
     assert len(pairs) == 3
@@ -55,7 +56,7 @@ def test_duffing_plugin_periods_match_quadrature(tmp_path):
         assert float(sim) == pytest.approx(float(quad), rel=1e-5)
 
 
-def test_impulses_match_the_notes_closed_forms(tmp_path):
+def test_impulses_match_the_notes_closed_forms(run, tmp_path):
     out = run("impulses.py", "--out", str(tmp_path / "impulses.png"), cwd=tmp_path)
     assert out.count("symbolic agreement: True") == 2  # four-bar velocities; knife edge velocities and energy
     assert "Q_x1 = F, Q_theta = 2*F*b*sin(theta)" in out
@@ -69,7 +70,7 @@ def test_impulses_match_the_notes_closed_forms(tmp_path):
     assert (tmp_path / "impulses.png").read_bytes().startswith(b"\x89PNG")
 
 
-def test_impacts_follow_the_closed_forms_and_come_to_rest(tmp_path):
+def test_impacts_follow_the_closed_forms_and_come_to_rest(run, tmp_path):
     out = run("impacts.py", "--out", str(tmp_path / "impacts.png"), cwd=tmp_path)
     errors = [float(x) for x in re.findall(r"max \|t_\w − closed form\|.* = (\S+) s", out)]
     assert len(errors) == 2 and max(errors) < 1e-9
@@ -86,7 +87,7 @@ def test_impacts_follow_the_closed_forms_and_come_to_rest(tmp_path):
 # -- the frequency domain ---------------------------------------------------------------------------------
 
 
-def test_loudspeaker_impedance_three_ways_agree_with_the_closed_form(tmp_path):
+def test_loudspeaker_impedance_three_ways_agree_with_the_closed_form(run, tmp_path):
     out = run("loudspeaker_impedance.py", "--out", str(tmp_path / "z.png"), cwd=tmp_path)
     diffs = [float(x) for x in re.findall(r"max \|Z/Z_closed − 1\| = (\S+)", out)]
     assert len(diffs) == 3 and max(diffs) < 1e-9  # Lagrangian, mechanical view, ngspice's equivalent circuit
@@ -96,14 +97,14 @@ def test_loudspeaker_impedance_three_ways_agree_with_the_closed_form(tmp_path):
     assert (tmp_path / "z.png").read_bytes().startswith(b"\x89PNG")
 
 
-def test_isolator_transmissibility_matches_the_closed_form(tmp_path):
+def test_isolator_transmissibility_matches_the_closed_form(run, tmp_path):
     out = run("isolator_transmissibility.py", "--out", str(tmp_path / "t.png"), cwd=tmp_path)
     assert float(re.search(r"max relative difference from the closed form: (\S+)", out).group(1)) < 1e-12
     crossings = [float(x) for x in re.findall(r"\|T\| at r = √2: (\S+);", out)]
     assert len(crossings) == 4 and all(abs(c - 1) < 1e-12 for c in crossings)  # every damping crosses 1 at r = √2
 
 
-def test_ladder_filter_bode_is_butterworth_and_agrees_with_ngspice(tmp_path):
+def test_ladder_filter_bode_is_butterworth_and_agrees_with_ngspice(run, tmp_path):
     out = run("ladder_filter_bode.py", "--out", str(tmp_path / "b.png"), cwd=tmp_path)
     assert float(re.search(r"closed form − 1 at the load: (\S+)", out).group(1)) < 1e-9
     assert float(re.search(r"\): (\S+) dB from the passband", out).group(1)) == pytest.approx(-3.0103, abs=1e-4)
@@ -111,14 +112,14 @@ def test_ladder_filter_bode_is_butterworth_and_agrees_with_ngspice(tmp_path):
     assert float(re.search(r"worst relative difference (\S+)", out).group(1)) < 1e-9
 
 
-def test_coupled_tanks_modes_are_the_closed_form_in_both_formulations(tmp_path):
+def test_coupled_tanks_modes_are_the_closed_form_in_both_formulations(run, tmp_path):
     out = run("coupled_tanks_modes.py", "--out", str(tmp_path / "c.png"), cwd=tmp_path)
     diffs = [float(x) for x in re.findall(r"max rel\. difference (\S+)\)", out)]
     assert len(diffs) == 2 and max(diffs) < 1e-12
     assert out.count("(+1.000, +1.000), (+1.000, -1.000)") == 2
 
 
-def test_stability_map_agrees_with_the_closed_form_boundary(tmp_path):
+def test_stability_map_agrees_with_the_closed_form_boundary(run, tmp_path):
     out = run("stability_map.py", "--points", "4", "--serial", "--out", str(tmp_path / "s.png"), cwd=tmp_path)
     agree, total = map(int, re.search(r"stable where Ω² l < g in (\d+) of (\d+) samples", out).groups())
     assert total == 16 and agree == total

@@ -24,10 +24,7 @@ from __future__ import annotations
 
 import math
 import re
-import subprocess
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -41,7 +38,6 @@ from lagrangian.plugins.multibody import consistent_initial, constraint_residual
 
 t = lg.t
 TIGHT = {"rtol": 1e-12, "atol": 1e-14}
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 RNG = np.random.default_rng(20240607)
 G = 9.81
 
@@ -824,26 +820,13 @@ SCRIPTS = {
 }
 
 
-@pytest.fixture(scope="module")
-def examples(tmp_path_factory):
-    """Start every example script at once (they are independent) and hand each test its own process."""
-    where = tmp_path_factory.mktemp("multibody-examples")
-    procs = {
-        name: subprocess.Popen([sys.executable, str(EXAMPLES / f"{name}.py"), *args, "--out", str(where / f"{name}.png")],
-                               cwd=where, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        for name, args in SCRIPTS.items()
-    }
-    yield procs, where
-    for proc in procs.values():
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+@pytest.fixture
+def examples(example):
+    return example
 
 
 def run_example(examples, name: str) -> str:
-    procs, where = examples
-    out, err = procs[name].communicate(timeout=300)
-    assert procs[name].returncode == 0, err
+    out, where = examples(f"{name}.py", *SCRIPTS[name], "--out", f"{{dir}}/{name}.png")
     png = (where / f"{name}.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 10_000
     return out

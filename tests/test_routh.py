@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 import re
-import subprocess
 import sys
 from pathlib import Path
 
@@ -435,26 +434,15 @@ def test_stability_needs_values_for_symbolic_steady_motions(sph_symbolic):
 
 # -- the example scripts ------------------------------------------------------------------------------------
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-@pytest.fixture(scope="module")
-def scripts(tmp_path_factory):
-    where = tmp_path_factory.mktemp("routh-examples")
-    procs = {name: subprocess.Popen([sys.executable, str(EXAMPLES / f"{name}.py"), "--out", str(where / f"{name}.png")],
-                                    cwd=where, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-             for name in ("kepler", "spherical_steady")}
-    yield procs, where
-    for proc in procs.values():
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+@pytest.fixture
+def scripts(example):
+    return example
 
 
 def output(scripts, name: str) -> str:
-    procs, where = scripts
-    out, err = procs[name].communicate(timeout=300)
-    assert procs[name].returncode == 0, err
+    out, where = scripts(f"{name}.py", "--out", f"{{dir}}/{name}.png")
     assert (where / f"{name}.png").read_bytes().startswith(b"\x89PNG")
     return out
 

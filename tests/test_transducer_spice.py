@@ -18,10 +18,8 @@ from __future__ import annotations
 import functools
 import math
 import re
-import subprocess
 import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -406,15 +404,12 @@ def test_solenoid_plungers_over_decades_agree_with_ngspice_and_the_closed_form(L
 # every transducer example cross-checks itself in ngspice
 
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-def run_example(script: str, tmp_path: Path, *args: str) -> str:
-    proc = subprocess.run([sys.executable, str(EXAMPLES / script), "--out", str(tmp_path / "chart.png"), *args],
-                          capture_output=True, text=True, cwd=tmp_path, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    assert "cross-check skipped" not in proc.stdout
-    return proc.stdout
+def run_example(example, script: str, *args: str) -> str:
+    out, where = example(script, "--out", "{dir}/chart.png", *args)
+    assert "cross-check skipped" not in out
+    return out
 
 
 @pytest.mark.parametrize(("script", "args", "runs", "tol"), [
@@ -423,8 +418,8 @@ def run_example(script: str, tmp_path: Path, *args: str) -> str:
     ("dc_motor.py", (), 1, 1e-5),
     ("solenoid.py", (), 2, 1e-4),
 ])
-def test_transducer_examples_agree_with_ngspice(script, args, runs, tol, tmp_path):
-    out = run_example(script, tmp_path, *args)
+def test_transducer_examples_agree_with_ngspice(example, script, args, runs, tol):
+    out = run_example(example, script, *args)
     worst = [float(w) for w in re.findall(r"ngspice vs simulation.*: worst (\S+) of peak", out)]
     assert len(worst) == runs and max(worst) < tol, out
     if script == "electrostatic_pullin.py":

@@ -21,9 +21,6 @@ from __future__ import annotations
 
 import doctest
 import math
-import subprocess
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -36,7 +33,6 @@ from lagrangian.plugins.transducers import GapClosedError, PullInError, electros
 
 t = lg.t
 TIGHT = {"rtol": 1e-11, "atol": 1e-13}
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 pytestmark = pytest.mark.filterwarnings("ignore::lagrangian.InitialConditionWarning")
 
@@ -644,21 +640,17 @@ def test_plugin_docstring_examples_run(module):
     assert result.attempted > 0 and result.failed == 0
 
 
-def run_example(script: str, tmp_path: Path, *args: str) -> str:
-    proc = subprocess.run(
-        [sys.executable, str(EXAMPLES / script), "--out", str(tmp_path / "chart.png"), *args],
-        capture_output=True, text=True, cwd=tmp_path, timeout=300,
-    )
-    assert proc.returncode == 0, proc.stderr
-    assert (tmp_path / "chart.png").read_bytes().startswith(b"\x89PNG")
-    return proc.stdout
+def run_example(example, script: str, *args: str) -> str:
+    out, where = example(script, "--out", "{dir}/chart.png", *args)
+    assert (where / "chart.png").read_bytes().startswith(b"\x89PNG")
+    return out
 
 
 @pytest.mark.slow
-def test_loudspeaker_example_finds_the_impedance_peak_at_resonance(tmp_path):
+def test_loudspeaker_example_finds_the_impedance_peak_at_resonance(example):
     import re
 
-    out = run_example("loudspeaker.py", tmp_path, "--points", "3")
+    out = run_example(example, "loudspeaker.py", "--points", "3")
     worst = float(re.search(r"max relative difference simulated vs closed-form impedance: (\S+)", out).group(1))
     assert worst < 1e-6
     peak, at = map(float, re.search(r"\|Z\| = (\S+) Ω at (\S+) Hz", out).groups())
@@ -667,20 +659,20 @@ def test_loudspeaker_example_finds_the_impedance_peak_at_resonance(tmp_path):
 
 
 @pytest.mark.slow
-def test_dc_motor_example_matches_its_closed_form(tmp_path):
+def test_dc_motor_example_matches_its_closed_form(example):
     import re
 
-    out = run_example("dc_motor.py", tmp_path)
+    out = run_example(example, "dc_motor.py")
     rel = float(re.search(r"\((\S+) of ω_ss\)", out).group(1))
     assert rel < 1e-6
     assert "ω_ss = K V / (R b + K²) = 239.043825 rad/s" in out  # 0.05·12/(1e-5 + 0.0025)
 
 
 @pytest.mark.slow
-def test_electrostatic_pullin_example_reports_pull_in_and_contact(tmp_path):
+def test_electrostatic_pullin_example_reports_pull_in_and_contact(example):
     import re
 
-    out = run_example("electrostatic_pullin.py", tmp_path)
+    out = run_example(example, "electrostatic_pullin.py")
     v_pi = float(re.search(r"pull-in voltage:\s+computed (\S+),", out).group(1))
     assert v_pi == pytest.approx(math.sqrt(8 / 27), rel=1e-9)
     assert "no stable equilibrium" in out and "raises PullInError" in out
