@@ -1,9 +1,10 @@
 """Stick–slip: dry friction that sticks and slips, run phase by phase with events.
 
-A component with a stick–slip option (``coulomb_friction`` and ``joint_friction`` with ``stick_slip=True``)
-follows a small contract: a parameter ``phase`` — ``"slip+"`` and ``"slip-"`` (sliding forward or back: a
-constant force ``∓F_c`` on the rate it opposes), ``"stick"`` (that rate held at zero by a constraint on velocities,
-whose multiplier is the friction force) — a static limit ``F_s`` (``None``: ``F_c``), and ``sliding_rate(ctx)``.
+A component with a stick–slip option (``coulomb_friction``, ``joint_friction`` and a ``rolling`` contact in the
+plane with ``stick_slip=True``) follows a small contract: a parameter ``phase`` — ``"slip+"`` and ``"slip-"``
+(sliding forward or back: a constant force ``∓F_c`` on the rate it opposes), ``"stick"`` (that rate held at zero by
+a constraint on velocities, whose multiplier is the friction force) — a static limit ``F_s`` (``None``: ``F_c``),
+and ``sliding_rate(ctx)``.
 :func:`simulate` integrates the model with every such component in its phase, stops at the first event, switches
 and goes on:
 
@@ -83,7 +84,8 @@ class _Phases:
         self.frictions = [c for c in model.components.values() if getattr(c, "stick_slip", False)]
         if not self.frictions:
             raise ModelError(f"model {model.name!r} has no component that sticks and slips: give a friction "
-                             f"stick_slip=True (coulomb_friction, joint_friction), or run it with Model.simulate.")
+                             f"stick_slip=True (coulomb_friction, joint_friction, rolling in the plane), or run it "
+                             f"with Model.simulate.")
         self.names = [c.name for c in self.frictions]
         self._models: dict[tuple[str, ...], Model] = {}
         self._numbers: dict[tuple[str, ...], Any] = {}

@@ -1,11 +1,12 @@
-"""Rolling without slipping on the ground: :class:`Rolling`, a wheel (a disc touching the ground at its rim) or a
-ball, in the plane or in space."""
+"""Rolling on the ground: :class:`Rolling`, a wheel (a disc touching the ground at its rim) or a ball, in the plane
+or in space, without slipping or, given a friction force ``F_c``, sliding against dry friction."""
 
 from __future__ import annotations
 
 import sympy as sp
 
-from lagrangian import Component, Contribution, Example, ModelError, Parameter
+from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter
+from lagrangian.plugins.mechanics import STICK_SLIP, _check_phase, friction_contribution
 
 from .checks import _need_dim
 
@@ -13,9 +14,10 @@ SHAPES = ("disc", "sphere")
 
 
 class Rolling(Component):
-    """A body rolling without slipping on the ground: the plane through the origin normal to the last axis (y in
-    2-D, z in 3-D: the plane gravity presses on by default), touched by a disc at its rim (a wheel; ``shape="disc"``)
-    or by a ball (``shape="sphere"``), centred on the body's origin, of ``radius``.
+    """A body rolling on the ground without slipping (or sliding against dry friction, given ``F_c``): the plane
+    through the origin normal to the last axis (y in 2-D, z in 3-D: the plane gravity presses on by default), touched
+    by a disc at its rim (a wheel; ``shape="disc"``) or by a ball (``shape="sphere"``), centred on the body's origin,
+    of ``radius``.
 
     Two kinds of constraint, both kept with multipliers (the ground's normal and friction forces):
 
@@ -36,7 +38,31 @@ class Rolling(Component):
     equilibria, scenes, sweeps, the exact solution) refuse a model that rolls in space, by name; energy and the
     Jacobi integral are kept (the constraints do no work), and impulses respect them.
 
+    Given ``F_c``, the sliding friction force μ N at the contact, the contact may slide: the constraints on velocities
+    give way to dry friction on the slip velocity ``s`` of the body's point at the contact (the height stays held).
+    Smooth by default, as ``coulomb_friction``: ``−F_c tanh(s / v_s)`` in the plane, and in space the isotropic
+    ``−F_c s⃗ / √(|s⃗|² + v_s²)`` on the slip along the ground; its power (``Model.load_power``) is the heat it makes.
+    In the plane ``stick_slip=True`` sticks and slips instead, in :func:`lagrangian.stick_slip.simulate`: stuck, it
+    rolls without slipping (the constraint's multiplier the friction force, up to ``F_s``), sliding, the force is
+    ``∓F_c``.  A wheel launched sliding at v₀ without spin skids until t = v₀/3μg, then rolls at 2v₀/3, having turned
+    m v₀²/6 into heat:
+
     >>> import lagrangian as lg
+    >>> from lagrangian.stick_slip import simulate
+    >>> w = lg.Model("skidding wheel", dim=2)
+    >>> _ = w.add("disc", "d", "d", m=0.3, radius=0.1)
+    >>> _ = w.add("free", "j", ("ground", "d"))
+    >>> _ = w.add("rolling", "roll", "d", radius=0.1, F_c=0.2 * 0.3 * 9.81, stick_slip=True)
+    >>> _ = w.add("gravity", "g", g=9.81)
+    >>> res = simulate(w, 1.0, initial={"x_j": 0, "y_j": 0.1, "theta_j": 0},
+    ...                velocity={"x_j": 3.0, "y_j": 0, "theta_j": 0}, points=11, method="Radau")
+    >>> [(s.before, s.after, round(s.t, 9)) for s in res.switches], round(3.0 / (3 * 0.2 * 9.81), 9)
+    ([('slip+', 'stick', 0.509683996)], 0.509683996)
+    >>> round(float(res.v["x_j"][-1]), 9), round(float(res.heat[-1]), 9)
+    (2.0, 0.45)
+
+    Rolling without slipping, in space:
+
     >>> m = lg.Model("rolling disc", dim=3)
     >>> _ = m.add("disc", "d", "d", m=0.3, radius=0.1)
     >>> _ = m.add("free", "j", ("ground", "d"), sequence="zxz")
@@ -60,13 +86,33 @@ class Rolling(Component):
                           symbolic=False),
         "turntable": Parameter("the ground's angular velocity about the vertical through the origin (space only; "
                                "a signal of t)", default=0, check="real", shape="signal", unit="rad/s"),
+        "F_c": Parameter("sliding friction force μ N at the contact (None: it rolls without slipping)", default=None,
+                         check="nonnegative", unit="N"),
+        "v_s": Parameter("slip speed below which the friction fades (regularization)", default=1e-4, unit="m/s"),
+        **STICK_SLIP,
     }
 
     def __init__(self, name, nodes, params):
         shape = params.get("shape", "disc")
         if shape not in SHAPES:
             raise ModelError(f"rolling {name!r}: shape is 'disc' or 'sphere', got {shape!r:.40}.")
+        _check_phase(self.kind, name, params)
+        if params.get("F_c") is None:
+            given = [p for p in ("F_s", "stick_slip", "phase") if params.get(p) not in (None, False, "smooth")]
+            if given:
+                raise ModelError(f"rolling {name!r}: {given[0]} is for a contact that slides: give F_c (the sliding "
+                                 f"friction force μ N), or drop {given[0]} to roll without slipping.")
         super().__init__(name, nodes, params)
+
+    def sliding_rate(self, ctx):
+        """The slip velocity of the contact in the plane, ``v_x + ω r`` (the stick–slip driver's contract, with
+        ``phase`` and ``F_s``); in space the contact slides along a plane and there is no one rate."""
+        if _need_dim(self, ctx.view, (2, 3)) != 2:
+            raise ModelError(f"rolling {self.name!r}: sticking and slipping (stick_slip=True, phase) is for a contact "
+                             f"in the plane (dim=2); in space drop stick_slip for the smooth friction (F_c, v_s) that "
+                             f"Model.simulate runs.")
+        pose = ctx.view.pose(self.nodes[0])
+        return ctx.view.velocity(self.nodes[0])[0] + pose.omega * self.radius
 
     def contribute(self, ctx) -> Contribution:
         dim = _need_dim(self, ctx.view, (2, 3))
@@ -77,10 +123,18 @@ class Rolling(Component):
         pose = ctx.view.pose(body)
         r = self.radius
         centre, v = pose.p, ctx.view.velocity(body)
+        # the turntable's rate as given (a number given is a symbol standing for it here: 0 given is no turntable)
+        turntable = sp.sympify(self.turntable, strict=True).xreplace(self.values)
         if dim == 2:  # a circle on the line y = 0: ω ẑ × (0, −r) = (ω r, 0)
-            if self.turntable != 0:
+            if turntable != 0:
                 raise ModelError(f"rolling {self.name!r}: a turntable turns the ground of a model in space (dim=3).")
-            return Contribution(constraints=[centre[1] - r], velocity_constraints=[v[0] + pose.omega * r])
+            if self.F_c is None:
+                return Contribution(constraints=[centre[1] - r], velocity_constraints=[v[0] + pose.omega * r])
+            friction = friction_contribution(self, self.sliding_rate(ctx))
+            return Contribution(constraints=[centre[1] - r], velocity_constraints=friction.velocity_constraints,
+                                loads=friction.loads)
+        if self.F_c is not None and (self.stick_slip or self.phase != "smooth"):
+            self.sliding_rate(ctx)  # refused in space
         if self.shape == "sphere":
             reach = sp.Matrix([0, 0, -r])
             height = r
@@ -95,10 +149,15 @@ class Rolling(Component):
             reach = r * (c * n - sp.Matrix([0, 0, 1])) / s
             height = r * s
         slip = v + pose.omega.cross(reach)
-        if self.turntable != 0:  # the ground turns under the contact: its point there moves at Ω ẑ × contact
+        if turntable != 0:  # the ground turns under the contact: its point there moves at Ω ẑ × contact
             contact = centre + reach
             slip = slip - sp.Matrix([-self.turntable * contact[1], self.turntable * contact[0], 0])
-        return Contribution(constraints=[centre[2] - height], velocity_constraints=[slip[0], slip[1]])
+        if self.F_c is None:
+            return Contribution(constraints=[centre[2] - height], velocity_constraints=[slip[0], slip[1]])
+        # sliding along the ground: an isotropic force against the slip, regularized below v_s
+        slip = sp.Matrix([slip[0], slip[1]])
+        force = -self.F_c * slip / sp.sqrt(slip.dot(slip) + self.v_s**2)
+        return Contribution(constraints=[centre[2] - height], loads=[Load(force, slip)])
 
     @classmethod
     def example(cls) -> Example:
