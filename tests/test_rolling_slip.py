@@ -2,7 +2,8 @@
 sticks at the closed-form time and rolls on at the speed the angular momentum about the contact keeps, its heat the
 kinetic energy lost; a wheel pushed ever harder skids when the friction rolling needs reaches F_s; a ball launched
 sliding and spinning in space (smooth friction, small v_s) follows the closed-form path and its energy lost is the
-friction's work; the smooth planar friction agrees with stick–slip within O(v_s); bad input refused by name.
+friction's work; an upright disc in space skids as the planar wheel does; the smooth planar friction agrees with
+stick–slip within O(v_s); bad input refused by name.
 
 Closed forms (the ground's forces act at the contact, so the angular momentum about any fixed point of the ground
 is kept): in the plane L = I ω − m r v, and rolling (v = −ω r) it is −(m r + I/r) v, so a disc (I = m r²/2)
@@ -175,6 +176,30 @@ def test_a_ball_launched_sliding_and_spinning_in_space_follows_the_closed_form_a
     work = res.cumulative(model.load_power("roll"))
     assert res.E[-1] - res.E[0] == pytest.approx(work[-1], rel=1e-6)
     assert np.max(np.abs(res.E - res.E[0] - work)) < 1e-6 * lost
+
+
+@pytest.mark.slow
+def test_an_upright_disc_in_space_launched_skidding_in_its_plane_moves_as_the_planar_wheel_does():
+    """Smooth friction on a disc in space (its contact on the rim): launched upright along its plane without spin,
+    it stays upright and in its plane, skids until v₀/3μg and rolls on at 2v₀/3, as in the plane."""
+    m, r, mu, v0, v_s = 0.3, 0.07, 0.2, 2.0, 1e-6
+    model = lg.Model("skidding disc", dim=3)
+    model.add("disc", "d", "d", m=m, radius=r)
+    model.add("free", "j", ("ground", "d"), sequence="zxz")  # θ = π/2: upright, its axis along −y
+    model.add("rolling", "roll", "d", radius=r, F_c=mu * m * G, v_s=v_s)
+    model.add("gravity", "g", g=G)
+    names = model.coordinate_names
+    stop = v0 / (3 * mu * G)
+    res = model.simulate(2 * stop, initial={**dict.fromkeys(names, 0.0), "z_j": r, "theta_j": math.pi / 2},
+                         velocity={**dict.fromkeys(names, 0.0), "x_j": v0}, points=401, method="Radau", rtol=1e-10,
+                         atol=1e-12)
+    t = res.t
+    want = np.where(t <= stop, v0 * t - mu * G * t**2 / 2, v0 * stop - mu * G * stop**2 / 2 + 2 * v0 / 3 * (t - stop))
+    assert np.max(np.abs(res["x_j"] - want)) < 1e-9 * v0 * stop  # the regularization: O(v_s²/μg)
+    assert res.v["x_j"][-1] == pytest.approx(2 * v0 / 3, rel=1e-9)
+    assert abs(res.v["psi_j"][-1]) * r == pytest.approx(2 * v0 / 3, rel=1e-9)
+    assert np.max(np.abs(res["theta_j"] - math.pi / 2)) < 1e-12 and np.max(np.abs(res["y_j"])) < 1e-12 * v0 * stop
+    assert res.E[0] - res.E[-1] == pytest.approx(m * v0**2 / 6, rel=1e-9)
 
 
 def test_bad_friction_on_a_rolling_contact_is_refused_by_name():
