@@ -22,7 +22,7 @@ import numpy as np
 import sympy as sp
 
 from .base.arguments import RunOptions, check_atol, check_max_step, check_state, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
-from .derivation.assembly import Assembly, assemble
+from .derivation.assembly import Assembly, assemble, refuse_eliminated
 from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
 from .derivation.equations import Equations
@@ -536,7 +536,8 @@ class Model:
 
         ``initial`` and ``velocity`` give coordinates and velocities by name;
         any not given start at zero and are listed in ``Result.defaulted``
-        (with an :class:`InitialConditionWarning`).  ``params`` gives values
+        (with an :class:`InitialConditionWarning`); a coordinate a constraint
+        eliminates (``eliminate=``) is refused there, and in ``res`` from the others.  ``params`` gives values
         to symbolic parameters by name, and other values to parameters given
         as numbers (by the names of :attr:`parameter_values`), with nothing
         derived or recorded again.  Output is on ``points`` evenly spaced
@@ -617,6 +618,7 @@ class Model:
         """
 
         names = self.coordinate_names
+        refuse_eliminated(self.assembly, initial=initial, velocity=velocity)  # they follow from the others
         params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.assembly.values]}))
         # a large linear model with every parameter valued is solved from its stamps, never derived symbolically
         st = stamped(self, params) if method in ("auto", "exact") and not events else None

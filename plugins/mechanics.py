@@ -412,7 +412,11 @@ class Constraint(Component):
     """A holonomic constraint ``f(q, t) = 0`` between coordinates, written in :func:`lagrangian.coordinate` (one
     expression, or a list of them: one constraint each): rolling without slipping (``x − R θ``), a cam, a
     prescribed relation.  It is kept with a Lagrange multiplier as a closed loop's closure is, so
-    ``independent_coordinates``, ``consistent_initial`` and ``constraint_residual`` cover it.
+    ``independent_coordinates``, ``consistent_initial`` and ``constraint_residual`` cover it.  Or
+    ``eliminate="<coordinate>"`` solves it for that coordinate — ``f = a·x + g``, linear in ``x``, ``a`` free of
+    the coordinates and not zero — and puts ``x = −g / a`` and its rate everywhere (energies, loads, frames, the
+    other constraints): one coordinate and no multiplier less, ``x`` still in results (``res["x"]``, not in
+    ``initial=``).  One constraint (not a list) per component then; chains are solved in order, cycles refused.
 
     >>> import lagrangian as lg
     >>> m = lg.Model("rolling", dim=1)
@@ -420,14 +424,24 @@ class Constraint(Component):
     >>> _ = m.add("inertia", "J", "wheel", J=2e-3)
     >>> _ = m.add("constraint", "roll", f=lg.coordinate("x_p") - 0.05 * lg.coordinate("theta_wheel"))
     >>> m.eq.constraints
-    Matrix([[q_x_p - 0.05*q_theta_wheel]])
+    Matrix([[-0.05*q_theta_wheel + q_x_p]])
+    >>> e = lg.Model("rolling, eliminated", dim=1)
+    >>> _ = e.add("mass", "m1", "p", m=0.3)
+    >>> _ = e.add("inertia", "J", "wheel", J=2e-3)
+    >>> _ = e.add("constraint", "roll", f=lg.coordinate("x_p") - 0.05 * lg.coordinate("theta_wheel"),
+    ...           eliminate="theta_wheel")
+    >>> e.coordinate_names, e.mass_matrix  # m + J / R²
+    (['x_p'], Matrix([[1.1]]))
     """
 
     kind = "constraint"
     domain = "mechanical"
     terminals = ()
-    parameters = {"f": Parameter("f(q, t), kept at zero (a list: one constraint each)", check="real", shape="signal",
-                                 state=True)}
+    parameters = {
+        "f": Parameter("f(q, t), kept at zero (a list: one constraint each)", check="real", shape="signal", state=True),
+        "eliminate": Parameter("coordinate solved from the constraint and substituted everywhere (default: none, kept "
+                               "with a multiplier)", default=None, shape="name"),
+    }
 
     def contribute(self, ctx) -> Contribution:
         rows = list(self.f) if isinstance(self.f, sp.MatrixBase) else [self.f]
@@ -484,7 +498,8 @@ class VelocityConstraint(Component):
 class Gear(Component):
     """A gear pair between two angle coordinates: ``N_a θ_a + N_b θ_b = 0`` (external mesh, the gears turn in opposite
     senses) or ``N_a θ_a = N_b θ_b`` (``internal=True``: a ring gear), ``N`` their teeth (or radii); kept with a
-    multiplier, whose value is the tooth force times the radius.
+    multiplier, whose value is the tooth force times the radius; or ``eliminate=`` ``a`` or ``b`` solves it for
+    that angle (see ``constraint``).
 
     >>> import lagrangian as lg
     >>> m = lg.Model("gear pair")
@@ -493,6 +508,12 @@ class Gear(Component):
     >>> _ = m.add("gear", "mesh", a="theta_s1", b="theta_s2", teeth_a=12, teeth_b=36)
     >>> m.eq.constraints
     Matrix([[12*q_theta_s1 + 36*q_theta_s2]])
+    >>> e = lg.Model("gear pair, eliminated")
+    >>> _ = e.add("inertia", "J1", "s1", J=0.01)
+    >>> _ = e.add("inertia", "J2", "s2", J=0.04)
+    >>> _ = e.add("gear", "mesh", a="theta_s1", b="theta_s2", teeth_a=12, teeth_b=36, eliminate="theta_s2")
+    >>> e.coordinate_names, e.mass_matrix  # J1 + J2 (12/36)²
+    (['theta_s1'], Matrix([[0.0144444444444444]]))
     """
 
     kind = "gear"
@@ -504,6 +525,8 @@ class Gear(Component):
         "teeth_a": Parameter("teeth (or pitch radius) of the first gear", symbolic=False),
         "teeth_b": Parameter("teeth (or pitch radius) of the second gear", symbolic=False),
         "internal": Parameter("the second gear is a ring gear (both turn the same way)", default=False, shape="flag"),
+        "eliminate": Parameter("coordinate solved from the constraint and substituted everywhere (default: none, kept "
+                               "with a multiplier)", default=None, shape="name"),
     }
 
     def contribute(self, ctx) -> Contribution:
@@ -520,7 +543,9 @@ class Gear(Component):
 
 class RackAndPinion(Component):
     """A rack driven by a pinion: ``x = r θ`` between a position coordinate and an angle coordinate (the rack moves
-    +x as the pinion turns +θ); kept with a multiplier, whose value is the tooth force.
+    +x as the pinion turns +θ); kept with a multiplier, whose value is the tooth force, or ``eliminate=`` the rack
+    or the pinion coordinate solves it for that one (see ``constraint``): the pinion's angle eliminated, the rack
+    moves with the effective mass ``m + J / r²``.
 
     >>> import lagrangian as lg
     >>> m = lg.Model("rack")
@@ -528,7 +553,13 @@ class RackAndPinion(Component):
     >>> _ = m.add("inertia", "J", "s", J=1e-3)
     >>> _ = m.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02)
     >>> m.eq.constraints
-    Matrix([[q_x_p - 0.02*q_theta_s]])
+    Matrix([[-0.02*q_theta_s + q_x_p]])
+    >>> e = lg.Model("rack, eliminated")
+    >>> _ = e.add("mass", "rack", "p", m=0.5)
+    >>> _ = e.add("inertia", "J", "s", J=1e-3)
+    >>> _ = e.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate="theta_s")
+    >>> e.coordinate_names, e.mass_matrix  # m + J / r²
+    (['x_p'], Matrix([[3.0]]))
     """
 
     kind = "rack_and_pinion"
@@ -538,6 +569,8 @@ class RackAndPinion(Component):
         "rack": Parameter("position coordinate of the rack", shape="name"),
         "pinion": Parameter("angle coordinate of the pinion", shape="name"),
         "radius": Parameter("pitch radius of the pinion", unit="m", symbolic=False),
+        "eliminate": Parameter("coordinate solved from the constraint and substituted everywhere (default: none, kept "
+                               "with a multiplier)", default=None, shape="name"),
     }
 
     def contribute(self, ctx) -> Contribution:

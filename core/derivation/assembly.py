@@ -17,12 +17,13 @@ from sympy.core.function import AppliedUndef
 
 from ..base.component import GROUND, Component, Contribution, Load, MovingFrame, StateCall, t
 from ..base.domain import Context, Coordinate, DomainView, Network
-from ..errors import DomainError, LagrangianError, ModelError, closest
+from ..errors import DomainError, LagrangianError, ModelError, UnknownNameError, closest
 from ..base.graph import ComponentGraph
+from ..base.identity import is_zero
 from ..base.network import check_topology
 from ..plugin.registry import Registry
 
-__all__ = ["Assembly", "assemble"]
+__all__ = ["Assembly", "Elimination", "assemble", "refuse_eliminated"]
 
 
 @dataclass
@@ -36,7 +37,10 @@ class Assembly:
     ``generic_views`` are the domains' views built from the components'
     symbolic views (kinematics in symbols: what the derivation uses), and
     ``views`` the same built from the components as given (positions and
-    branch quantities in numbers; built on first use).
+    branch quantities in numbers; built on first use).  ``eliminated`` maps
+    each coordinate a holonomic constraint eliminates (``eliminate=``) to
+    its :class:`Elimination`: it is no coordinate of the model, and every
+    contribution holds its solution in its place.
     """
 
     coordinates: list[Coordinate]
@@ -46,6 +50,7 @@ class Assembly:
     generic: dict[str, Contribution] = field(default_factory=dict)
     values: dict[sp.Symbol, sp.Expr] = field(default_factory=dict)
     build_views: Any = field(default=None, repr=False)  # () -> the views with the values in
+    eliminated: dict[str, "Elimination"] = field(default_factory=dict)
 
     @property
     def state_callables(self) -> list[str]:
@@ -180,9 +185,13 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
                                                         for load in contribution.loads])
         _check_contribution(comp, contribution, allowed | set(signals), [c.name for c in coordinates])
         generic[comp.name] = contribution
+    eliminated = _eliminations(components, generic, coordinates)
+    if eliminated:
+        generic = _substituted(generic, eliminated)
+        coordinates = [c for c in coordinates if c.name not in eliminated]
     contributions = _Valued(generic, values)
     valued = None if all(view is comp for comp, view in zip(components, symbolic)) else (lambda: build(None))
-    return Assembly(coordinates, views, contributions, signals, generic, values, valued)
+    return Assembly(coordinates, views, contributions, signals, generic, values, valued, eliminated)
 
 
 def _applied(force: Any, applied: Mapping) -> Any:
@@ -272,3 +281,161 @@ def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] 
                     raise ModelError(f"{where}: {label} depends on {f}, which is not a coordinate of the model."
                                      f"{closest(f.func.__name__, names)} Its coordinates: {', '.join(names)}.")
                 raise ModelError(f"{where}: {label} depends on {f}, which is neither a coordinate nor a signal.")
+
+
+@dataclass(frozen=True)
+class Elimination:
+    """A coordinate a holonomic constraint eliminates (``eliminate=`` on ``constraint``, ``gear``,
+    ``rack_and_pinion``): ``function`` (``x(t)``) equals ``solution``, a function of the remaining coordinates and
+    ``t``, and its rate equals ``rate``, the solution's time derivative (chain rule, explicit time dependence
+    included).  ``kind`` and ``owner`` name the component whose constraint it is.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rack")
+    >>> _ = m.add("mass", "rack", "p", m=0.5)
+    >>> _ = m.add("inertia", "J", "s", J=1e-3)
+    >>> _ = m.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate="theta_s")
+    >>> e = m.assembly.eliminated["theta_s"]
+    >>> e.solution, e.rate
+    (50.0*x_p(t), 50.0*Derivative(x_p(t), t))
+    """
+
+    name: str
+    kind: str
+    owner: str
+    function: sp.Expr
+    solution: sp.Expr
+    rate: sp.Expr
+
+    @property
+    def mapping(self) -> dict[sp.Expr, sp.Expr]:
+        """``{ẋ(t): rate, x(t): solution}``: what an ``xreplace`` puts in (the rate first: it holds ``x(t)``)."""
+        return {sp.Derivative(self.function, t): self.rate, self.function: self.solution}
+
+
+def refuse_eliminated(assembly: Assembly, **given: Any) -> None:
+    """Refuse a mapping (``initial=``, ``velocity=``) naming an eliminated coordinate: it follows from the others.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rack")
+    >>> _ = m.add("mass", "rack", "p", m=0.5)
+    >>> _ = m.add("inertia", "J", "s", J=1e-3)
+    >>> _ = m.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate="theta_s")
+    >>> refuse_eliminated(m.assembly, initial={"theta_s": 0.1})
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.ModelError: initial= gives 'theta_s', which rack_and_pinion 'mesh' eliminates ...
+    """
+    for what, mapping in given.items():
+        if not isinstance(mapping, Mapping):
+            continue
+        for name in mapping:
+            e = assembly.eliminated.get(name) if isinstance(name, str) else None
+            if e is None:
+                continue
+            kept = {c.function: c.name for c in assembly.coordinates}
+            free = sorted({kept[f] for f in e.solution.atoms(AppliedUndef) if f in kept})
+            shown = e.solution.xreplace(assembly.values) if assembly.values else e.solution
+            raise ModelError(
+                f"{what}= gives {name!r}, which {e.kind} {e.owner!r} eliminates ({name} = {shown}): give "
+                f"{' and '.join(map(repr, free)) or 'the coordinates it follows from'} instead ({name} follows from "
+                f"{'them' if len(free) > 1 else 'it'} and is in the result as res[{name!r}]), or keep the constraint "
+                f"with a multiplier (leave eliminate= out).")
+
+
+def _eliminations(components: list[Component], generic: Mapping[str, Contribution],
+                  coordinates: list[Coordinate]) -> dict[str, Elimination]:
+    """The coordinates the components' ``eliminate=`` name, each solved from its constraint, a chain of them
+    (``x`` in terms of ``y``, ``y`` in terms of ``z``) resolved in order."""
+    functions = {c.name: c.function for c in coordinates}
+    out: dict[str, Elimination] = {}
+    for comp in components:
+        name = getattr(comp, "eliminate", None)
+        if name is None:
+            continue
+        where = f"{comp.kind} {comp.name!r}"
+        if name not in functions:
+            raise UnknownNameError(f"coordinate (eliminate= of {where})", name, functions)
+        rows = list(generic[comp.name].constraints)
+        if len(rows) != 1:
+            raise ModelError(f"{where}: eliminate= solves one constraint for one coordinate, and it imposes "
+                             f"{len(rows)}: give each its own {comp.kind} (each with its own eliminate=), or keep "
+                             f"them with multipliers (leave eliminate= out).")
+        if name in out:
+            first = out[name]
+            raise ModelError(f"{first.kind} {first.owner!r} and {where} both eliminate {name!r}: a coordinate is "
+                             f"solved from one constraint. Keep the other with a multiplier (leave its eliminate= "
+                             f"out), or let it eliminate another of its coordinates.")
+        out[name] = _solved(comp, where, sp.sympify(rows[0], strict=True), name, functions)
+    return _resolved(out) if out else out
+
+
+def _solved(comp: Component, where: str, f: sp.Expr, name: str, functions: Mapping[str, sp.Expr]) -> Elimination:
+    """``f = a·x + g = 0`` solved for ``x = −g / a``, with ``a`` free of every coordinate and not zero."""
+    x = functions[name]
+    coords = {g: n for n, g in functions.items()}
+    held = sorted({coords[g] for g in f.atoms(AppliedUndef) if g in coords})
+    fix = (f"keep it with a multiplier (leave eliminate= out), or write the constraint solved, {name} − g(q, t), "
+           f"and eliminate {name!r} from that")
+    X = sp.Dummy(name, real=True)
+    fx = f.xreplace({x: X})
+    a = sp.diff(fx, X)
+    absent = ModelError(f"{where}: its constraint {f} = 0 does not hold {name!r}, so it cannot eliminate it: "
+                        f"eliminate one of the coordinates it holds ({', '.join(held)}).")
+    if not f.has(x):
+        raise absent
+    if a.has(X):
+        raise ModelError(f"{where}: cannot eliminate {name!r}: the constraint {f} = 0 is not linear in it (solving "
+                         f"it would choose a branch): {fix}.")
+    varying = sorted({coords[g] for g in a.atoms(AppliedUndef) if g in coords})
+    if varying:
+        raise ModelError(f"{where}: cannot eliminate {name!r}: its coefficient in the constraint {f} = 0, {a}, "
+                         f"depends on {', '.join(varying)} (where it vanishes the solution is singular): {fix}.")
+    if is_zero(a):
+        raise absent
+    solution = -fx.xreplace({X: 0}) / a
+    return Elimination(name, comp.kind, comp.name, x, solution, sp.diff(solution, t))
+
+
+def _resolved(out: dict[str, Elimination]) -> dict[str, Elimination]:
+    """Each solution in the coordinates that remain: the solutions of the eliminated coordinates it holds put in,
+    in order; a cycle (``x`` in terms of ``y``, ``y`` in terms of ``x``) refused by name."""
+    deps = {n: [m for m in out if m != n and e.solution.has(out[m].function)] for n, e in out.items()}
+    done: dict[str, Elimination] = {}
+
+    def visit(n: str, path: list[str]) -> None:
+        if n in done:
+            return
+        if n in path:
+            cycle = path[path.index(n):] + [n]
+            steps = ", ".join(f"{out[a].kind} {out[a].owner!r} gives {a} in terms of {b}" for a, b in zip(cycle, cycle[1:]))
+            raise ModelError(f"the eliminations form a cycle ({steps}): no coordinate of it is left to solve them "
+                             f"in. Keep one of these constraints with a multiplier (leave its eliminate= out).")
+        for m in deps[n]:
+            visit(m, path + [n])
+        e = out[n]
+        solution = e.solution.xreplace({done[m].function: done[m].solution for m in deps[n]}) if deps[n] else e.solution
+        done[n] = replace(e, solution=solution, rate=sp.diff(solution, t))
+
+    for n in out:
+        visit(n, [])
+    return {n: done[n] for n in out}
+
+
+def _substituted(generic: Mapping[str, Contribution], eliminated: Mapping[str, Elimination]) -> dict[str, Contribution]:
+    """Every contribution with the eliminated coordinates and their rates replaced by their solutions; the rows
+    that eliminated them dropped."""
+    sub: dict[sp.Expr, sp.Expr] = {}
+    for e in eliminated.values():
+        sub.update(e.mapping)
+    owners = {e.owner for e in eliminated.values()}
+
+    def put(expr):
+        return expr.xreplace(sub) if isinstance(expr, (sp.Basic, sp.MatrixBase)) else expr
+
+    return {name: Contribution(put(c.T), put(c.V), put(c.D), put(c.G),
+                               [Load(put(load.force), put(load.velocity)) for load in c.loads],
+                               [MovingFrame(put(f.omega), tuple(put(v) for v in f.velocities)) for f in c.frames],
+                               [] if name in owners else [put(sp.sympify(e, strict=True)) for e in c.constraints],
+                               [put(sp.sympify(e, strict=True)) for e in c.velocity_constraints])
+            for name, c in generic.items()}

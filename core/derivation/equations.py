@@ -68,7 +68,7 @@ class Equations:
                 "motions, so there is nothing to solve for. Add an element that can move (a mass, a capacitor "
                 "between free nodes), or use the other circuit formulation."
             )
-        self._setup(assembly.coordinates)
+        self._setup(assembly.coordinates, assembly.eliminated)
         self._signals = set(assembly.signals)
         q, v = self.sym.q, self.sym.v
         n = len(q)
@@ -146,8 +146,11 @@ class Equations:
         self._derive(T, V, G, D, list(Q), list(constraints), constraint_rate, quadratures or {}, values=values)
         return self
 
-    def _setup(self, coordinates) -> None:
+    def _setup(self, coordinates, eliminated: Mapping | None = None) -> None:
+        """The plain symbols of ``coordinates``; a coordinate a constraint ``eliminated`` (name → :class:`~lagrangian.
+        derivation.assembly.Elimination`) rewrites as its solution in them, so expressions in it still evaluate."""
         self.coordinates = list(coordinates)
+        self.eliminated = dict(eliminated or {})
         names = [c.name for c in self.coordinates]
         self.names = names
         self.sym = _Symbols(
@@ -163,6 +166,9 @@ class Equations:
             self._to_sym[df] = v
             self._to_sym[f] = q
             self._from_sym.update({q: f, v: df, a: sp.Derivative(f, (t, 2), evaluate=False)})
+        base = Rewriter(dict(self._to_sym))
+        for e in self.eliminated.values():
+            self._to_sym.update({k: base(v) for k, v in e.mapping.items()})
         self._symbolic = Rewriter(self._to_sym, self._no_acceleration)
         self._display = Rewriter(self._from_sym)
 

@@ -237,6 +237,7 @@ def integrate(
         notes=all_notes,
         step=sol.step,
         events=occurrences,
+        derived={name_: e.function for name_, e in getattr(numeric.eq, "eliminated", {}).items()},
     )
 
 

@@ -687,6 +687,7 @@ def simulate_exact(
         nfev=0,
         method="exact",
         evaluator=evaluator,
+        derived={name: e.function for name, e in model.assembly.eliminated.items()},
         notes=[f"solved exactly from the components' stamps: {n} coordinates, "
                f"{'sparse (expm_multiply)' if isinstance(ss, SparseSpace) else 'dense'} matrices"] if st is not None else [],
     )

@@ -31,7 +31,19 @@ class Result:
     well a conservative model kept its energy.  ``events`` lists the events
     that occurred (:class:`~lagrangian.numerics.events.Occurrence`: name,
     time, state), when the run was given any.
-    ``res["x_cart"]`` is the same as ``res.q["x_cart"]``.
+    ``res["x_cart"]`` is the same as ``res.q["x_cart"]``.  ``derived`` maps each
+    coordinate a constraint eliminated (``eliminate=``) to its function
+    ``x(t)``: no coordinate of the run, ``res["x"]`` and ``res.velocity("x")``
+    still give it, from the solution in the others.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rack")
+    >>> _ = m.add("mass", "rack", "p", m=0.5)
+    >>> _ = m.add("inertia", "J", "s", J=1e-3)
+    >>> _ = m.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate="theta_s")
+    >>> res = m.simulate(1, initial={"x_p": 0.0}, velocity={"x_p": 0.1}, points=3)
+    >>> res.names, [round(float(a), 9) for a in res["theta_s"]], [float(w) for w in res.velocity("theta_s")]
+    (['x_p'], [0.0, 2.5, 5.0], [5.0, 5.0, 5.0])
     """
 
     t: np.ndarray
@@ -48,6 +60,7 @@ class Result:
     notes: list[str] = field(default_factory=list)
     step: float | None = None
     events: list = field(default_factory=list)
+    derived: dict[str, Any] = field(default_factory=dict)
 
     def __repr__(self) -> str:
         span = f"[{self.t[0]:g}, {self.t[-1]:g}]" if len(self.t) else "[]"
@@ -93,13 +106,18 @@ class Result:
     def __getitem__(self, name: str) -> np.ndarray:
         if name in self.q:
             return self.q[name]
-        raise UnknownNameError("coordinate", name, self.q)
+        if name in self.derived:
+            return self.quantity(self.derived[name])
+        raise UnknownNameError("coordinate", name, [*self.q, *self.derived])
 
     def velocity(self, name: str) -> np.ndarray:
-        """Values of ``q̇`` for the coordinate ``name``."""
+        """Values of ``q̇`` for the coordinate ``name`` (or one a constraint eliminated, from the solution)."""
         if name in self.v:
             return self.v[name]
-        raise UnknownNameError("coordinate", name, self.v)
+        if name in self.derived:
+            f = self.derived[name]
+            return self.quantity(f.diff(f.args[0]))
+        raise UnknownNameError("coordinate", name, [*self.v, *self.derived])
 
     def quantity(self, expr: Any) -> np.ndarray:
         """Any expression in the coordinates ``q(t)``, their rates and ``t``, evaluated along the result.
