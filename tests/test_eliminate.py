@@ -399,3 +399,13 @@ def test_an_angle_eliminated_in_a_multibody_chain_moves_as_with_the_multiplier()
     ours = accelerations(build(eliminate="theta_j2"), time, {"theta_j1": (th, w)})["theta_j1"]
     kept = accelerations(build(), time, {"theta_j1": (th, w), "theta_j2": (0.5 * th + 0.1 * time, 0.5 * w + 0.1)})
     assert ours == pytest.approx(kept["theta_j1"], rel=1e-12)
+
+
+@pytest.mark.slow
+def test_the_eliminated_coordinate_is_a_column_of_the_exports():
+    model = rack(0.5, 20.0, 1e-3, 0.02, eliminate="theta_s")
+    res = model.simulate(0.5, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=11)
+    df = res.to_pandas()
+    assert list(df.columns) == ["x_p", "theta_s", "x_p'", "theta_s'", "T", "V", "D", "E"]
+    assert np.allclose(df["theta_s"].to_numpy(), res["x_p"] / 0.02, rtol=1e-14, atol=0)
+    assert res.to_xarray()["theta_s"].attrs["units"] == "rad"

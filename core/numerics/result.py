@@ -165,8 +165,11 @@ class Result:
         return float(np.max(np.abs(E - E[0])) / scale)
 
     def _columns(self) -> dict[str, np.ndarray]:
-        """Every series of the run by name: coordinates, their rates (``x_p'``), T, V, D and E."""
-        return {**self.q, **{f"{n}'": v for n, v in self.v.items()}, "T": self.T, "V": self.V, "D": self.D, "E": self.E}
+        """Every series of the run by name: coordinates (those a constraint eliminated after them), their rates
+        (``x_p'``), T, V, D and E."""
+        q = {**self.q, **{n: self[n] for n in self.derived}}
+        rates = {**self.v, **{n: self.velocity(n) for n in self.derived}}
+        return {**q, **{f"{n}'": v for n, v in rates.items()}, "T": self.T, "V": self.V, "D": self.D, "E": self.E}
 
     def to_xarray(self):
         """The run as an :class:`xarray.Dataset` over ``time``: coordinates, their rates (``"x_p'"``), ``T``, ``V``,
@@ -183,7 +186,7 @@ class Result:
         import xarray as xr
 
         units = {"T": "J", "V": "J", "D": "W", "E": "J"}
-        for name in self.q:  # by the coordinate's name: x_ metres, theta_ radians, q_ coulombs...
+        for name in [*self.q, *self.derived]:  # by the coordinate's name: x_ metres, theta_ radians, q_ coulombs...
             if coordinate_unit(name):
                 units[name], units[f"{name}'"] = coordinate_unit(name), coordinate_unit(name) + "/s"
         data = {name: xr.Variable(("time",), np.asarray(series), {"units": units[name]} if name in units else {})
