@@ -185,3 +185,30 @@ def test_a_chattering_event_is_stopped(monkeypatch):
     model.add("spring", "k", ("ground", "p"), k=7.0)
     with pytest.raises(lg.IntegrationError, match="chatters"):
         model.simulate(10.0, initial={"x_p": 0.1}, velocity={"x_p": 0.0}, events=[lg.Event("x_p", name="zero")])
+
+
+@pytest.mark.parametrize("compiled, sibling", [("dopri5_c", "RK45"), ("dop853_c", "DOP853")])
+def test_the_dense_output_of_a_compiled_step_keeps_its_own_copy_of_the_step(compiled, sibling, monkeypatch):
+    """Events interpolate each step after the stepper has gone on: the step's dense output must hold on to the
+    coefficients it reads, whatever reuses the memory in between (here blocks of the same size filled with NaN)."""
+    from lagrangian.numerics.compiled_loops import CompiledSteps
+
+    plain = CompiledSteps.dense_output
+
+    def churned(self):
+        state = plain(self)
+        junk = [np.full(self._work.size, np.nan) for _ in range(64)]
+        del junk
+        return state
+
+    model = pendulum(0.45, m=0.7)
+    events = [lg.Event("theta_pin + pi/2", name="vertical")]
+    runs = {}
+    for method in (compiled, sibling):
+        monkeypatch.setattr(CompiledSteps, "dense_output", churned)
+        runs[method] = model.simulate(2.0, initial={"theta_pin": -0.4}, velocity={"theta_pin": 0.0}, method=method,
+                                      events=events, points=21, compiled="auto", rtol=1e-10, atol=1e-12)
+    c, py = runs[compiled], runs[sibling]
+    assert len(c.events) == len(py.events) >= 2
+    np.testing.assert_allclose([e.t for e in c.events], [e.t for e in py.events], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(c["theta_pin"], py["theta_pin"], rtol=0, atol=1e-8)

@@ -167,7 +167,7 @@ class CompiledSteps:
             work = self._work.copy()
             ptr = work.ctypes.data
 
-            def state(s: float) -> np.ndarray:
+            def state(s: float, _work: np.ndarray = work) -> np.ndarray:  # _work: the C code reads it through ptr
                 if s == t_new:
                     return y_new.copy()
                 out = np.empty(dim)
@@ -178,7 +178,7 @@ class CompiledSteps:
         work = self._work.copy()
         dense, ptr = c.loops.lg_dopri5_dense, work.ctypes.data
 
-        def state(s: float) -> np.ndarray:
+        def state(s: float, _work: np.ndarray = work) -> np.ndarray:  # _work: the C code reads it through ptr
             if s == t_new:
                 return y_new.copy()
             out = np.empty(dim)
