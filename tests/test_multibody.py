@@ -69,8 +69,8 @@ def theirs(mass_matrix, forcing, q, qd):
     subs = {**dict(zip(qd, U)), **{qi.diff(t_mech()): u for qi, u in zip(q, U)}}
     mm = me.msubs(mass_matrix, subs, dict(zip(q, Q)))
     ff = me.msubs(forcing, subs, dict(zip(q, Q)))
-    M = sp.lambdify((Q, U), mm, "numpy")
-    f = sp.lambdify((Q, U), ff, "numpy")
+    M = sp.lambdify((Q, U), mm, "numpy", cse=True)
+    f = sp.lambdify((Q, U), ff, "numpy", cse=True)
     return lambda a, b: np.asarray(M(a, b), dtype=float), lambda a, b: np.asarray(f(a, b), dtype=float).reshape(-1)
 
 

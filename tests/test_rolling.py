@@ -61,8 +61,8 @@ def kane_disc():
     dep = sp.solve([slip.dot(N.x), slip.dot(N.y)], u[3:], dict=True)[0]
     args = (m, r, phi, theta, psi, *u[:3])
     # the full mass matrix and forcing (kinematic rows, dynamic rows, the constraints' rows), solved numerically
-    full = sp.lambdify((*args, *u[3:]), [km.mass_matrix_full, km.forcing_full], "numpy")
-    dependent = sp.lambdify(args, [dep[u[3]], dep[u[4]]], "numpy")
+    full = sp.lambdify((*args, *u[3:]), [km.mass_matrix_full, km.forcing_full], "numpy", cse=True)
+    dependent = sp.lambdify(args, [dep[u[3]], dep[u[4]]], "numpy", cse=True)
 
     def accelerations(*values):
         M, f = full(*values, *dependent(*values))
