@@ -54,7 +54,7 @@ from .cyclic import Ignorability, _components, _depends, _named, ignorability, i
 from .jacobi import JacobiIntegral, _without_residues, jacobi_integral
 from .reduction import ReducedModel, reduce
 from .stability import Perturbation, Stability, _fmt, _off_singular
-from .steady import SteadyMotion, _is_angle, _solve
+from .steady import SteadyMotion, _is_angle, _numeric_roots, _solve
 from .tidy import TIDY_SECONDS, _drop, _factors_vanishing, _simplified, _terms, _tidy
 
 __all__ = [

@@ -50,6 +50,19 @@ def _named(names: list[str]) -> str:
     return ", ".join(repr(n) for n in names) if names else "a component"
 
 
+def _coupling(model: Model) -> dict[str, list[str]]:
+    """``{coordinate: components}``: the coordinates a constraint on velocities (nonholonomic) couples — it holds
+    the coordinate or its rate, so its force acts along it — with the components that impose those constraints."""
+    eq = model.eq
+    out: dict[str, list[str]] = {}
+    for i, name in enumerate(eq.names):
+        owners = sorted({o for o, c in zip(eq.velocity_owners, eq.velocity_constraints)
+                         if _depends(eq, c, eq.sym.q[i]) or _depends(eq, c, eq.sym.v[i])})
+        if owners:
+            out[name] = owners
+    return out
+
+
 def ignorability(model: Model) -> dict[str, Ignorability]:
     """Every coordinate of ``model``, whether it is ignorable, and the reason.
 
@@ -69,6 +82,7 @@ def ignorability(model: Model) -> dict[str, Ignorability]:
     """
     eq = model.eq
     q, v = eq.sym.q, eq.sym.v
+    coupled = _coupling(model)
     out = {}
     for i, name in enumerate(eq.names):
         qi, vi = q[i], v[i]
@@ -103,10 +117,8 @@ def ignorability(model: Model) -> dict[str, Ignorability]:
         if any(_depends(eq, c, qi) for c in eq.constraints):
             verdict("it takes part in a loop-closure constraint, whose force acts along it")
             continue
-        coupling = sorted({o for o, c in zip(eq.velocity_owners, eq.velocity_constraints)
-                           if _depends(eq, c, qi) or _depends(eq, c, eq.sym.v[i])})
-        if coupling:
-            verdict(f"a constraint on velocities (nonholonomic, from {_named(coupling)}) couples it: the constraint's "
+        if name in coupled:
+            verdict(f"a constraint on velocities (nonholonomic, from {_named(coupled[name])}) couples it: the constraint's "
                     f"force acts along it, so its momentum is not conserved")
             continue
         verdict("absent from L, D, the forces and the constraints: its momentum ∂L/∂q̇ is conserved", True)

@@ -10,11 +10,9 @@ ignorable coordinates symbolically and finds its steady motions.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import numpy as np
 import sympy as sp
 
 from ...base.budget import DEFAULT_SECONDS, BudgetExceeded, within
@@ -29,8 +27,8 @@ from ...model import Model
 from ...numerics.simulation import Result
 from ..derived import DerivedModel
 from .cache import _by_structure, _put
-from .cyclic import ignorability
-from .steady import SteadyMotion, _is_angle, _solve
+from .cyclic import _coupling, _named, ignorability
+from .steady import SteadyMotion, _numeric_roots, _solve
 from .tidy import _drop, _factors_vanishing, _terms, _tidy
 
 
@@ -53,6 +51,14 @@ class ReducedModel(DerivedModel):
     of ``−R``), ``singularities`` (expressions whose zeros make the
     momentum equations singular: coordinate singularities of the
     reduction).
+
+    Constraints on velocities (nonholonomic) that hold neither the
+    ignorable coordinates nor their rates carry over unchanged, with their
+    owners (``eq.velocity_constraints``, ``eq.velocity_owners``): they enter
+    the reduced equations with multipliers (Lagrange–d'Alembert) as in the
+    full model, in ``simulate`` (initial rates checked against them) and in
+    impulses; the analyses that need a system without them (steady motions,
+    their stability, linearization) refuse such a reduced model by name.
     """
 
     def __init__(self, full: Model, ignorable: Sequence[str], momenta: Mapping[str, Any] | None = None,
@@ -79,7 +85,6 @@ class ReducedModel(DerivedModel):
         I = [names.index(n) for n in self.ignored]
         K = [i for i in range(len(names)) if i not in I]
         q, v = eq.sym.q, eq.sym.v
-        qI, vI = [q[i] for i in I], [v[i] for i in I]
         C = []
         for n in self.ignored:
             given = momenta.get(n)
@@ -91,7 +96,7 @@ class ReducedModel(DerivedModel):
         # for the numbers are renamed to canonical ones in the key, and back in the parts).
         key = ("reduce", tuple(names), tuple(self.ignored), tuple(C),
                *(sp.sympify(generic[k]) for k in ("L", "D")),
-               *(sp.ImmutableMatrix(generic[k]) for k in ("M", "Q", "constraints")))
+               *(sp.ImmutableMatrix(generic[k]) for k in ("M", "Q", "constraints", "velocity_constraints")))
         parts = _by_structure(key, values, lambda: self._reduce_generic(generic, names, I, K, q, v, C))
         self._r_generic = parts
         self._r_values = dict(values)
@@ -149,9 +154,11 @@ class ReducedModel(DerivedModel):
         D = _drop(generic["D"], qI)
         Q = [_tidy(_drop(generic["Q"][k], qI).xreplace(at)) for k in K]
         constraints = [_drop(c, qI) for c in generic["constraints"]]
+        # constraints on velocities hold neither q_I nor q̇_I (else q_I would not be ignorable): they carry over
+        velocity = [_drop(c, [*qI, *vI]) for c in generic["velocity_constraints"]]
         return {
             "K": K, "I": I, "C": C, "rates": rates, "R": R, "T": T, "G": G, "V": V, "D": D, "Q": Q,
-            "constraints": constraints, "quadratic": quadratic,
+            "constraints": constraints, "velocity": velocity, "quadratic": quadratic,
             "singular": _factors_vanishing(det), "det": det,
         }
 
@@ -168,8 +175,19 @@ class ReducedModel(DerivedModel):
                 Q[row] = parts["Q"][parts["K"].index(i)]
             else:
                 quad[row] = parts["rates"][parts["I"].index(i)]
-        return Equations.from_energies(coords, parts["T"], parts["V"], parts["G"], parts["D"], Q,
-                                       parts["constraints"], full_eq.constraint_rate, quad, values=self._r_values)
+        if not parts.get("velocity"):
+            return Equations.from_energies(coords, parts["T"], parts["V"], parts["G"], parts["D"], Q,
+                                           parts["constraints"], full_eq.constraint_rate, quad, values=self._r_values)
+        # Lagrange–d'Alembert as in the full model: the constraints on velocities, with their owners, enter the
+        # reduced equations with multipliers (Equations.from_energies, with the velocity rows its derivation takes)
+        eq = Equations.__new__(Equations)
+        eq._setup(coords)
+        eq.load_shares = []
+        eq.constraint_owners = list(getattr(full_eq, "constraint_owners", [None] * len(parts["constraints"])))
+        eq.velocity_owners = list(full_eq.velocity_owners)
+        eq._derive(parts["T"], parts["V"], parts["G"], parts["D"], Q, list(parts["constraints"]),
+                   full_eq.constraint_rate, quad, values=self._r_values, velocity=list(parts["velocity"]))
+        return eq
 
     # -- what the reduction found --------------------------------------------------
     def _show(self, expr):
@@ -364,6 +382,8 @@ class ReducedModel(DerivedModel):
         return [sp.Eq(self._show(e), 0) for e in self._steady_exprs()]
 
     def _steady_exprs(self) -> list[sp.Expr]:
+        self._holonomic_only("the search for steady motions (stationary points of the effective potential)",
+                             ReductionError)
         eq = self.reconstructing(False).eq
         if len(eq.constraints):
             raise ReductionError(f"steady motions of {self.name!r}: models with loop constraints are not supported.")
@@ -436,7 +456,7 @@ class ReducedModel(DerivedModel):
                     f"SymPy cannot solve the steady-motion conditions of {self.name!r} for "
                     f"{', '.join(unknowns_names)}; give numeric params= and momenta= to solve them numerically."
                 )
-            branches = self._numeric_roots(exprs, names, q, search or {})
+            branches = _numeric_roots(self.name, self.eq.coordinates, exprs, names, q, search or {})
         for n, (lo, hi) in (search or {}).items():  # solved symbolically too: only what lies in the ranges asked
             if n not in lookup or lookup[n] not in q:
                 raise UnknownNameError("remaining coordinate (for search=)", n, names)
@@ -472,53 +492,6 @@ class ReducedModel(DerivedModel):
             out[known[k]] = sp.Float(val)
         return out
 
-    def _numeric_roots(self, exprs, names, q, search) -> list[dict]:
-        from scipy.optimize import brentq, root
-
-        ranges = []
-        for i, n in enumerate(names):
-            if n in search:
-                lo, hi = map(float, search[n])
-            elif _is_angle(self.eq.coordinates[i]):
-                lo, hi = -math.pi, math.pi
-            else:
-                raise ReductionError(
-                    f"give a search range for coordinate {n!r} of {self.name!r}: steady_motions(..., search={{{n!r}: (lo, hi)}})."
-                )
-            ranges.append((lo, hi))
-        fn = sp.lambdify([q], exprs, modules="numpy")
-        found: list[np.ndarray] = []
-        if len(q) == 1:
-            lo, hi = ranges[0]
-            grid = np.linspace(lo, hi, 4001)
-            with np.errstate(all="ignore"):
-                vals = np.array([fn([x])[0] for x in grid], dtype=float)
-            for a, b, fa, fb in zip(grid[:-1], grid[1:], vals[:-1], vals[1:]):
-                if not (np.isfinite(fa) and np.isfinite(fb)):
-                    continue
-                if fa == 0:
-                    found.append(np.array([a]))
-                elif fa * fb < 0:
-                    x = brentq(lambda s: fn([s])[0], a, b, xtol=1e-14, rtol=1e-14)
-                    scale = max(abs(fa), abs(fb))
-                    with np.errstate(all="ignore"):
-                        if abs(fn([x])[0]) < 1e-8 * max(1.0, scale):  # a root, not a pole
-                            found.append(np.array([x]))
-        else:
-            jac = sp.lambdify([q], sp.Matrix(exprs).jacobian(q), modules="numpy")
-            axes = [np.linspace(lo, hi, 9) for lo, hi in ranges]
-            for start in np.array(np.meshgrid(*axes)).reshape(len(q), -1).T:
-                with np.errstate(all="ignore"):
-                    sol = root(lambda x: np.asarray(fn(x), dtype=float), start,
-                               jac=lambda x: np.asarray(jac(x), dtype=float), tol=1e-13)
-                if sol.success and all(lo <= x <= hi for x, (lo, hi) in zip(sol.x, ranges)):
-                    found.append(sol.x)
-        unique: list[np.ndarray] = []
-        for x in found:
-            if not any(np.allclose(x, y, atol=1e-9) for y in unique):
-                unique.append(x)
-        return [{qi: sp.Float(float(xi)) for qi, xi in zip(q, x)} for x in unique]
-
 
 def reduce(model: Model, ignorable: Sequence[str] | None = None, momenta: Mapping[str, Any] | None = None) -> ReducedModel:
     """Eliminate ignorable coordinates of ``model`` through the Routhian; return the :class:`ReducedModel`.
@@ -529,22 +502,58 @@ def reduce(model: Model, ignorable: Sequence[str] | None = None, momenta: Mappin
     coordinate that is not ignorable, or momentum equations that cannot be
     solved for the ignorable velocities (a singular ``∂²L/∂q̇²``), raise
     :class:`~lagrangian.ReductionError` saying why.
+
+    Constraints on velocities (nonholonomic) stay in the reduced model,
+    with their multipliers: a coordinate they couple (it or its rate
+    appears in one, so the constraint's force acts along it and its
+    momentum is not conserved) is not ignorable, and asking to reduce it is
+    refused naming the component.  A sled on a knife edge at its centre of
+    mass carrying a flywheel: the flywheel's angle is eliminated, the edge
+    stays, and the sled turns at a constant rate (on a circle):
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("sled with flywheel", dim=2)
+    >>> _ = m.add("body", "b", "b", m=2, inertia=0.1)
+    >>> _ = m.add("free", "j", ("ground", "b"))
+    >>> _ = m.add("knife_edge", "edge", "b")
+    >>> _ = m.add("body", "w", "w", m=0.5, inertia=0.02)
+    >>> _ = m.add("revolute", "r", ("b", "w"))
+    >>> red = reduce(m)
+    >>> red.ignored, red.coordinate_names, red.eq.velocity_owners
+    (['theta_r'], ['x_j', 'y_j', 'theta_j'], ['edge'])
+    >>> res = red.simulate(2, initial={"x_j": 0, "y_j": 0, "theta_j": 0, "theta_r": 0},
+    ...                    velocity={"x_j": 1, "y_j": 0, "theta_j": 0.5, "theta_r": 3}, reconstruct=True, points=3)
+    >>> [round(float(x), 9) for x in res["theta_j"]], [round(float(x), 9) for x in res["theta_r"]]
+    ([0.0, 0.5, 1.0], [0.0, 3.0, 6.0])
+    >>> reduce(m, ["x_j"])
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.ReductionError: coordinate 'x_j' of model 'sled with flywheel' cannot be reduced: the constraint on velocities (nonholonomic) of 'edge' couples it, ...
     """
     report = ignorability(model)
-    coupled = [r for r in report.values() if "nonholonomic" in r.reason]
-    if model.eq.velocity_owners:
-        why = "; ".join(f"{r.coordinate}: {r.reason}" for r in coupled) or "no coordinate is coupled, but the reduced model would drop the constraint"
-        model._holonomic_only(f"the Routhian reduction ({why})", ReductionError)
+    coupled = _coupling(model)
     if ignorable is None:
         ignorable = [n for n, r in report.items() if r.ignorable]
         if not ignorable:
             why = "; ".join(f"{r.coordinate}: {r.reason}" for r in report.values())
-            raise ReductionError(f"model {model.name!r} has no ignorable coordinate ({why}).")
+            owners = sorted({o for names in coupled.values() for o in names})
+            lead = (f" (the constraints on velocities of {_named(owners)} couple "
+                    f"{'every coordinate' if len(coupled) == len(report) else ', '.join(coupled)}: nonholonomic)"
+                    if owners else "")
+            raise ReductionError(f"model {model.name!r} has no ignorable coordinate{lead}: {why}.")
     else:
         ignorable = [ignorable] if isinstance(ignorable, str) else list(ignorable)
         for n in ignorable:
             if n not in report:
                 raise UnknownNameError("coordinate", n, report)
+            if n in coupled:
+                raise ReductionError(
+                    f"coordinate {n!r} of model {model.name!r} cannot be reduced: the constraint on velocities "
+                    f"(nonholonomic) of {_named(coupled[n])} couples it, so the constraint's force acts along it and "
+                    f"its momentum is not conserved. "
+                    + (f"The model's ignorable coordinates, which no such constraint holds: "
+                       f"{', '.join(x for x, r in report.items() if r.ignorable)}." if any(
+                           r.ignorable for r in report.values()) else "The model has no ignorable coordinate to reduce."))
             if not report[n].ignorable:
                 raise ReductionError(f"coordinate {n!r} of model {model.name!r} is not ignorable: {report[n].reason}.")
     return ReducedModel(model, ignorable, momenta)

@@ -3,13 +3,17 @@
 :class:`SteadyMotion` is one solution of the steady-motion conditions
 ``∂R/∂q_k = 0`` (found by :meth:`ReducedModel.steady_motions`), with its
 linearization and its stability; :func:`_solve` finds every real branch of the
-conditions symbolically, splitting ``|x|`` and ``sign(x)`` into their cases, and
+conditions symbolically, splitting ``|x|`` and ``sign(x)`` into their cases,
+:func:`_numeric_roots` every root numerically within search ranges, and
 :func:`_is_angle` tells which coordinates get ``(−π, π)`` as a default search range.
+A reduced model that keeps constraints on velocities (nonholonomic) has no steady
+motions of this kind to linearize: :meth:`SteadyMotion.perturbation` refuses it.
 """
 
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -56,6 +60,7 @@ class SteadyMotion:
 
     def perturbation(self) -> Perturbation:
         """``M s̈ + C ṡ + K s = 0`` about this steady motion (symbolic where the steady motion is)."""
+        self.model._holonomic_only("the linearization about a steady motion (and its stability)", ReductionError)
         eq = self.model.reconstructing(False).eq
         q, v = eq.sym.q, eq.sym.v
         at = {q[i]: self.coordinates[n] for i, n in enumerate(eq.names)} | dict.fromkeys(v, sp.Integer(0))
@@ -156,6 +161,56 @@ class SteadyMotion:
 def _is_angle(coordinate) -> bool:
     text = f"{coordinate.name} {coordinate.description}".lower()
     return any(w in text for w in ("angle", "revolute", "theta", "phi", "alpha", "beta", "gamma"))
+
+
+def _numeric_roots(model: str, coordinates, exprs, names, q, search) -> list[dict]:
+    """Every root of the steady-motion conditions ``exprs`` (in ``q``) within the ``search`` ranges (default
+    ``(−π, π)`` for angles): bracketed in one coordinate, by Newton from a grid of starts in several."""
+    from scipy.optimize import brentq, root
+
+    ranges = []
+    for i, n in enumerate(names):
+        if n in search:
+            lo, hi = map(float, search[n])
+        elif _is_angle(coordinates[i]):
+            lo, hi = -math.pi, math.pi
+        else:
+            raise ReductionError(
+                f"give a search range for coordinate {n!r} of {model!r}: steady_motions(..., search={{{n!r}: (lo, hi)}})."
+            )
+        ranges.append((lo, hi))
+    fn = sp.lambdify([q], exprs, modules="numpy")
+    found: list[np.ndarray] = []
+    if len(q) == 1:
+        lo, hi = ranges[0]
+        grid = np.linspace(lo, hi, 4001)
+        with np.errstate(all="ignore"):
+            vals = np.array([fn([x])[0] for x in grid], dtype=float)
+        for a, b, fa, fb in zip(grid[:-1], grid[1:], vals[:-1], vals[1:]):
+            if not (np.isfinite(fa) and np.isfinite(fb)):
+                continue
+            if fa == 0:
+                found.append(np.array([a]))
+            elif fa * fb < 0:
+                x = brentq(lambda s: fn([s])[0], a, b, xtol=1e-14, rtol=1e-14)
+                scale = max(abs(fa), abs(fb))
+                with np.errstate(all="ignore"):
+                    if abs(fn([x])[0]) < 1e-8 * max(1.0, scale):  # a root, not a pole
+                        found.append(np.array([x]))
+    else:
+        jac = sp.lambdify([q], sp.Matrix(exprs).jacobian(q), modules="numpy")
+        axes = [np.linspace(lo, hi, 9) for lo, hi in ranges]
+        for start in np.array(np.meshgrid(*axes)).reshape(len(q), -1).T:
+            with np.errstate(all="ignore"):
+                sol = root(lambda x: np.asarray(fn(x), dtype=float), start,
+                           jac=lambda x: np.asarray(jac(x), dtype=float), tol=1e-13)
+            if sol.success and all(lo <= x <= hi for x, (lo, hi) in zip(sol.x, ranges)):
+                found.append(sol.x)
+    unique: list[np.ndarray] = []
+    for x in found:
+        if not any(np.allclose(x, y, atol=1e-9) for y in unique):
+            unique.append(x)
+    return [{qi: sp.Float(float(xi)) for qi, xi in zip(q, x)} for x in unique]
 
 
 def _solve(exprs: list[sp.Expr], unknowns: list[sp.Symbol]) -> list[dict] | None:
