@@ -392,6 +392,8 @@ class Model:
         out.append("  coordinates: " + ", ".join(f"{c.name} — {c.description}" for c in self.coordinates))
         if self.first_order:
             out.append("  first-order (no inertia): " + ", ".join(self.first_order))
+        out += [f"  eliminated by {e.owner!r}: {n} = {sp.sstr(e.solution.xreplace(self.assembly.values))}"
+                for n, e in self.assembly.eliminated.items()]
         out.append(f"  L = {sp.sstr(self.lagrangian)}")
         if self.eq.D != 0:
             out.append(f"  D = {sp.sstr(self.rayleigh)}")

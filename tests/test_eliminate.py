@@ -77,6 +77,7 @@ def test_rack_and_pinion_eliminated_oscillates_at_the_closed_form_frequency_and_
     w = math.sqrt(k / (m + J / r**2))
     res = model.simulate(3.0, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=301, rtol=1e-11, atol=1e-14)
     assert res.names == ["x_p"]
+    assert "eliminated by 'mesh': theta_s = 50.0*x_p(t)" in model.describe()
     assert np.max(np.abs(res["x_p"] - 0.01 * np.cos(w * res.t))) < 1e-10
     # the eliminated angle is in the result, from x = r θ
     assert np.max(np.abs(res["theta_s"] - 0.01 * np.cos(w * res.t) / r)) < 1e-8
