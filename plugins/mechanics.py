@@ -426,10 +426,8 @@ class Constraint(Component):
     >>> m.eq.constraints
     Matrix([[-0.05*q_theta_wheel + q_x_p]])
     >>> e = lg.Model("rolling, eliminated", dim=1)
-    >>> _ = e.add("mass", "m1", "p", m=0.3)
-    >>> _ = e.add("inertia", "J", "wheel", J=2e-3)
-    >>> _ = e.add("constraint", "roll", f=lg.coordinate("x_p") - 0.05 * lg.coordinate("theta_wheel"),
-    ...           eliminate="theta_wheel")
+    >>> _ = e.add("mass", "m1", "p", m=0.3), e.add("inertia", "J", "wheel", J=2e-3)
+    >>> _ = e.add("constraint", "roll", f=m.component("roll").f, eliminate="theta_wheel")
     >>> e.coordinate_names, e.mass_matrix  # m + J / R²
     (['x_p'], Matrix([[1.1]]))
     """
@@ -437,10 +435,17 @@ class Constraint(Component):
     kind = "constraint"
     domain = "mechanical"
     terminals = ()
+
+    @dataclass(frozen=True)
+    class Eliminate(Parameter):
+        """The name of the coordinate to eliminate, or None (given, as by default: kept with a multiplier)."""
+        def coerce(self, value: Any, component: str, name: str) -> Any:
+            return None if value is None else super().coerce(value, component, name)
+
     parameters = {
         "f": Parameter("f(q, t), kept at zero (a list: one constraint each)", check="real", shape="signal", state=True),
-        "eliminate": Parameter("coordinate solved from the constraint and substituted everywhere (default: none, kept "
-                               "with a multiplier)", default=None, shape="name"),
+        "eliminate": Eliminate("coordinate solved from the constraint and substituted everywhere (default None: "
+                               "kept with a multiplier)", default=None, shape="name"),
     }
 
     def contribute(self, ctx) -> Contribution:
@@ -509,8 +514,7 @@ class Gear(Component):
     >>> m.eq.constraints
     Matrix([[12*q_theta_s1 + 36*q_theta_s2]])
     >>> e = lg.Model("gear pair, eliminated")
-    >>> _ = e.add("inertia", "J1", "s1", J=0.01)
-    >>> _ = e.add("inertia", "J2", "s2", J=0.04)
+    >>> for s, J in (("s1", 0.01), ("s2", 0.04)): _ = e.add("inertia", "J" + s, s, J=J)
     >>> _ = e.add("gear", "mesh", a="theta_s1", b="theta_s2", teeth_a=12, teeth_b=36, eliminate="theta_s2")
     >>> e.coordinate_names, e.mass_matrix  # J1 + J2 (12/36)²
     (['theta_s1'], Matrix([[0.0144444444444444]]))
@@ -525,8 +529,7 @@ class Gear(Component):
         "teeth_a": Parameter("teeth (or pitch radius) of the first gear", symbolic=False),
         "teeth_b": Parameter("teeth (or pitch radius) of the second gear", symbolic=False),
         "internal": Parameter("the second gear is a ring gear (both turn the same way)", default=False, shape="flag"),
-        "eliminate": Parameter("coordinate solved from the constraint and substituted everywhere (default: none, kept "
-                               "with a multiplier)", default=None, shape="name"),
+        "eliminate": Constraint.parameters["eliminate"],
     }
 
     def contribute(self, ctx) -> Contribution:
@@ -555,8 +558,7 @@ class RackAndPinion(Component):
     >>> m.eq.constraints
     Matrix([[-0.02*q_theta_s + q_x_p]])
     >>> e = lg.Model("rack, eliminated")
-    >>> _ = e.add("mass", "rack", "p", m=0.5)
-    >>> _ = e.add("inertia", "J", "s", J=1e-3)
+    >>> _ = e.add("mass", "rack", "p", m=0.5), e.add("inertia", "J", "s", J=1e-3)
     >>> _ = e.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate="theta_s")
     >>> e.coordinate_names, e.mass_matrix  # m + J / r²
     (['x_p'], Matrix([[3.0]]))
@@ -569,8 +571,7 @@ class RackAndPinion(Component):
         "rack": Parameter("position coordinate of the rack", shape="name"),
         "pinion": Parameter("angle coordinate of the pinion", shape="name"),
         "radius": Parameter("pitch radius of the pinion", unit="m", symbolic=False),
-        "eliminate": Parameter("coordinate solved from the constraint and substituted everywhere (default: none, kept "
-                               "with a multiplier)", default=None, shape="name"),
+        "eliminate": Constraint.parameters["eliminate"],
     }
 
     def contribute(self, ctx) -> Contribution:

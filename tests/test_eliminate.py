@@ -410,3 +410,13 @@ def test_the_eliminated_coordinate_is_a_column_of_the_exports():
     assert list(df.columns) == ["x_p", "theta_s", "x_p'", "theta_s'", "T", "V", "D", "E"]
     assert np.allclose(df["theta_s"].to_numpy(), res["x_p"] / 0.02, rtol=1e-14, atol=0)
     assert res.to_xarray()["theta_s"].attrs["units"] == "rad"
+
+
+def test_eliminate_none_keeps_the_multiplier():
+    model = lg.Model("rack")
+    model.add("mass", "rack", "p", m=0.5)
+    model.add("inertia", "J", "s", J=1e-3)
+    model.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate=None)
+    assert model.coordinate_names == ["x_p", "theta_s"] and len(model.eq.constraints) == 1
+    with pytest.raises(lg.ParameterError, match="'mesh2', parameter 'eliminate'"):
+        model.add("gear", "mesh2", a="x_p", b="theta_s", teeth_a=1, teeth_b=2, eliminate=3)
