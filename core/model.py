@@ -620,7 +620,7 @@ class Model:
         """
 
         names = self.coordinate_names
-        refuse_eliminated(self.assembly, initial=initial, velocity=velocity)  # they follow from the others
+        refuse_eliminated(self.assembly.eliminated, self.assembly.values, initial=initial, velocity=velocity)
         params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.assembly.values]}))
         # a large linear model with every parameter valued is solved from its stamps, never derived symbolically
         st = stamped(self, params) if method in ("auto", "exact") and not events else None

@@ -17,6 +17,8 @@ import lagrangian as lg
 import lagrangian.plugins.mechanics as mechanics
 from lagrangian import frequency
 from lagrangian.derivation.stamps import stamps
+from lagrangian.numerics.linear import simulate_exact
+from lagrangian.numerics.simulation import initial_state
 
 
 def decade(lo, hi):
@@ -346,6 +348,10 @@ def test_refusals_name_the_constraint_the_coordinate_and_the_fix():
         with pytest.raises(lg.ModelError, match=r"gives 'theta_s', which rack_and_pinion 'mesh' eliminates.*give 'x_p' "
                                                 r"instead"):
             model.simulate(1.0, **kw)
+    with pytest.raises(lg.ModelError, match=r"velocity= gives 'theta_s', which rack_and_pinion 'mesh' eliminates"):
+        simulate_exact(model, 1.0, velocity={"theta_s": 0.1})
+    with pytest.raises(lg.ModelError, match=r"initial= gives 'theta_s'.*\(theta_s = 50\.0\*x_p\(t\)\)"):
+        initial_state(model.eq, {"theta_s": 0.1}, {})
     with pytest.raises(lg.UnknownNameError, match="x_p, theta_s|theta_s, x_p"):
         model.simulate(1.0, points=3, initial={"x_p": 0.0}, velocity={"x_p": 0.0})["theta"]
     gears = gear_train(0.01, 0.02, 0.03, 12, 24, 12, 36, 1.0, eliminate=("theta_s3", None))

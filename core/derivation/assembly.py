@@ -306,6 +306,7 @@ class Elimination:
     function: sp.Expr
     solution: sp.Expr
     rate: sp.Expr
+    given_by: tuple[str, ...] = ()  # the coordinates the solution holds
 
     @property
     def mapping(self) -> dict[sp.Expr, sp.Expr]:
@@ -313,29 +314,29 @@ class Elimination:
         return {sp.Derivative(self.function, t): self.rate, self.function: self.solution}
 
 
-def refuse_eliminated(assembly: Assembly, **given: Any) -> None:
-    """Refuse a mapping (``initial=``, ``velocity=``) naming an eliminated coordinate: it follows from the others.
+def refuse_eliminated(eliminated: Mapping[str, Elimination], values: Mapping | None = None, **given: Any) -> None:
+    """Refuse a mapping (``initial=``, ``velocity=``) naming a coordinate in ``eliminated`` (an assembly's or
+    equations' ``eliminated``): it follows from the others.  ``values`` put numbers in the solution shown.
 
     >>> import lagrangian as lg
     >>> m = lg.Model("rack")
     >>> _ = m.add("mass", "rack", "p", m=0.5)
     >>> _ = m.add("inertia", "J", "s", J=1e-3)
     >>> _ = m.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate="theta_s")
-    >>> refuse_eliminated(m.assembly, initial={"theta_s": 0.1})
+    >>> refuse_eliminated(m.assembly.eliminated, initial={"theta_s": 0.1})
     Traceback (most recent call last):
     ...
     lagrangian.errors.ModelError: initial= gives 'theta_s', which rack_and_pinion 'mesh' eliminates ...
     """
     for what, mapping in given.items():
-        if not isinstance(mapping, Mapping):
+        if not isinstance(mapping, Mapping) or not eliminated:
             continue
         for name in mapping:
-            e = assembly.eliminated.get(name) if isinstance(name, str) else None
+            e = eliminated.get(name) if isinstance(name, str) else None
             if e is None:
                 continue
-            kept = {c.function: c.name for c in assembly.coordinates}
-            free = sorted({kept[f] for f in e.solution.atoms(AppliedUndef) if f in kept})
-            shown = e.solution.xreplace(assembly.values) if assembly.values else e.solution
+            shown = e.solution.xreplace(values) if values else e.solution
+            free = e.given_by
             raise ModelError(
                 f"{what}= gives {name!r}, which {e.kind} {e.owner!r} eliminates ({name} = {shown}): give "
                 f"{' and '.join(map(repr, free)) or 'the coordinates it follows from'} instead ({name} follows from "
@@ -367,7 +368,11 @@ def _eliminations(components: list[Component], generic: Mapping[str, Contributio
                              f"solved from one constraint. Keep the other with a multiplier (leave its eliminate= "
                              f"out), or let it eliminate another of its coordinates.")
         out[name] = _solved(comp, where, sp.sympify(rows[0], strict=True), name, functions)
-    return _resolved(out) if out else out
+    if not out:
+        return out
+    names = {g: n for n, g in functions.items()}
+    return {n: replace(e, given_by=tuple(sorted({names[g] for g in e.solution.atoms(AppliedUndef) if g in names})))
+            for n, e in _resolved(out).items()}
 
 
 def _solved(comp: Component, where: str, f: sp.Expr, name: str, functions: Mapping[str, sp.Expr]) -> Elimination:

@@ -67,6 +67,7 @@ from ..base.component import t
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError
 from ..base.identity import depends_on, is_zero
 from .exosystem import EXPAND_SECONDS, _Exosystem, _exosystem, _TooLarge, _Unrepresentable
+from ..derivation.assembly import refuse_eliminated
 from ..derivation.stamps import NotStampable, Stamps, stamps
 from .krylov import KrylovPropagator, SparseSpace, input_values, unknowns
 from .simulation import Result, initial_state
@@ -542,6 +543,7 @@ def simulate_exact(
     'exact'
     """
     span = check_span(t_end)
+    refuse_eliminated(model.assembly.eliminated, model.assembly.values, initial=initial, velocity=velocity)
     initial = check_mapping("initial", initial, model.coordinate_names)
     velocity = check_mapping("velocity", velocity, model.coordinate_names)
     st = stamped(model, params)

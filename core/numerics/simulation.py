@@ -22,6 +22,7 @@ import sympy as sp
 from .codegen import compile_model
 from .result import Result
 from ..base.component import StateCall, t
+from ..derivation.assembly import refuse_eliminated
 from ..derivation.equations import Equations
 from ..errors import ExpressionError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
 from ..errors import warn as _warn
@@ -468,6 +469,7 @@ def initial_state(
 ) -> tuple[np.ndarray, list[str]]:
     """The state vector ``(q, q̇_inertial)`` from initial values by name; missing ones are zero and reported."""
     names = eq.names
+    refuse_eliminated(getattr(eq, "eliminated", {}), getattr(eq, "values", None), initial=initial, velocity=velocity)
     for label, given in (("coordinate", initial), ("coordinate", velocity)):
         for name in given:
             if name not in names:
