@@ -9,9 +9,11 @@ import pytest
 import lagrangian
 import lagrangian.plugins
 
+# the package's modules and the built-in plugins' (installed from plugins/, outside the package's own directory)
 MODULES = sorted(
     {m.name for m in pkgutil.walk_packages(lagrangian.__path__, "lagrangian.") if not m.name.endswith("__main__")}
-    | {"lagrangian"}
+    | {m.name for m in pkgutil.walk_packages(lagrangian.plugins.__path__, "lagrangian.plugins.")}
+    | {"lagrangian", "lagrangian.plugins"}
 )
 
 

@@ -52,11 +52,12 @@ hook implementations); this package re-exports their public names.
 >>> _ = p.add("revolute", "j1", ("ground", "l1"), absolute=True)
 >>> _ = p.add("revolute", "j2", ("l1", "l2"), parent_point=(0.7, 0), absolute=True)
 >>> _ = p.add("gravity", "g")
->>> p.simulate(1, initial={"theta_j1": -1.0}, method="verlet", step=0.01)
+>>> start = {"initial": {"theta_j1": -1.0, "theta_j2": 0.0}, "velocity": {"theta_j1": 0.0, "theta_j2": 0.0}}
+>>> p.simulate(1, **start, method="verlet", step=0.01)
 Traceback (most recent call last):
 ...
 lagrangian.errors.ModelError: verlet (Störmer–Verlet) needs a constant mass matrix ... its mass matrix depends on theta_j1, theta_j2. Use 'variational' with rule='trapezoidal' ...
->>> res = p.simulate(1, initial={"theta_j1": -1.0}, method="variational", rule="trapezoidal", step=0.01)
+>>> res = p.simulate(1, **start, method="variational", rule="trapezoidal", step=0.01)
 >>> res.method, res.step
 ('variational', 0.01)
 """

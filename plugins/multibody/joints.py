@@ -177,7 +177,8 @@ class Spherical(_Joint):
     Started upright (``theta = 0``, the lock of ``"zxz"``), the top cannot be simulated in these angles; the
     error names the lock and a sequence that locks elsewhere (``"xyz"``: upright is far from its lock):
 
-    >>> top.simulate(0.1, initial={"phi_ball": 0, "theta_ball": 0, "psi_ball": 0}, velocity={"psi_ball": 7})
+    >>> top.simulate(0.1, initial={"phi_ball": 0, "theta_ball": 0, "psi_ball": 0}, velocity={"phi_ball": 0, "theta_ball": 0,
+    ...                                                                                  "psi_ball": 7})
     Traceback (most recent call last):
     ...
     lagrangian.errors.SingularMassMatrixError: the mass matrix is singular at t=0 at phi_ball = 0, theta_ball = 0, psi_ball = 0 (...): the motion of phi_ball, psi_ball is not determined there ... sequence "zxz" is in gimbal lock where theta_ball = 0 or ±π ...; sequence="xyz" locks elsewhere ...
