@@ -5,7 +5,8 @@ torque, a prescribed motion), named ``"V1"``, ``"F.F"`` or ``"F[0]"`` (one
 entry of a vector); :func:`_with_inputs` gives a copy of the model in which
 each input's parameter carries the rate of an input function ``w(t)``
 (:meth:`lagrangian.Component.with_input`).  An output is a coordinate
-(``"x_p"``, ``"x_p'"``, ``"x_p''"``), a quantity a component names
+(``"x_p"``, ``"x_p'"``, ``"x_p''"``; one a constraint eliminated too: its solution, an expression of the
+remaining coordinates and ``t``), a quantity a component names
 (``"v(C1)"``, ``"i(L1)"``: :meth:`lagrangian.Component.quantity`), a circuit
 node's voltage to ground (``"v(n3)"``: the element voltages along a path to
 ground) or a
@@ -113,7 +114,9 @@ def _outputs(twin: Model, eq, outputs, usym, channels, at_point):
     ``s^(k−1) u``) of each output, and its value at the point."""
     names = eq.names
     n = len(names)
-    exprs = [_output_expr(twin, eq, o) for o in (outputs if outputs is not None else names)]
+    eliminated = getattr(eq, "eliminated", {})
+    exprs = [(label, _solved(e, eliminated)) for label, e in
+             (_output_expr(twin, eq, o) for o in (outputs if outputs is not None else names))]
     q, v, a = list(eq.sym.q), list(eq.sym.v), list(eq.sym.a)
     to_sym: dict[Any, Any] = {}
     for c, qs, vs, as_ in zip(eq.coordinates, q, v, a):
@@ -174,10 +177,27 @@ def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
         comp = model.component(name)
         return output, comp.quantity(_context(model, comp), quantity.lower())
     base, primes = _PRIMES.match(output.strip()).groups()
-    if base not in names:
-        raise UnknownNameError("output (a coordinate, with ' for its rate)", base, names)
-    f = eq.coordinates[names.index(base)].function
+    eliminated = getattr(eq, "eliminated", {})
+    if base in eliminated:  # its solution is put in by _solved
+        f = eliminated[base].function
+    elif base not in names:
+        raise UnknownNameError("output (a coordinate, with ' for its rate)", base, [*names, *eliminated])
+    else:
+        f = eq.coordinates[names.index(base)].function
     return output, f if not primes else sp.Derivative(f, (t, len(primes)))
+
+
+def _solved(expr: Any, eliminated) -> Any:
+    """``expr`` with each coordinate a constraint eliminated, ``x(t)``, and its derivatives replaced by its solution
+    (an expression of the remaining coordinates and ``t``) and the solution's derivatives."""
+    if not eliminated:
+        return expr
+    expr = sp.sympify(expr, strict=True)
+    by_function = {e.function: e for e in eliminated.values()}
+    rates = {d: sp.diff(by_function[d.expr].solution, t, d.derivative_count) for d in expr.atoms(sp.Derivative)
+             if d.expr in by_function and set(d.variables) == {t}}
+    expr = expr.xreplace(rates) if rates else expr
+    return expr.xreplace({f: by_function[f].solution for f in expr.atoms(AppliedUndef) if f in by_function})
 
 
 def _context(model: Model, comp) -> Context:

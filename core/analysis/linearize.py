@@ -262,7 +262,9 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     component by default.  ``outputs``: coordinate names (``"x_p"``,
     ``"x_p'"``, ``"x_p''"``), component quantities (``"v(C1)"``,
     ``"i(V1)"``) or SymPy expressions of the coordinates; every coordinate
-    by default.  ``params``: values of symbolic parameters.  ``symbolic``:
+    by default.  A coordinate a constraint eliminated (``eliminate=``) is an
+    output too (its solution in the remaining coordinates and ``t``), but
+    not a key of ``at``: the point is given by the coordinates it follows from.  ``params``: values of symbolic parameters.  ``symbolic``:
     keep parameters without values as symbols (the default when there are
     such); otherwise every parameter must have a value.  ``time``: the
     instant ``t₀`` of a model whose equations depend on time.
@@ -275,6 +277,15 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     coefficient depends on the state) has the same linearization about every
     point, so it need not rest there (a DC bias, a DC current through an
     inductor).
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("rack")
+    >>> _ = m.add("mass", "rack", "p", m=0.5), m.add("spring", "k", ("ground", "p"), k=20.0)
+    >>> _ = m.add("force", "F", "p", F=0.0), m.add("inertia", "J", "s", J=1e-3)
+    >>> _ = m.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s", radius=0.02, eliminate="theta_s")
+    >>> lin = linearize(m, inputs=["F"], outputs=["theta_s"])
+    >>> lin.coordinates, float(lin.Cq[0][0, 0])   # θ = x / r
+    (['x_p'], 50.0)
     """
     if not isinstance(model, Model):
         raise ModelError(f"linearize takes a lagrangian.Model, got {type(model).__name__}.")
@@ -496,7 +507,14 @@ def _operating_point(model: Model, names: list[str], at: Mapping[str, Any] | Non
         return point
     if not isinstance(at, Mapping):
         raise ModelError(f"at= is a mapping of coordinate names to values, got {type(at).__name__}.")
+    eliminated = model.assembly.eliminated
     for key, val in at.items():
+        if key in eliminated:
+            e = eliminated[key]
+            raise ModelError(f"at= gives {key!r}, which {e.kind} {e.owner!r} eliminates ({key} = {e.solution}): give "
+                             f"{' and '.join(map(repr, e.given_by)) or 'the coordinates it follows from'} instead "
+                             f"(the point of {key} follows), or keep the constraint with a multiplier (leave "
+                             f"eliminate= out).")
         if key not in point:
             raise UnknownNameError("coordinate", key, names)
         if isinstance(val, sp.Basic) and not val.is_number:
