@@ -43,6 +43,7 @@ import numpy as np
 import sympy as sp
 
 from ..base.component import t
+from ..derivation.assembly import refuse_eliminated
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..numerics.events import Event
@@ -182,6 +183,7 @@ def simulate(model: Model, t_end: float | tuple[float, float], *, initial: Mappi
     grid = np.linspace(t0, t1, int(points))
     base = phases_of.model_in(("stick",) * len(phases_of.names))
     names = base.coordinate_names
+    refuse_eliminated(base.assembly.eliminated, initial=initial, velocity=velocity)
     given_q, given_v = dict(initial or {}), dict(velocity or {})
     q = np.array([float(given_q.get(n, 0.0)) for n in names])
     v = np.array([float(given_v.get(n, 0.0)) for n in names])
@@ -234,7 +236,18 @@ def simulate(model: Model, t_end: float | tuple[float, float], *, initial: Mappi
         t=np.concatenate(out_t), q=dict(zip(names, np.hstack(out_q))), v=dict(zip(names, np.hstack(out_v))),
         T=np.concatenate(T), V=np.concatenate(V), D=np.concatenate(D), model=model.name, defaulted=defaulted,
         nfev=nfev, method=f"{res.method} + stick–slip", notes=notes, switches=switches, heat=np.concatenate(heat),
+        evaluator=_evaluator(phases_of), derived={n: e.function for n, e in base.assembly.eliminated.items()},
     )
+
+
+def _evaluator(phases_of: _Phases):
+    """``Result.quantity`` of a stick–slip run: an expression of the coordinates, their rates, ``t`` and the
+    parameters is the same in every phase; evaluated with the model sliding (which holds every parameter)."""
+    def evaluate(expr, result):
+        sliding = phases_of.model_in(("slip+",) * len(phases_of.names))
+        return sliding.numeric(phases_of.params_of(sliding)).evaluate(expr, result)
+
+    return evaluate
 
 
 def _onto(rows, phases, time: float, q: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -511,4 +511,5 @@ def simulate_with_impacts(
         t=T_arr, q={nm: Y[i] for i, nm in enumerate(eq.names)}, v={nm: Y[n + i] for i, nm in enumerate(eq.names)},
         T=Tk, V=Vp, D=Dr, model=model.name, defaulted=defaulted, nfev=nfev, method=f"{integrator.name} + impacts",
         evaluator=hy.numeric.evaluate, notes=notes, impacts=records, resting=rests, liftoffs=lifts,
+        derived={name: e.function for name, e in getattr(eq, "eliminated", {}).items()},
     )
