@@ -135,8 +135,17 @@ def _rank(s) -> int:
     return int(np.sum(s > 1e-9 * s[0]))
 
 
-def _check_names(given, names, what="coordinate") -> None:
+def _check_names(given, names, what="coordinate", *, model=None, arg="at") -> None:
+    """Each name in ``given`` a coordinate in ``names``; one that a constraint of ``model`` eliminated (``eliminate=``)
+    refused naming the constraint, the solution and the coordinates to give instead."""
+    eliminated = model.assembly.eliminated if model is not None else {}
     for name in given:
+        if name in eliminated:
+            e = eliminated[name]
+            raise ModelError(f"{arg}= gives {name!r}, which {e.kind} {e.owner!r} eliminates ({name} = {e.solution}): "
+                             f"give {' and '.join(map(repr, e.given_by)) or 'the coordinates it follows from'} instead "
+                             f"({name} follows from {'them' if len(e.given_by) > 1 else 'it'}), or keep the constraint "
+                             f"with a multiplier (leave eliminate= out).")
         if name not in names:
             raise UnknownNameError(what, name, names)
 
@@ -169,7 +178,7 @@ def independent_coordinates(model, at=None, *, params=None, time: float = 0.0) -
     eq = model.eq
     names = list(eq.names)
     at = dict(at or {})
-    _check_names(at, names)
+    _check_names(at, names, model=model)
     cl = _Closure(model, params)
     q = np.array([float(at.get(n, 0.0)) for n in names])
     if not cl.m:
@@ -236,13 +245,13 @@ def consistent_initial(model, initial, velocity=None, *, independent=None, param
     eq = model.eq
     names = list(eq.names)
     initial, velocity = dict(initial or {}), dict(velocity or {})
-    _check_names(initial, names)
-    _check_names(velocity, names)
+    _check_names(initial, names, model=model, arg="initial")
+    _check_names(velocity, names, model=model, arg="velocity")
     if independent is None:
         held = [n for n in names if n in initial]
     else:
         held = [independent] if isinstance(independent, str) else list(independent)
-        _check_names(held, names)
+        _check_names(held, names, model=model, arg="independent")
         missing = [n for n in held if n not in initial]
         if missing:
             raise ModelError(f"independent coordinate(s) {', '.join(missing)} need a value in `initial`.")
