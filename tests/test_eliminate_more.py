@@ -112,6 +112,36 @@ def test_a_rack_dropped_on_the_ground_turns_its_pinion_by_the_closed_form():
         simulate_with_impacts(model, 0.1, [ground("p", e=e)], initial={"theta_s": 1.0}, velocity={"x_p": 0.0})
 
 
+@settings(max_examples=6, deadline=None)
+@given(decade(0.05, 5), decade(1e-6, 1e-2), decade(1e-6, 1e-2), decade(5e-3, 0.1), st.integers(8, 60),
+       st.integers(8, 60), decade(0.05, 2), st.floats(0.1, 0.9))
+@pytest.mark.slow
+def test_a_rack_dropped_through_a_gear_train_over_decades(m, J1, J2, r, N1, N2, h, e):
+    """The rack drives pinion 1 (θ1 = x / r eliminated), which meshes gear 2 (θ2 = −(N1/N2) θ1 eliminated: a chain):
+    it falls at a = m g / (m + J1/r² + J2 (N1/N2)²/r²) and rebounds at e √(2 a h); θ2 = −(N1/N2) x / r throughout."""
+    g = 9.81
+    model = lg.Model("geared drop")
+    model.add("mass", "rack", "p", m=m)
+    model.add("gravity", "g", g=g)
+    model.add("inertia", "J1", "s1", J=J1)
+    model.add("inertia", "J2", "s2", J=J2)
+    model.add("rack_and_pinion", "mesh", rack="x_p", pinion="theta_s1", radius=r, eliminate="theta_s1")
+    model.add("gear", "pair", a="theta_s1", b="theta_s2", teeth_a=N1, teeth_b=N2, eliminate="theta_s2")
+    a = m * g / (m + J1 / r**2 + J2 * (N1 / N2) ** 2 / r**2)
+    t1, v1 = math.sqrt(2 * h / a), math.sqrt(2 * a * h)
+    span = t1 + 1.5 * e * v1 / a  # one impact, the rebound's top past
+    res = simulate_with_impacts(model, span, [ground("p", e=e)], initial={"x_p": h}, velocity={"x_p": 0.0},
+                                points=41)
+    assert res.names == ["x_p"] and len(res.impacts) == 1
+    assert res.impacts[0].time == pytest.approx(t1, rel=1e-8)
+    closed = np.where(res.t <= t1, h - 0.5 * a * res.t**2, e * v1 * (res.t - t1) - 0.5 * a * (res.t - t1) ** 2)
+    ratio = -(N1 / N2) / r
+    assert np.max(np.abs(res["theta_s2"] - ratio * closed)) < 1e-8 * h * abs(ratio)
+    rate = np.where(res.t <= t1, -a * res.t, e * v1 - a * (res.t - t1))
+    away = np.abs(res.t - t1) > 1e-9 * t1  # the impact time holds both velocities
+    assert np.max(np.abs(res.velocity("theta_s2")[away] - ratio * rate[away])) < 1e-8 * v1 * abs(ratio)
+
+
 def test_a_pushed_rack_with_dry_friction_turns_its_pinion_by_the_closed_form():
     """A rack on a rough floor (F_c) with a pinion (J, r; θ eliminated), pushed by F for 1 s: it slides at
     a = (F − F_c) / M, M = m + J/r², sticks at 1 + M v₁ / F_c having slid ½ a + M v₁² / 2F_c; θ = x / r."""
