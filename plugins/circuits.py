@@ -33,6 +33,7 @@ drives ``I`` from ``a`` through itself to ``b``.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -109,14 +110,21 @@ def _integral(component: Component, value: Any, what: str) -> sp.Expr:
             f"integrated symbolically; give it as a SymPy expression of t, not a Python callable, "
             f"or choose the other formulation."
         )
-    tau = sp.Dummy("tau", real=True)
-    result = sp.integrate(value.subs(t, tau), (tau, 0, t))
+    result = _antiderivative(value)
     if result.has(sp.Integral):
         raise ModelError(
             f"{component.kind} {component.name!r}: SymPy cannot integrate its {what} {value} in closed form; "
             f"choose the other formulation."
         )
     return result
+
+
+@functools.lru_cache(maxsize=256)
+def _antiderivative(value: sp.Expr) -> sp.Expr:
+    """``∫₀ᵗ value dt`` by SymPy, remembered per expression: a source's waveform takes a second or more (a damped,
+    delayed SIN), and the domain builds its view more than once per model (in symbols and in numbers)."""
+    tau = sp.Dummy("tau", real=True)
+    return sp.integrate(value.subs(t, tau), (tau, 0, t))
 
 
 class ElectricalDomain(Domain):
