@@ -167,3 +167,23 @@ def test_with_no_point_the_linearization_finds_the_operating_point_as_spice_does
     assert float(x) == pytest.approx(stable, rel=1e-10)
     gain = frequency.transfer_function(lin, "V", "x_plate").dc_gain
     assert gain == pytest.approx(0.5 / ((1 - stable) ** 2 - 2 * stable * (1 - stable)), rel=1e-9)
+
+
+def test_a_continuum_of_equilibria_is_refused_by_name_in_polynomial_and_other_equations():
+    """Two masses joined by a spring and nothing else rest wherever they are together (a free translation): no
+    finite list of equilibria; said so, naming the free coordinate.  The same with a pendulum's angle free."""
+    m = lg.Model("free pair")
+    m.add("mass", "ma", "a", m=0.3)
+    m.add("mass", "mb", "b", m=0.7)
+    m.add("spring", "k", ("a", "b"), k=40.0)
+    with pytest.raises(lg.ModelError, match="continuum of equilibria.*can take any value"):
+        equilibria(m)
+    p = lg.Model("pendulum without gravity", dim=2)
+    p.add("rod", "arm", "arm", m=0.3, length=0.4)
+    p.add("revolute", "pin", ("ground", "arm"), absolute=True)
+    with pytest.raises(lg.ModelError, match="continuum of equilibria.*theta_pin can take any value"):
+        equilibria(p)
+    pushed = lg.Model("pushed mass")
+    pushed.add("mass", "m1", "p", m=0.3)
+    pushed.add("force", "F", "p", F=2.5)  # nothing balances it
+    assert equilibria(pushed) == []

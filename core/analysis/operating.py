@@ -107,6 +107,12 @@ def equilibria(model: Model, *, params: Mapping[str, float] | None = None, time:
         # The numbers go in as the rationals they print as: SymPy solves exact equations many times faster
         # (13 s against 0.7 s for a spherical pendulum's steady motions), and the branches' floats agree to rounding.
         exact = [sp.nsimplify(e, rational=True) for e in exprs]
+        live = [e for e in exact if e != 0]
+        if any(not (e.free_symbols & set(unknowns)) for e in live):
+            return []  # a force that no configuration balances (a constant one on a free mass)
+        free = [n for n, u in zip(names, q) if not any(e.has(u) for e in live)]
+        if free:  # no equation holds it: it rests anywhere (solve would give no branch at all)
+            raise ModelError(_continuum(model.name, free))
         try:
             found = within(_branches, exact, unknowns, seconds=budget)
         except BudgetExceeded:
@@ -126,9 +132,7 @@ def equilibria(model: Model, *, params: Mapping[str, float] | None = None, time:
         points = []
         for sol in found:
             if not all(u in sol for u in q):
-                raise ModelError(f"model {model.name!r} has a continuum of equilibria (a free coordinate): "
-                                 f"{', '.join(n for n, u in zip(names, q) if u not in sol)} can take any value. "
-                                 f"Fix it, or give near= to pick one.")
+                raise ModelError(_continuum(model.name, [n for n, u in zip(names, q) if u not in sol]))
             point = {n: _real(sol[u]) for n, u in zip(names, q)}
             if any(x is None for x in point.values()):
                 continue  # a complex branch
@@ -141,6 +145,11 @@ def equilibria(model: Model, *, params: Mapping[str, float] | None = None, time:
         found_modes = modes(lin)
         out.append(Equilibrium(point, _verdict(lin, found_modes), found_modes))
     return out
+
+
+def _continuum(model: str, free: list[str]) -> str:
+    return (f"model {model!r} has a continuum of equilibria (a free coordinate): {', '.join(free)} can take any "
+            f"value. Fix it, or give near= to pick one.")
 
 
 def _branches(exprs: list[sp.Expr], unknowns: list[sp.Symbol]) -> list[dict] | None:
