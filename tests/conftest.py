@@ -112,3 +112,32 @@ def example(tmp_path_factory):
         return done[key]
 
     return run
+
+
+def _kane_gear_train(J1, J2, J3, n2, n3, k, theta, omega, time) -> float:
+    """θ̈1 of a train of three gears on one axis (inertias ``J``, θ2 = n2 θ1 and θ3 = n3 θ1 put in by hand), θ1
+    driven by the torque sin t and the last gear held by a torsion spring ``k`` to ground, from
+    sympy.physics.mechanics' KanesMethod with θ1 its one coordinate."""
+    import sympy as sp
+    import sympy.physics.mechanics as me
+
+    th, w = me.dynamicsymbols("th w")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    frames = [N.orientnew(f"B{i}", "Axis", (ratio * th, N.z)) for i, ratio in enumerate((1, n2, n3))]
+    bodies = []
+    for i, (B, J, ratio) in enumerate(zip(frames, (J1, J2, J3), (1, n2, n3))):
+        B.set_ang_vel(N, ratio * w * N.z)
+        bodies.append(me.RigidBody(f"b{i}", O, B, 1.0, (me.inertia(B, 0, 0, J), O)))
+    loads = [(frames[0], sp.sin(me.dynamicsymbols._t) * N.z), (frames[2], -k * n3 * th * N.z)]
+    km = me.KanesMethod(N, q_ind=[th], u_ind=[w], kd_eqs=[th.diff() - w])
+    fr, frstar = km.kanes_equations(bodies, loads)
+    return float(sp.solve(fr + frstar, w.diff())[w.diff()].subs({th: theta, w: omega, me.dynamicsymbols._t: time}))
+
+
+@pytest.fixture(scope="session")
+def kane_gear_train():
+    """``kane_gear_train(J1, J2, J3, n2, n3, k, theta, omega, time)``: the independent reference of gear trains
+    (:func:`_kane_gear_train`)."""
+    return _kane_gear_train

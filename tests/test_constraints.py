@@ -98,24 +98,13 @@ def gear_train(J1, J2, J3, N1, N2a, N2b, N3, k, internal=False):
 @given(decade(1e-4, 1), decade(1e-4, 1), decade(1e-4, 1), st.integers(8, 80), st.integers(8, 80), st.integers(8, 80),
        st.integers(8, 80), decade(0.1, 100), st.booleans(), st.floats(-3, 3), st.floats(-5, 5), st.floats(0, 6))
 @pytest.mark.slow
-def test_a_gear_train_matches_kane_over_decades(J1, J2, J3, N1, N2a, N2b, N3, k, internal, theta, omega, time):
+def test_a_gear_train_matches_kane_over_decades(kane_gear_train, J1, J2, J3, N1, N2a, N2b, N3, k, internal, theta, omega,
+                                                time):
     model = gear_train(J1, J2, J3, N1, N2a, N2b, N3, k, internal)
     # θ2 = −(N1/N2a) θ1; θ3 = ∓(N2b/N3) θ2 (external: opposite senses; internal: the same)
     n2 = -N1 / N2a
     n3 = n2 * (N2b / N3) * (1 if internal else -1)
-    th, w = me.dynamicsymbols("th w")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    frames = [N.orientnew(f"B{i}", "Axis", (ratio * th, N.z)) for i, ratio in enumerate((1, n2, n3))]
-    bodies = []
-    for i, (B, J, ratio) in enumerate(zip(frames, (J1, J2, J3), (1, n2, n3))):
-        B.set_ang_vel(N, ratio * w * N.z)
-        bodies.append(me.RigidBody(f"b{i}", O, B, 1.0, (me.inertia(B, 0, 0, J), O)))
-    loads = [(frames[0], sp.sin(me.dynamicsymbols._t) * N.z), (frames[2], -k * n3 * th * N.z)]
-    km = me.KanesMethod(N, q_ind=[th], u_ind=[w], kd_eqs=[th.diff() - w])
-    fr, frstar = km.kanes_equations(bodies, loads)
-    reference = float(sp.solve(fr + frstar, w.diff())[w.diff()].subs({th: theta, w: omega, me.dynamicsymbols._t: time}))
+    reference = kane_gear_train(J1, J2, J3, n2, n3, k, theta, omega, time)
     ratio = {"theta_s1": 1.0, "theta_s2": n2, "theta_s3": n3}  # the state on the constraints
     y = np.array([ratio[n] * theta for n in model.coordinate_names] + [ratio[n] * omega for n in model.coordinate_names])
     ours = model.numeric().rhs(time, y)[3]
