@@ -141,3 +141,32 @@ def kane_gear_train():
     """``kane_gear_train(J1, J2, J3, n2, n3, k, theta, omega, time)``: the independent reference of gear trains
     (:func:`_kane_gear_train`)."""
     return _kane_gear_train
+
+
+def _kane_rack(m, k, J, r, c, F=0.0):
+    """θ̈ of a rack (mass ``m``, spring ``k`` and damper ``c`` to ground, force ``F``) driven by a pinion
+    (inertia ``J``, radius ``r``) as a function of (θ, θ̇), from sympy.physics.mechanics' KanesMethod with the
+    pinion angle θ its one coordinate (x = r θ put in by hand)."""
+    import sympy as sp
+    import sympy.physics.mechanics as me
+
+    th, w = me.dynamicsymbols("th w")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", r * th * N.x)
+    P.set_vel(N, r * w * N.x)
+    B = N.orientnew("B", "Axis", (th, N.z))
+    B.set_ang_vel(N, w * N.z)
+    wheel = me.RigidBody("wheel", O, B, 1.0, (me.inertia(B, 0, 0, J), O))
+    mass = me.Particle("rack", P, m)
+    km = me.KanesMethod(N, q_ind=[th], u_ind=[w], kd_eqs=[th.diff() - w])
+    fr, frstar = km.kanes_equations([wheel, mass], [(P, (F - k * r * th - c * r * w) * N.x)])
+    wdot = sp.solve(fr + frstar, w.diff())[w.diff()]
+    return sp.lambdify((th, w), wdot)
+
+
+@pytest.fixture(scope="session")
+def kane_rack():
+    """``kane_rack(m, k, J, r, c, F=0)(θ, θ̇)``: the independent reference of a rack and pinion (:func:`_kane_rack`)."""
+    return _kane_rack
