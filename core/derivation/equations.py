@@ -127,7 +127,8 @@ class Equations:
     @classmethod
     def from_energies(cls, coordinates, T, V, G, D, Q, constraints=(), constraint_rate: float = 10.0,
                       quadratures: Mapping[int, sp.Expr] | None = None,
-                      values: Mapping[sp.Symbol, sp.Expr] | None = None) -> "Equations":
+                      values: Mapping[sp.Symbol, sp.Expr] | None = None, *, constraint_owners=None,
+                      velocity_constraints=(), velocity_owners=()) -> "Equations":
         """Equations of a system given directly by its energies, in the plain symbols ``q_<name>``, ``v_<name>``.
 
         ``coordinates`` are :class:`~lagrangian.domain.Coordinate` objects;
@@ -137,13 +138,18 @@ class Equations:
         rows, integrated along with the rest: reconstruction of ignorable
         coordinates).  ``values`` gives numbers to symbols of the energies
         (parameters given as numbers), put in after the derivation as for a
-        model's own equations.
+        model's own equations.  ``velocity_constraints`` (with the components
+        owning them, ``velocity_owners``) enter with multipliers in the
+        Lagrange–d'Alembert form, as a model's own do; ``constraint_owners``
+        names the components of ``constraints``.
         """
         self = cls.__new__(cls)
         self._setup(coordinates)
         self.load_shares = []
-        self.constraint_owners = [None] * len(list(constraints))
-        self._derive(T, V, G, D, list(Q), list(constraints), constraint_rate, quadratures or {}, values=values)
+        self.constraint_owners = list(constraint_owners) if constraint_owners is not None else [None] * len(list(constraints))
+        self.velocity_owners = list(velocity_owners)
+        self._derive(T, V, G, D, list(Q), list(constraints), constraint_rate, quadratures or {}, values=values,
+                     velocity=list(velocity_constraints))
         return self
 
     def _setup(self, coordinates, eliminated: Mapping | None = None) -> None:

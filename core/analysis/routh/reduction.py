@@ -175,19 +175,13 @@ class ReducedModel(DerivedModel):
                 Q[row] = parts["Q"][parts["K"].index(i)]
             else:
                 quad[row] = parts["rates"][parts["I"].index(i)]
-        if not parts.get("velocity"):
-            return Equations.from_energies(coords, parts["T"], parts["V"], parts["G"], parts["D"], Q,
-                                           parts["constraints"], full_eq.constraint_rate, quad, values=self._r_values)
-        # Lagrange–d'Alembert as in the full model: the constraints on velocities, with their owners, enter the
-        # reduced equations with multipliers (Equations.from_energies, with the velocity rows its derivation takes)
-        eq = Equations.__new__(Equations)
-        eq._setup(coords)
-        eq.load_shares = []
-        eq.constraint_owners = list(getattr(full_eq, "constraint_owners", [None] * len(parts["constraints"])))
-        eq.velocity_owners = list(full_eq.velocity_owners)
-        eq._derive(parts["T"], parts["V"], parts["G"], parts["D"], Q, list(parts["constraints"]),
-                   full_eq.constraint_rate, quad, values=self._r_values, velocity=list(parts["velocity"]))
-        return eq
+        # constraints on velocities (Lagrange–d'Alembert) enter the reduced equations as the full model's do
+        velocity = list(parts.get("velocity") or [])
+        owners = getattr(full_eq, "constraint_owners", None) if velocity else None
+        return Equations.from_energies(coords, parts["T"], parts["V"], parts["G"], parts["D"], Q,
+                                       parts["constraints"], full_eq.constraint_rate, quad, values=self._r_values,
+                                       constraint_owners=owners, velocity_constraints=velocity,
+                                       velocity_owners=full_eq.velocity_owners if velocity else ())
 
     # -- what the reduction found --------------------------------------------------
     def _show(self, expr):
