@@ -239,6 +239,10 @@ def _check_phase(kind: str, name: str, params) -> None:
     phase = params.get("phase", "smooth")
     if phase not in PHASES:
         raise ModelError(f"{kind} {name!r}: phase is one of {', '.join(map(repr, PHASES))}, got {phase!r:.40}.")
+    if params.get("F_s") is not None and not params.get("stick_slip", False):
+        raise ModelError(f"{kind} {name!r}: F_s (the largest force sticking holds) is for stick_slip=True: add "
+                         f"stick_slip=True to stick and slip, or drop F_s for the smooth friction (which never "
+                         f"sticks).")
 
 
 def friction_contribution(comp: Component, rate) -> Contribution:

@@ -108,6 +108,10 @@ def test_stick_slip_input_is_checked():
         model.simulate(1.0, initial={"x_p": 0}, velocity={"x_p": 1.0})
     with pytest.raises(lg.ModelError, match="phase is one of"):
         model.add("coulomb_friction", "f2", ("ground", "p"), F_c=1.0, phase="sliding")
+    # a static limit on a smooth friction would be silently unused: refused, for every kind that takes it
+    for kind, where, extra in (("coulomb_friction", ("ground", "p"), {}), ("joint_friction", (), {"coordinate": "x_p"})):
+        with pytest.raises(lg.ModelError, match=rf"{kind} 'f3': F_s .* is for stick_slip=True: add stick_slip=True"):
+            model.add(kind, "f3", where, F_c=1.0, F_s=1.5, **extra)
     plain = lg.Model("plain")
     plain.add("mass", "m1", "p", m=0.5)
     plain.add("coulomb_friction", "f", ("ground", "p"), F_c=1.0)

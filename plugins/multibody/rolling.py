@@ -96,12 +96,12 @@ class Rolling(Component):
         shape = params.get("shape", "disc")
         if shape not in SHAPES:
             raise ModelError(f"rolling {name!r}: shape is 'disc' or 'sphere', got {shape!r:.40}.")
-        _check_phase(self.kind, name, params)
         if params.get("F_c") is None:
             given = [p for p in ("F_s", "stick_slip", "phase") if params.get(p) not in (None, False, "smooth")]
             if given:
                 raise ModelError(f"rolling {name!r}: {given[0]} is for a contact that slides: give F_c (the sliding "
                                  f"friction force μ N), or drop {given[0]} to roll without slipping.")
+        _check_phase(self.kind, name, params)
         super().__init__(name, nodes, params)
 
     def sliding_rate(self, ctx):
