@@ -510,11 +510,7 @@ def _operating_point(model: Model, names: list[str], at: Mapping[str, Any] | Non
     eliminated = model.assembly.eliminated
     for key, val in at.items():
         if key in eliminated:
-            e = eliminated[key]
-            raise ModelError(f"at= gives {key!r}, which {e.kind} {e.owner!r} eliminates ({key} = {e.solution}): give "
-                             f"{' and '.join(map(repr, e.given_by)) or 'the coordinates it follows from'} instead "
-                             f"(the point of {key} follows), or keep the constraint with a multiplier (leave "
-                             f"eliminate= out).")
+            raise eliminated[key].refusal("at", f"the point of {key} follows")
         if key not in point:
             raise UnknownNameError("coordinate", key, names)
         if isinstance(val, sp.Basic) and not val.is_number:

@@ -309,6 +309,20 @@ class Elimination:
     given_by: tuple[str, ...] = ()  # the coordinates the solution holds
 
     @property
+    def follows(self) -> str:
+        """``"x follows from it"`` (or ``them``): how the coordinate relates to those its solution holds."""
+        return f"{self.name} follows from {'them' if len(self.given_by) > 1 else 'it'}"
+
+    def refusal(self, arg: str, why: str, shown: sp.Expr | None = None) -> ModelError:
+        """The error for ``arg=`` naming this coordinate: the constraint that eliminates it, its solution
+        (``shown``, else :attr:`solution`), the coordinates to give instead (``why`` in parentheses after them), or
+        the multiplier."""
+        given = " and ".join(map(repr, self.given_by)) or "the coordinates it follows from"
+        return ModelError(f"{arg}= gives {self.name!r}, which {self.kind} {self.owner!r} eliminates ({self.name} = "
+                          f"{self.solution if shown is None else shown}): give {given} instead ({why}), or keep the "
+                          f"constraint with a multiplier (leave eliminate= out).")
+
+    @property
     def mapping(self) -> dict[sp.Expr, sp.Expr]:
         """``{ẋ(t): rate, x(t): solution}``: what an ``xreplace`` puts in (the rate first: it holds ``x(t)``)."""
         return {sp.Derivative(self.function, t): self.rate, self.function: self.solution}
@@ -336,12 +350,7 @@ def refuse_eliminated(eliminated: Mapping[str, Elimination], values: Mapping | N
             if e is None:
                 continue
             shown = e.solution.xreplace(values) if values else e.solution
-            free = e.given_by
-            raise ModelError(
-                f"{what}= gives {name!r}, which {e.kind} {e.owner!r} eliminates ({name} = {shown}): give "
-                f"{' and '.join(map(repr, free)) or 'the coordinates it follows from'} instead ({name} follows from "
-                f"{'them' if len(free) > 1 else 'it'} and is in the result as res[{name!r}]), or keep the constraint "
-                f"with a multiplier (leave eliminate= out).")
+            raise e.refusal(what, f"{e.follows} and is in the result as res[{name!r}]", shown)
 
 
 def _eliminations(components: list[Component], generic: Mapping[str, Contribution],

@@ -141,11 +141,7 @@ def _check_names(given, names, what="coordinate", *, model=None, arg="at") -> No
     eliminated = model.assembly.eliminated if model is not None else {}
     for name in given:
         if name in eliminated:
-            e = eliminated[name]
-            raise ModelError(f"{arg}= gives {name!r}, which {e.kind} {e.owner!r} eliminates ({name} = {e.solution}): "
-                             f"give {' and '.join(map(repr, e.given_by)) or 'the coordinates it follows from'} instead "
-                             f"({name} follows from {'them' if len(e.given_by) > 1 else 'it'}), or keep the constraint "
-                             f"with a multiplier (leave eliminate= out).")
+            raise eliminated[name].refusal(arg, eliminated[name].follows)
         if name not in names:
             raise UnknownNameError(what, name, names)
 
