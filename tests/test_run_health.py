@@ -7,6 +7,7 @@ central force k/r² falls into the centre in the finite time
 """
 
 import math
+import signal
 import warnings
 
 import numpy as np
@@ -15,6 +16,16 @@ import pytest
 
 import lagrangian as lg
 from lagrangian import integrate
+
+
+@pytest.fixture
+def ctrl_c():
+    """Ctrl-C raises ``KeyboardInterrupt``, as in any Python process started from a terminal.  A pytest-xdist worker
+    starts with SIGINT ignored (the controller handles it), where ``_thread.interrupt_main`` does nothing: the tests
+    that simulate Ctrl-C install Python's own handler for their duration."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
 
 
 def damped(c):
@@ -143,7 +154,7 @@ def test_a_run_beyond_its_evaluation_budget_is_refused_and_one_within_it_runs(me
 
 @pytest.mark.parametrize("method", ["DOP853", "dopri5_c"])
 @pytest.mark.slow
-def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt(method):
+def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt(method, ctrl_c):
     """A loop in C (DOP853's, dopri5_c's) runs on a thread of its own: the caller's reports progress on the way and, on Ctrl-C
     (simulated by ``_thread.interrupt_main``), stops the loop and raises ``KeyboardInterrupt``, as a run stepped in
     Python would.  The run: a 1e-12 kg mass on a 137 N/m spring for 0.7 s, some 3e8 evaluations."""
@@ -169,7 +180,7 @@ def test_a_long_run_in_c_reports_its_progress_and_stops_on_an_interrupt(method):
 
 @pytest.mark.parametrize("method", ["rk4_c", "verlet_c"])
 @pytest.mark.slow
-def test_the_fixed_step_loops_in_c_are_watched_and_budgeted(method):
+def test_the_fixed_step_loops_in_c_are_watched_and_budgeted(method, ctrl_c):
     """rk4_c and verlet_c run on a thread of their own like the adaptive loops (progress on the way, Ctrl-C stops
     them); their evaluations are known before they start, so a run beyond max_evaluations is refused at once."""
     import _thread
