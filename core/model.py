@@ -717,7 +717,7 @@ class Model:
 
     def _holonomic_only(self, analysis: str, error: type = ModelError) -> None:
         """Refuse, for ``analysis``, a model with constraints on velocities (nonholonomic), naming them."""
-        owners = sorted(set(self.eq.velocity_owners))
+        owners = sorted({name for name, _ in self.assembly.velocity_constraint_list(generic=True)})
         if owners:
             raise error(f"model {self.name!r} has constraints on velocities (nonholonomic: {', '.join(map(repr, owners))}), "
                         f"which {analysis} does not cover: the Lagrange–d'Alembert equations hold them only in a "

@@ -53,6 +53,7 @@ from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..derivation.calculus import symbols_of
+from .lti import _number, stamped
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
 
 __all__ = ["LinearModel", "linearize", "s"]
@@ -293,20 +294,26 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     if not np.isfinite(float(time)):
         raise ModelError(f"time must be a finite number, got {time!r}.")
     time = float(time)
-    model._holonomic_only("linearization")
-    model._no_state_callables("linearization")
-    twin, channels = _with_inputs(model, inputs)
-    eq = twin.eq
-    names = eq.names
-    q, v = list(eq.sym.q), list(eq.sym.v)
-    n = len(q)
+    twin, channels = _with_inputs(model, inputs)  # the same components, inputs driven: its checks are the model's
+    twin._holonomic_only("linearization")
+    twin._no_state_callables("linearization")
     values = _parameter_values(twin, params, symbolic)
     is_symbolic = any(not isinstance(x, (int, float)) for x in values.values()) or bool(_unvalued(twin, values))
     if symbolic is False and is_symbolic:
         missing = sorted(p.name for p in _unvalued(twin, values))
         raise ModelError(f"model {model.name!r} has symbolic parameters without values: {', '.join(missing)}. "
                          f"Give them in params=, or linearize symbolically (symbolic=True).")
-    point = _operating_point(model, names, at, is_symbolic)
+    point = _operating_point(twin, twin.coordinate_names, at, is_symbolic)
+    fast = None if is_symbolic else stamped(twin, channels, values, None if at is None else point, time, outputs)
+    if fast is not None:  # linear time-invariant: read off the stamps, nothing derived
+        Jq = np.zeros((0, len(fast["names"])))
+        return _linear_model(model, twin, channels, values, outputs, fast["names"], fast["first_order"],
+                             fast["point"], time, False, (fast["M"], fast["C"], fast["K"], Jq, fast["Bw"]),
+                             fast["rows"])
+    eq = twin.eq
+    names = eq.names
+    q, v = list(eq.sym.q), list(eq.sym.v)
+    n = len(q)
     g = eq._generic
     M_g, f_g, Phi_g = g["M"], g["f"], g["constraints"]
     # inputs: u(t) and its derivatives as plain symbols
@@ -398,11 +405,18 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     elif not linear:
         _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point)
     Cq, Dw, y0 = _outputs(twin, eq, outputs, usym, channels, at_point)
+    return _linear_model(model, twin, channels, values, outputs, names, [names[i] for i in eq.first_order], point,
+                         time, is_symbolic, (M0, C0, K0, Jq, Bw), (Cq, Dw, y0))
+
+
+def _linear_model(model: Model, twin: Model, channels, values, outputs, names, first, point, time, is_symbolic,
+                  matrices, rows) -> LinearModel:
+    """The :class:`LinearModel` of the pieces: ``matrices`` ``(M, C, K, Φ_q, Bw)``, output ``rows`` ``(Cq, Dw, y0)``."""
+    (M0, C0, K0, Jq, Bw), (Cq, Dw, y0) = matrices, rows
     units = {_label(o): _unit(_label(o)) for o in (outputs if outputs is not None else names)}
     for label, _, _ in channels.values():
         comp = model.component(_INPUT.match(label).group(1))
         units[label] = _input_unit(comp, _INPUT.match(label).group(2) or _signal_of(comp))
-    first = [names[i] for i in eq.first_order]
     if is_symbolic:
         conv = (lambda x: sp.Matrix(x))
     else:
@@ -445,18 +459,6 @@ def _settle(f_u, dK, q, names, point, subs, at_point, n) -> None:
         for qs, nm in zip(q, names):
             point[nm] = sp.Integer(0)
             subs[qs] = point[nm]
-
-
-def _number(expr, model: str) -> float:
-    try:
-        value = float(expr)
-    except TypeError:
-        raise ModelError(f"model {model!r}: {expr} does not evaluate to a number at the operating point "
-                         f"(a parameter without a value?).") from None
-    if not np.isfinite(value):
-        raise ModelError(f"model {model!r}: the equations are not finite at this operating point ({expr}): "
-                         f"a singular configuration; linearize about another point.")
-    return value
 
 
 def _parameter_values(model: Model, params: Mapping[str, Any], symbolic: bool | None) -> dict[sp.Symbol, Any]:

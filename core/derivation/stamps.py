@@ -157,18 +157,22 @@ class _Local:
 
     __slots__ = ("z", "where", "subs", "zero")
 
-    def __init__(self, exprs, coordinates: Mapping[Any, int], signals, name: str, n: int):
+    def __init__(self, exprs, coordinates: Mapping[Any, int], signals, name: str, n: int, inputs=frozenset()):
         funcs: dict[Any, int] = {}
         rates: dict[Any, int] = {}
         for e in exprs:
             for d in e.atoms(sp.Derivative):
                 if d.expr in coordinates and d.derivative_count == 1 and d.variables == (t,):
                     rates[d] = coordinates[d.expr]
+                elif isinstance(d.expr, AppliedUndef) and d.expr.func in inputs:
+                    continue  # an input's rate: a function of t
                 else:
                     raise NotStampable(f"{name}: the term {d} is not the velocity of a coordinate")
             for f in e.atoms(AppliedUndef):
                 if f in coordinates:
                     funcs[f] = coordinates[f]
+                elif f.func in inputs:
+                    continue
                 elif f.func in signals:
                     raise NotStampable(f"{name}: {f} is a signal given as a Python callable")
                 else:
@@ -293,8 +297,12 @@ def _load(force: sp.Expr, vel: sp.Expr, loc: _Local, name: str, n: int, C: _Trip
             forcing.setdefault(row, []).append(jk * rest)
 
 
-def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
+def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset()) -> Stamps:
     """The model of ``assembly`` as sparse matrices, with the parameters at ``values`` (see the module documentation).
+
+    ``inputs``: undefined functions of ``t`` that stand for inputs (those of
+    a linearization, :meth:`lagrangian.Component.with_input`); they and their
+    derivatives are input shapes like any function of ``t``.
 
     Raises :class:`NotStampable` (naming the component and the reason) when a
     component's contribution is not quadratic with constant coefficients, a
@@ -348,7 +356,7 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
                 # each addend in its own few variables: gravity's sum over every mass stays linear in cost
                 if expr == 0:
                     continue
-                loc = _Local([expr], coordinates, assembly.signals, cname, n)
+                loc = _Local([expr], coordinates, assembly.signals, cname, n, inputs)
                 where = loc.where
                 H, h, c = _derivatives(expr.xreplace(loc.subs), loc, numbers, cname, part)
                 sign = -1.0 if part == "V" else 1.0
@@ -379,7 +387,7 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any]) -> Stamps:
             for f, w in zip(force, vel):
                 if f == 0 or w == 0:
                     continue
-                loc = _Local([f, w], coordinates, assembly.signals, cname, n)
+                loc = _Local([f, w], coordinates, assembly.signals, cname, n, inputs)
                 _load(f.xreplace(loc.subs).xreplace(numbers), w.xreplace(loc.subs).xreplace(numbers), loc, cname,
                       n, C, K, forcing)
     for row, terms in rates.items():  # − d/dt ∂L/∂q̇ at rest
