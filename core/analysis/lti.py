@@ -92,8 +92,8 @@ def _number(expr, model: str) -> float:
 
 def stamped(twin: Model, channels: Mapping[Any, tuple], values: Mapping[sp.Symbol, Any],
             at: Mapping[str, Any] | None, time: float, outputs=None) -> dict | None:
-    """The pieces of the linearization of ``twin`` (the model with its inputs, :func:`lagrangian.analysis.channels.
-    _with_inputs`) from its stamps, or ``None`` when it is not linear time-invariant in their sense.
+    """The pieces of the linearization of ``twin`` (the model with its inputs driven by the functions of
+    ``channels``) from its stamps, or ``None`` when it is not linear time-invariant in their sense.
 
     Returns ``M``, ``C``, ``K`` (arrays), ``Bw`` (input columns by derivative
     of the input function ``w``: ``Bw[k]`` multiplies ``s^(k−1) u``),
