@@ -54,11 +54,23 @@ SLOW_MODULES = {"test_examples", "test_sweep_dask", "test_transducer_spice", "te
                 "test_notebook"}
 
 
+#: Modules whose tests take longest (seconds of the whole suite, measured with ``--durations=0``), run first: workers
+#: of pytest-xdist take tests in the order collected, and a long test started last keeps one worker busy while the
+#: other idles (the documentation build alone takes half a minute).
+LONGEST_FIRST = ("test_site", "test_spatial_chains", "test_notebook", "test_sweep_dask", "test_untrusted_code",
+                 "test_cli", "test_fuzz", "test_robustness", "test_examples", "test_multibody")
+
+
+def _module(item) -> str:
+    return item.nodeid.split("::")[0].rsplit("/", 1)[-1].removesuffix(".py")
+
+
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        module = item.nodeid.split("::")[0].rsplit("/", 1)[-1].removesuffix(".py")
-        if module in SLOW_MODULES or "ngspice" in item.name:
+        if _module(item) in SLOW_MODULES or "ngspice" in item.name:
             item.add_marker(pytest.mark.slow)
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(_module(item), len(rank)))  # stable: the rest keep their order
 
 
 def _run_script(path: Path, *args: str, cwd: Path) -> str:

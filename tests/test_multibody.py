@@ -67,8 +67,8 @@ def theirs(mass_matrix, forcing, q, qd):
     Q = sp.symbols(f"Q0:{len(q)}")
     U = sp.symbols(f"U0:{len(q)}")
     subs = {**dict(zip(qd, U)), **{qi.diff(t_mech()): u for qi, u in zip(q, U)}}
-    mm = me.msubs(mass_matrix, subs, dict(zip(q, Q)))
-    ff = me.msubs(forcing, subs, dict(zip(q, Q)))
+    mm = mass_matrix.xreplace({**subs, **dict(zip(q, Q))})
+    ff = forcing.xreplace({**subs, **dict(zip(q, Q))})
     M = sp.lambdify((Q, U), mm, "numpy", cse=True)
     f = sp.lambdify((Q, U), ff, "numpy", cse=True)
     return lambda a, b: np.asarray(M(a, b), dtype=float), lambda a, b: np.asarray(f(a, b), dtype=float).reshape(-1)
@@ -1106,7 +1106,7 @@ def _kinematics(sequence):
     Gc.set_vel(N, Gc.pos_from(O).dt(N))
     body = me.RigidBody("b", Gc, B, mb, (me.inertia(B, I1, I2, I3), Gc))
     Q, U = sp.symbols("Q1:4"), sp.symbols("U1:4")
-    plain = lambda e: me.msubs(e, {qi.diff(t_mech()): ui for qi, ui in zip(q, U)}, dict(zip(q, Q)))  # noqa: E731
+    plain = lambda e: e.xreplace({**{qi.diff(t_mech()): ui for qi, ui in zip(q, U)}, **dict(zip(q, Q))})  # noqa: E731
     theirs_fn = sp.lambdify((Q, U, _SYM), [plain(N.dcm(B)), plain(B.ang_vel_in(N).to_matrix(N)),
                                            plain(body.kinetic_energy(N))], "numpy")
     _KIN[sequence] = (ours_fn, theirs_fn)
