@@ -104,7 +104,7 @@ def stamped(twin: Model, channels: Mapping[Any, tuple], values: Mapping[sp.Symbo
     """
     asm = twin.assembly
     try:
-        st = stamps(asm, values, inputs=frozenset(channels))
+        st = stamps(asm, values, inputs=frozenset(channels), energies=False)
         n = st.n
         order = 1
         Bw: dict[int, np.ndarray] = {}

@@ -297,12 +297,15 @@ def _load(force: sp.Expr, vel: sp.Expr, loc: _Local, name: str, n: int, C: _Trip
             forcing.setdefault(row, []).append(jk * rest)
 
 
-def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset()) -> Stamps:
+def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset(), energies: bool = True) -> Stamps:
     """The model of ``assembly`` as sparse matrices, with the parameters at ``values`` (see the module documentation).
 
     ``inputs``: undefined functions of ``t`` that stand for inputs (those of
     a linearization, :meth:`lagrangian.Component.with_input`); they and their
-    derivatives are input shapes like any function of ``t``.
+    derivatives are input shapes like any function of ``t``.  ``energies``:
+    also the quadratic forms of ``T``, ``V`` and ``D`` (what a run's energy
+    outputs need; a linearization does not, and ``Stamps.energies`` is then
+    empty).
 
     Raises :class:`NotStampable` (naming the component and the reason) when a
     component's contribution is not quadratic with constant coefficients, a
@@ -361,7 +364,7 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset
                 H, h, c = _derivatives(expr.xreplace(loc.subs), loc, numbers, cname, part)
                 sign = -1.0 if part == "V" else 1.0
                 scatter(H, where, sign, "D" if part == "D" else "L")
-                if part != "G":
+                if part != "G" and energies:
                     for (i, j), value in H.items():
                         energy[part].add(where[i], where[j], value)
                         if i != j:
@@ -415,9 +418,9 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset
     idle = [names[i] for i in first if not has_rate[i]]
     if idle:
         raise NotStampable(f"coordinates without inertia or dissipation: {', '.join(idle[:5])}")
-    energies = {
+    forms = {} if not energies else {
         part: Quadratic(energy[part].matrix(), [(i, sp.Add(*es)) for i, es in sorted(linear[part].items())],
                         sp.Add(*constant[part]))
         for part in "TVD"
     }
-    return Stamps(names, Mm, Cm, Km, B.tocsr(), list(channels), energies, inertial, first, input_rows)
+    return Stamps(names, Mm, Cm, Km, B.tocsr(), list(channels), forms, inertial, first, input_rows)
