@@ -10,7 +10,7 @@ power of ``s``.  :func:`stamped` assembles them numerically, component by
 component, where :func:`lagrangian.frequency.linearize` would otherwise
 derive the model's equations symbolically and differentiate them.  On an
 RLC ladder of 100 sections (300 components, ``benchmarks/ac.py``: built,
-linearized and solved at 1,000 frequencies) this takes 0.29 s against
+linearized and solved at 1,000 frequencies) this takes 0.25 s against
 0.72 s, with the same matrices; the rest is the assembly (symbolic
 contributions) and the stamps' differentiation of each.
 
