@@ -320,7 +320,7 @@ class VoltageSource(_Element):
     kind = "voltage_source"
     symbol = "SourceV"
     role = "across"
-    parameters = {"E": Parameter("source voltage", check="real", shape="signal", unit="V")}
+    parameters = {"E": Parameter("source voltage", check="real", shape="signal", unit="V", vector=False)}
 
     def contribute(self, ctx) -> Contribution:
         if ctx.view.formulation == "charge":
@@ -357,7 +357,7 @@ class CurrentSource(_Element):
     kind = "current_source"
     symbol = "SourceI"
     role = "through"
-    parameters = {"I": Parameter("source current", check="real", shape="signal", unit="A")}
+    parameters = {"I": Parameter("source current", check="real", shape="signal", unit="A", vector=False)}
 
     def contribute(self, ctx) -> Contribution:
         if ctx.view.formulation == "flux":

@@ -787,3 +787,20 @@ def test_a_lone_node_a_slip_away_from_another_gets_did_you_mean():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert family.coordinate_names == ["x_ball1", "y_ball1", "x_ball2", "y_ball2"]
+
+
+@pytest.mark.parametrize("kind, param", [("voltage_source", "E"), ("current_source", "I")])
+def test_a_source_given_a_sequence_is_refused_naming_it(kind, param):
+    """A source drives one branch: a list (or array) is refused when the model is built, naming the component and the
+    parameter, rather than taken as a 1-vector that a SPICE deck cannot hold."""
+    import numpy as np
+
+    for value in ([1550.0], (2.0, 3.0)):
+        with pytest.raises(lg.ParameterError, match=rf"component 'S', parameter '{param}': is one signal .*not a sequence"):
+            lg.Model("source").add(kind, "S", ("a", "0"), **{param: value})
+    with pytest.raises(lg.ParameterError, match=rf"component 'S', parameter '{param}': expected a number"):
+        lg.Model("source").add(kind, "S", ("a", "0"), **{param: np.array([2.0, 3.0])})
+    plane = lg.Model("plane", dim=2)  # a force in the plane is still a vector
+    plane.add("mass", "m", "p", m=0.3)
+    plane.add("force", "F", "p", F=[1.0, 2.0])
+    assert plane.coordinate_names == ["x_p", "y_p"]

@@ -59,7 +59,8 @@ class Parameter:
     callable of time; callables become undefined functions in the equations
     and are called numerically; with ``state=True``, the signal of a load,
     also an expression of the coordinates and their rates:
-    :func:`lagrangian.coordinate`, :func:`lagrangian.rate`), ``"name"`` (the name of another
+    :func:`lagrangian.coordinate`, :func:`lagrangian.rate`; a sequence of
+    them is a vector signal, unless ``vector=False``), ``"name"`` (the name of another
     component, kept as a string), ``"flag"`` (True or False), ``"mapping"``
     (names to vectors) or ``"tensor"`` (a scalar, a vector or a matrix).
 
@@ -91,6 +92,8 @@ class Parameter:
     unit: str = ""
     symbolic: bool = True
     state: bool = False
+    #: A signal may be a sequence (a vector force in 2-D/3-D, a list of constraints); ``False``: one signal only.
+    vector: bool = True
 
     @property
     def required(self) -> bool:
@@ -138,6 +141,9 @@ class Parameter:
                                                          "to values" if self.state else "") + ".")
             return _CallableSignal(value, f"{name}_{component}", state=arity == 3)
         if self.shape == "signal" and isinstance(value, (Sequence, sp.MatrixBase)) and not isinstance(value, (str, bytes)):
+            if not self.vector:
+                raise ParameterError(component, name, f"is one signal ({self.doc}: a number, an expression of t or a "
+                                                      f"callable of t), not a sequence of them; got {value!r:.80}.")
             return sp.Matrix([self._scalar(v, component, name, check="real") for v in value])
         if self.shape == "vector" and value is not None:
             if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, sp.MatrixBase)):
