@@ -160,6 +160,8 @@ class _Reader:
                 return FUNCTIONS[func](*args)
             except (TypeError, ValueError) as exc:
                 raise ExpressionError(f"{self.what}: {func}() cannot take these arguments ({exc}).") from None
+            except (OverflowError, ZeroDivisionError):  # SymPy evaluates a number's function now: erfc(1e308)
+                raise ExpressionError(f"{self.what}: {func}({', '.join(map(str, args))}) is not a finite number.") from None
         self.refuse(f"{_short(ast.unparse(node))} is not allowed")
 
     def power(self, base: sp.Expr, exponent: sp.Expr) -> sp.Expr:
