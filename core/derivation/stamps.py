@@ -141,15 +141,20 @@ class _Triplets:
         self.vals.append(value)
 
     def matrix(self) -> sps.csr_matrix:
-        rows, cols, vals = np.array(self.rows, dtype=np.int64), np.array(self.cols, dtype=np.int64), np.array(self.vals)
-        total = sps.csr_matrix((vals, (rows, cols)), shape=self.shape)
-        size = sps.csr_matrix((np.abs(vals), (rows, cols)), shape=self.shape)
-        total.sum_duplicates()
-        size.sum_duplicates()
-        residual = np.abs(total.data) <= _ROUNDOFF * _EPS * np.asarray(size[total.nonzero()]).ravel()
-        total.data[residual] = 0.0
-        total.eliminate_zeros()
-        return total
+        """The entries summed, each with the sum of its addends' sizes; an entry within round-off of zero is left
+        out.  (Summed by sorting in NumPy: a tiny matrix takes microseconds where SciPy's conversions and fancy
+        indexing took 0.6 ms, and an addend pair that cancels exactly no longer misaligns the two sums.)"""
+        if not self.vals:
+            return sps.csr_matrix(self.shape)
+        key = np.array(self.rows, dtype=np.int64) * self.shape[1] + np.array(self.cols, dtype=np.int64)
+        order = np.argsort(key, kind="stable")  # equal entries keep the order they were added in
+        key, vals = key[order], np.array(self.vals)[order]
+        starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+        total, size = np.add.reduceat(vals, starts), np.add.reduceat(np.abs(vals), starts)
+        keep = np.abs(total) > _ROUNDOFF * _EPS * size
+        where = key[starts][keep]  # row-major order: already CSR's
+        indptr = np.r_[0, np.cumsum(np.bincount(where // self.shape[1], minlength=self.shape[0]))]
+        return sps.csr_matrix((total[keep], where % self.shape[1], indptr), shape=self.shape)
 
 
 class _Local:
