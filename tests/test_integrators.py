@@ -800,3 +800,23 @@ def test_the_dop853_tables_in_c_are_scipys():
     assert np.array_equal(C[:12], DOP853.C) and C[12] == 1.0 and np.array_equal(C[13:], DOP853.C_EXTRA)
     assert np.array_equal(table("D8_E5"), DOP853.E5) and np.array_equal(table("D8_E3"), DOP853.E3)
     assert np.array_equal(table("D8_D").reshape(4, 16), DOP853.D)
+
+
+@settings(max_examples=30)
+@given(st.sampled_from([1, 2, 3]), st.lists(st.floats(-1e3, 1e3), min_size=4, max_size=4), st.floats(1e-4, 10.0))
+def test_gauss_legendre_starts_each_step_on_the_last_steps_collocation_polynomial(stages, coefficients, h):
+    """The starting stages continue the collocation polynomial: exact for a motion that is a polynomial of degree
+    up to the number of stages (what collocation reproduces), checked against the polynomial itself."""
+    from lagrangian.plugins.integrators.implicit import _extrapolation, gauss_legendre_tableau
+
+    _, _, c = gauss_legendre_tableau(stages)
+    poly = np.polynomial.Polynomial(coefficients[:stages + 1])
+    t0 = 0.37
+
+    def u(theta):  # the motion over the last step, in units of the step
+        return poly(t0 + theta * h)
+
+    Z = np.array([[u(ci) - u(0.0)] for ci in c])
+    expected = np.array([u(1.0 + ci) - u(1.0) for ci in c])
+    scale = max(1.0, float(np.max(np.abs([u(x) for x in (0.0, 1.0, 2.0)]))))
+    assert np.allclose((_extrapolation(c) @ Z).ravel(), expected, rtol=0, atol=1e-9 * scale)
