@@ -49,12 +49,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.sparse as sps
 import sympy as sp
 from sympy.core.function import AppliedUndef
+
+if TYPE_CHECKING:
+    import scipy.sparse as sps
 
 from ..base.component import t
 from .assembly import Assembly
@@ -144,6 +146,8 @@ class _Triplets:
         """The entries summed, each with the sum of its addends' sizes; an entry within round-off of zero is left
         out.  (Summed by sorting in NumPy: a tiny matrix takes microseconds where SciPy's conversions and fancy
         indexing took 0.6 ms, and an addend pair that cancels exactly no longer misaligns the two sums.)"""
+        import scipy.sparse as sps  # imported by what uses it: 0.2 s that a process running compiled code never needs
+
         if not self.vals:
             return sps.csr_matrix(self.shape)
         key = np.array(self.rows, dtype=np.int64) * self.shape[1] + np.array(self.cols, dtype=np.int64)
@@ -415,6 +419,8 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset
             Brows.append(row)
             Bcols.append(channels[shape])
             Bvals.append(value)
+    import scipy.sparse as sps
+
     B = sps.csr_matrix((Bvals, (Brows, Bcols)), shape=(n, len(channels)))
     Mm, Cm, Km = M.matrix(), C.matrix(), K.matrix()
     inertial = [i for i in range(n) if Mm.indptr[i + 1] > Mm.indptr[i]]

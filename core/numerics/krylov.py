@@ -25,11 +25,12 @@ springs and dampers (``benchmarks/scale.py``): the states at 101 times over
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import scipy.sparse as sps
-from scipy.sparse.linalg import LinearOperator, expm_multiply, splu
+
+if TYPE_CHECKING:
+    import scipy.sparse as sps
 
 from ..derivation.stamps import NotStampable, Stamps
 from ..base.component import t
@@ -42,6 +43,8 @@ def unknowns(st: Stamps) -> tuple[sps.csc_matrix, sps.csr_matrix, sps.csr_matrix
     """``(A, R, Sel, E)`` of ``ẏ = Sel A⁻¹ (R y + B s) + E y``: ``A u = R y + B s`` for the unknowns
     ``u = (q̈_inertial, q̇_first_order)``, with ``R = [−K, −C_inertial]``; ``Sel`` puts ``u`` into the rates of
     the state ``y = (q, q̇_inertial)`` and ``E`` the inertial velocities into the rates of their coordinates."""
+    import scipy.sparse as sps  # SciPy's sparse modules are imported by what uses them (0.2 s)
+
     n, I, Fo = st.n, st.inertial, st.first_order
     nI = len(I)
     ny = n + nI
@@ -70,6 +73,9 @@ class SparseSpace:
     _input_fn: Any = field(default=None, repr=False)
 
     def __post_init__(self):
+        import scipy.sparse as sps
+        from scipy.sparse.linalg import LinearOperator, splu
+
         st = self.stamps
         n = st.n
         self.names = list(st.names)
@@ -137,6 +143,9 @@ class KrylovPropagator:
     :func:`scipy.sparse.linalg.expm_multiply`."""
 
     def __init__(self, space: SparseSpace, S: np.ndarray | None = None, C: np.ndarray | None = None):
+        import scipy.sparse as sps
+        from scipy.sparse.linalg import LinearOperator
+
         self.ny = ny = space.F.shape[0]
         nw = 0 if S is None else S.shape[0]
         F = space.F
@@ -154,6 +163,8 @@ class KrylovPropagator:
         self._trace = 0.0 if isinstance(self.Z, LinearOperator) else None
 
     def _expm(self, Zh, z, **grid):
+        from scipy.sparse.linalg import expm_multiply
+
         with np.errstate(all="ignore"):  # an overflow shows as non-finite states, which the caller reports
             return expm_multiply(Zh, z, traceA=self._trace, **grid)
 

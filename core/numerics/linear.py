@@ -59,7 +59,6 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.linalg import expm, schur
 from sympy.core.function import AppliedUndef
 
 from ..base.arguments import check_grid, check_mapping, check_span
@@ -402,6 +401,8 @@ class _Propagator:
         if phi is None:
             if len(self._cache) > 4096:
                 self._cache.clear()
+            from scipy.linalg import expm  # on first use: scipy.linalg is 0.15 s that compiled runs never need
+
             if self.Pi is None:
                 phi = expm(self.Z * h)
             else:
@@ -454,6 +455,8 @@ def _particular(F: np.ndarray, S: np.ndarray, GC: np.ndarray, horizon: float) ->
         gap = float(np.min(np.abs(np.linalg.eigvals(F)[:, None] - np.linalg.eigvals(S)[None, :])))
         if not gap * horizon > 1.0:
             return None
+        from scipy.linalg import schur
+
         T, Q = schur(S.astype(complex), output="complex")
         R = -(GC @ Q).astype(complex)
         Y = np.zeros((F.shape[0], S.shape[0]), dtype=complex)

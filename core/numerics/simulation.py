@@ -15,8 +15,6 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-import scipy.linalg
-import scipy.special
 import sympy as sp
 
 from .codegen import compile_model
@@ -94,11 +92,22 @@ def _checked_state(name: str, call: StateCall) -> Callable:
     return signal
 
 
-#: Functions an expression may call (:data:`lagrangian.text.FUNCTIONS`) that NumPy lacks: SciPy's, which take
-#: arrays (lambdify would otherwise find the scalar ``math.erf``).
-_SPECIAL = {"erf": scipy.special.erf, "erfc": scipy.special.erfc}
-#: The LAPACK LU factorization and solve of :meth:`NumericModel.solve`.
-_GETRF, _GETRS = scipy.linalg.lapack.dgetrf, scipy.linalg.lapack.dgetrs
+_SCIPY: dict[str, Any] = {}
+
+
+def _scipy() -> dict[str, Any]:
+    """SciPy's functions this module calls, imported on first use: ``erf`` and ``erfc`` (what an expression may call,
+    :data:`lagrangian.text.FUNCTIONS`, that NumPy lacks; they take arrays, where lambdify would otherwise find the
+    scalar ``math.erf``), and LAPACK's LU factorization and solve (:meth:`NumericModel.solve`).  Imported here rather
+    than with the module: ``scipy.linalg`` and ``scipy.special`` are 0.2 s of CPU that a process running compiled
+    code never needs."""
+    if not _SCIPY:
+        import scipy.linalg
+        import scipy.special
+
+        _SCIPY.update(special={"erf": scipy.special.erf, "erfc": scipy.special.erfc},
+                      getrf=scipy.linalg.lapack.dgetrf, getrs=scipy.linalg.lapack.dgetrs)
+    return _SCIPY
 _EPS = np.finfo(float).eps
 #: Integers beyond this are not exact in a float; beyond 2**63 NumPy holds them as Python objects, which its
 #: functions refuse (``np.tan(10**30)`` is a TypeError).
@@ -118,7 +127,7 @@ def _floated(exprs: Any) -> Any:
 
 
 def _lambdify(args, exprs, signals):
-    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, _SPECIAL, "numpy"]
+    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, _scipy()["special"], "numpy"]
     return sp.lambdify(args, _floated(exprs), modules=modules, cse=True)
 
 
@@ -241,10 +250,11 @@ class NumericModel:
         if A.size and np.all(np.isfinite(A)):
             # LU with partial pivoting, and compiled code's rule for a singular matrix: a pivot at most
             # size·eps·max|A| (a mass of 1e-141 next to one of 1 is none, whatever the rounding leaves)
-            lu, piv, _ = _GETRF(A)
+            lapack = _SCIPY or _scipy()
+            lu, piv, _ = lapack["getrf"](A)
             if not np.min(np.abs(np.diagonal(lu))) > A.shape[0] * _EPS * np.max(np.abs(A)):
                 raise SingularMassMatrixError(self._singular_message(time, A, qv))
-            return _GETRS(lu, piv, b)[0]
+            return lapack["getrs"](lu, piv, b)[0]
         try:
             return np.linalg.solve(A, b)
         except np.linalg.LinAlgError:
