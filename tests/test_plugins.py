@@ -559,6 +559,8 @@ def test_importing_the_package_and_deriving_a_model_load_no_scipy():
         "print(m.eq.names, scipy())\n"
     )
     assert run_python(code).stdout.splitlines() == ["[]", "['x_p'] []"]
+    cli = run_python("import sys, lagrangian.cli\nprint(sorted(m for m in sys.modules if m.split('.')[0] == 'scipy'))")
+    assert cli.stdout.splitlines() == ["[]"]  # the command line, every command's module imported: none either
 
 
 # ---------------------------------------------------------------------------

@@ -46,9 +46,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.linalg
-import scipy.sparse
-import scipy.sparse.csgraph
 import sympy as sp
 
 from ..errors import ModelError, UnknownNameError
@@ -162,6 +159,8 @@ def _full(lin: LinearModel, which: str) -> np.ndarray:
 def _band(lin: LinearModel) -> tuple[np.ndarray, int, int] | None:
     """``(permutation, lower, upper)`` bandwidths of the system reordered by reverse Cuthill–McKee, or ``None`` when
     the band is wider than a quarter of the system."""
+    import scipy.sparse.csgraph
+
     N = lin.size
     pattern = (_full(lin, "M") != 0) | (_full(lin, "C") != 0) | (_full(lin, "K") != 0)
     pattern |= pattern.T
@@ -176,6 +175,8 @@ def _solve_banded(lin: LinearModel, svals: np.ndarray, perm: np.ndarray, lower: 
     right-hand sides and output rows built for a chunk of frequencies at once: the loop holds the solve alone (a
     100-section ladder at 1,000 frequencies: 0.02 s, where calling ``scipy.linalg.solve_banded`` and building
     each frequency's arrays in the loop took 0.05 s)."""
+    import scipy.linalg
+
     n, N, ni = len(lin.coordinates), lin.size, len(lin.inputs)
     rows, cols = np.nonzero(np.ones((N, N), dtype=bool))
     inside = (rows - cols <= lower) & (cols - rows <= upper)

@@ -44,7 +44,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
@@ -211,6 +210,8 @@ class LinearModel:
 
 def _independent(lin: LinearModel) -> LinearModel:
     """:meth:`LinearModel.independent`."""
+    import scipy.linalg
+
     if lin.symbolic:
         raise ModelError(f"model {lin.model!r}: independent coordinates of a symbolic linearization are not formed; "
                          f"give the parameters values (params=).")

@@ -26,7 +26,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 
 from ..errors import ModelError
 from ..model import Model
@@ -138,6 +137,8 @@ def _descriptor(lin: LinearModel, with_io: bool) -> tuple[np.ndarray, np.ndarray
 
 
 def _eigenvalues(pencil: tuple[np.ndarray, np.ndarray], w0: float) -> np.ndarray:
+    import scipy.linalg
+
     A, E = pencil
     if not A.size:
         return np.zeros(0, dtype=complex)
@@ -212,6 +213,8 @@ def modes(system: Model | LinearModel, **kwargs: Any) -> Modes:
     """Natural frequencies, damping ratios and mode shapes of ``system`` linearized (``kwargs`` as for
     :func:`linearize`).  An undamped model without constraints or first-order coordinates is solved as the
     symmetric problem ``K φ = ω² M φ``; any other from the pencil of its Laplace form."""
+    import scipy.linalg
+
     lin = _linear(system, [], None, kwargs) if isinstance(system, Model) else system
     _numeric(lin, "modes")
     n = len(lin.coordinates)
@@ -249,5 +252,7 @@ def modes(system: Model | LinearModel, **kwargs: Any) -> Modes:
 
 
 def _eig_vectors(A: np.ndarray, E: np.ndarray):
+    import scipy.linalg
+
     ab, vecs = scipy.linalg.eig(A, E, homogeneous_eigvals=True)
     return ab[0], ab[1], vecs

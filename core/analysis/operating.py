@@ -37,8 +37,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 import sympy as sp
 
 from ..base.budget import DEFAULT_SECONDS, BudgetExceeded, within
@@ -195,6 +193,8 @@ def _same(a: Mapping[str, float], b: Mapping[str, float]) -> bool:
 
 def _newton(model: str, names: list[str], exprs: list[sp.Expr], unknowns: list[sp.Symbol],
             near: Mapping[str, float]) -> dict[str, float]:
+    import scipy.optimize
+
     unknown = [k for k in near if k not in names]
     if unknown:
         raise UnknownNameError("coordinate", unknown[0], names)
@@ -215,6 +215,8 @@ def _regular_at_zero(lin) -> bool:
     """Whether the linearization's pencil is clearly nonsingular at ``s = 0`` (so no eigenvalue is zero): the
     stiffness, bordered by the constraint Jacobian, balanced, with its smallest singular value above 1e-12 of its
     largest (a zero eigenvalue, simple or of a Jordan block, leaves it singular to round-off)."""
+    import scipy.linalg
+
     K, Phi = np.asarray(lin.K, dtype=float), np.asarray(lin.Phi, dtype=float)
     m = Phi.shape[0] if Phi.ndim == 2 else 0
     P = np.block([[K, Phi.T], [Phi, np.zeros((m, m))]]) if m else K

@@ -17,7 +17,6 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
-import scipy.special
 
 from ...errors import ModelError
 
@@ -105,6 +104,8 @@ class Normal(Distribution):
             raise ModelError(f"Normal(mean, std) needs std > 0, got {self.std!r}.")
 
     def ppf(self, u):
+        import scipy.special
+
         return self.mean + self.std * scipy.special.ndtri(np.asarray(u, dtype=float))
 
 
