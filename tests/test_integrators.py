@@ -820,3 +820,20 @@ def test_gauss_legendre_starts_each_step_on_the_last_steps_collocation_polynomia
     expected = np.array([u(1.0 + ci) - u(1.0) for ci in c])
     scale = max(1.0, float(np.max(np.abs([u(x) for x in (0.0, 1.0, 2.0)]))))
     assert np.allclose((_extrapolation(c) @ Z).ravel(), expected, rtol=0, atol=1e-9 * scale)
+
+
+@settings(max_examples=60)
+@given(st.integers(1, 12), st.integers(0, 2**32 - 1), st.floats(0.0, 0.6))
+def test_balancing_is_lapacks_to_the_bit(n, seed, sparsity):
+    """The stiffness check's balancing against SciPy's (LAPACK's DGEBAL, scaling only), on matrices whose entries
+    span 16 decades, some of them zero."""
+    import scipy.linalg
+
+    from lagrangian.numerics.problem import balance
+
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n)) * 10.0 ** rng.uniform(-8, 8, (n, n))
+    A[rng.random((n, n)) < sparsity] = 0.0
+    B, d = balance(A)
+    ref, T = scipy.linalg.matrix_balance(A, permute=False)
+    assert np.array_equal(B, ref) and np.array_equal(d, np.diag(T))

@@ -43,6 +43,7 @@ from ..base.budget import DEFAULT_SECONDS, BudgetExceeded, within
 from ..base.component import t
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
+from ..numerics.problem import balance
 from .frequency import modes
 from .linearize import linearize
 from .modes import Modes
@@ -215,14 +216,12 @@ def _regular_at_zero(lin) -> bool:
     """Whether the linearization's pencil is clearly nonsingular at ``s = 0`` (so no eigenvalue is zero): the
     stiffness, bordered by the constraint Jacobian, balanced, with its smallest singular value above 1e-12 of its
     largest (a zero eigenvalue, simple or of a Jordan block, leaves it singular to round-off)."""
-    import scipy.linalg
-
     K, Phi = np.asarray(lin.K, dtype=float), np.asarray(lin.Phi, dtype=float)
     m = Phi.shape[0] if Phi.ndim == 2 else 0
     P = np.block([[K, Phi.T], [Phi, np.zeros((m, m))]]) if m else K
     if not P.size or not np.all(np.isfinite(P)):
         return False
-    balanced, _ = scipy.linalg.matrix_balance(P, permute=False)
+    balanced, _ = balance(P)
     sv = np.linalg.svd(balanced, compute_uv=False)
     return bool(sv[0] > 0 and sv[-1] > 1e-12 * sv[0])
 
