@@ -11,7 +11,8 @@ defaults of ``Model.simulate``), both angles kept on 201 times.
   samples; the cluster is started and warmed (workers import lagrangian and
   load the compiled form) by a small sweep first, and its start is reported
   apart;
-- **sweep, 1 worker**: the same on a local cluster of one worker, for the
+- **sweep, 1 worker**: the same on a local cluster of one worker
+  (``lagrangian.sweep.local_cluster(1)``, the default's settings), for the
   parallel efficiency (2-worker throughput ÷ twice the 1-worker throughput);
 - **sweep, serial**: ``client="serial"``, in this process, for information;
 - **loop of Model.simulate**: ``model.simulate(10, params=..., ...)`` on the
@@ -98,9 +99,9 @@ def loop_pydy(masses):
 
 
 def main() -> None:
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    from lagrangian.sweep import Uniform, describe, local_client, sweep
+    from lagrangian.sweep import Uniform, describe, local_client, local_cluster, sweep
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=10_000)
@@ -131,7 +132,7 @@ def main() -> None:
         if k + 1 < repeat:
             sweeps.append(timed(lambda: sweep(model, params, **kw))[1])
     t2, tl = float(np.median(sweeps)), float(np.median(loops))
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster, \
+    with local_cluster(1) as cluster, \
             Client(cluster, set_as_default=False) as client1:
         sweep(model, params, **{**kw, "samples": 64}, client=client1)
         ds1, t1 = timed(lambda: sweep(model, params, **kw, client=client1))

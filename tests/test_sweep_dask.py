@@ -8,6 +8,7 @@ import subprocess
 import sys
 import time
 
+import dask
 import numpy as np
 import pytest
 
@@ -95,6 +96,8 @@ def test_a_cluster_by_address_loses_no_sample_when_a_worker_dies(tmp_path, seria
 def test_the_local_default_loses_no_sample_when_a_worker_dies(serial):
     client = local_client()
     client.wait_for_workers(1, timeout=60)
+    # its workers run without Dask's statistical profiler, which would take CPU from the samples
+    assert set(client.run(lambda: dask.config.get("distributed.worker.profile.enabled")).values()) == {False}
     pids = sorted(client.run(os.getpid).values())
     if len(pids) < 2:
         pytest.skip("one core: the local cluster has one worker")

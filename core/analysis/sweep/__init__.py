@@ -56,11 +56,11 @@ from ..frequency import frequency_response
 from .dataset import DONE, FAILED, NOT_RUN, dataset, describe, plot
 from .designs import Distribution, LogUniform, Normal, Samples, Uniform, design, parse_axis
 from .designs import design as make_design
-from .execute import SERIAL, execute, local_client, shutdown, workers
+from .execute import SERIAL, execute, local_client, local_cluster, shutdown, workers
 from .plan import plan
 
 __all__ = ["sweep", "response", "Uniform", "LogUniform", "Normal", "Distribution", "design", "parse_axis", "plot", "describe",
-           "local_client", "shutdown",
+           "local_client", "local_cluster", "shutdown",
            "SERIAL", "DONE", "FAILED", "NOT_RUN"]
 
 
