@@ -144,6 +144,15 @@ def _square(e: sp.Expr) -> sp.Expr:
     return sp.Pow(e, 2, evaluate=False) if e.is_Add else e**2
 
 
+def _half_square(c: sp.Expr, e: sp.Expr) -> sp.Expr:
+    """``½ c e²``.  For a sum ``e`` the product is left as built: multiplied out, SymPy would evaluate ``e²`` again
+    and ask each term of a two-term sum whether it is infinite (about 1 ms a spring or damper of a chain, half of
+    assembling it).  Sums and derivatives of it evaluate as usual."""
+    if e.is_Add:
+        return sp.Mul(sp.Mul(sp.Rational(1, 2), c), sp.Pow(e, 2, evaluate=False), evaluate=False)
+    return c * e**2 / 2
+
+
 class Mass(Component):
     """Point mass: T = ½ m |v|²."""
 
@@ -194,7 +203,7 @@ class Spring(Component):
         if ctx.view.dim > 1 and self.rest_length == 0:
             d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
             return Contribution(V=self.k * dot(d, d) / 2)
-        return Contribution(V=self.k * _square(self.extension(ctx)) / 2)
+        return Contribution(V=_half_square(self.k, self.extension(ctx)))
 
     @classmethod
     def example(cls) -> Example:
@@ -212,7 +221,7 @@ class Damper(Component):
         d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
         dv = sp.Matrix([time_derivative(e, t) for e in d])
         rate = dv[0] if ctx.view.dim == 1 else dot(d, dv) / sp.sqrt(dot(d, d))
-        return Contribution(D=self.c * _square(rate) / 2)
+        return Contribution(D=_half_square(self.c, rate))
 
     @classmethod
     def example(cls) -> Example:

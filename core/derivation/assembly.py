@@ -170,6 +170,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     generic, values = {}, {}
     for comp in components:
         values.update(comp.values)
+    allowed = allowed | set(signals)
     for comp, view in zip(components, symbolic):
         ctx = Context(views[comp.domain], views, dict(options), symbolic, values=values)
         try:
@@ -183,7 +184,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
         if applied and isinstance(contribution, Contribution) and contribution.loads:  # a copy: never the plugin's own
             contribution = replace(contribution, loads=[Load(_applied(load.force, applied), load.velocity)
                                                         for load in contribution.loads])
-        _check_contribution(comp, contribution, allowed | set(signals), [c.name for c in coordinates])
+        _check_contribution(comp, contribution, allowed, names)  # one list of names: not one per component
         generic[comp.name] = contribution
     eliminated = _eliminations(components, generic, coordinates)
     if eliminated:
