@@ -139,11 +139,6 @@ def _vector(value: Any, dim: int, component: Component, pname: str) -> sp.Matrix
     return sp.Matrix([value])
 
 
-def _square(e: sp.Expr) -> sp.Expr:
-    """``e²``; a sum squared without SymPy's checks for infinite terms (a third of assembling a large chain)."""
-    return sp.Pow(e, 2, evaluate=False) if e.is_Add else e**2
-
-
 def _half_square(c: sp.Expr, e: sp.Expr) -> sp.Expr:
     """``½ c e²``.  For a sum ``e`` the product is left as built: multiplied out, SymPy would evaluate ``e²`` again
     and ask each term of a two-term sum whether it is infinite (about 1 ms a spring or damper of a chain, half of
