@@ -146,7 +146,7 @@ class _Triplets:
         """The entries summed, each with the sum of its addends' sizes; an entry within round-off of zero is left
         out.  (Summed by sorting in NumPy: a tiny matrix takes microseconds where SciPy's conversions and fancy
         indexing took 0.6 ms, and an addend pair that cancels exactly no longer misaligns the two sums.)"""
-        import scipy.sparse as sps  # imported by what uses it: 0.2 s that a process running compiled code never needs
+        import scipy.sparse as sps
 
         if not self.vals:
             return sps.csr_matrix(self.shape)
@@ -321,6 +321,8 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset
     parameter has no value, a signal is a Python callable or a domain has
     loop-closure constraints.
     """
+    import scipy.sparse as sps  # imported by what uses it: 0.2 s that a process running compiled code never needs
+
     names = [c.name for c in assembly.coordinates]
     n = len(names)
     if not n:
@@ -419,8 +421,6 @@ def stamps(assembly: Assembly, values: Mapping[sp.Symbol, Any], inputs=frozenset
             Brows.append(row)
             Bcols.append(channels[shape])
             Bvals.append(value)
-    import scipy.sparse as sps
-
     B = sps.csr_matrix((Bvals, (Brows, Bcols)), shape=(n, len(channels)))
     Mm, Cm, Km = M.matrix(), C.matrix(), K.matrix()
     inertial = [i for i in range(n) if Mm.indptr[i + 1] > Mm.indptr[i]]
