@@ -15,7 +15,7 @@ from .c_dop853 import dop853_source
 from .tape import OPS, Program, TapeError, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
-CODEGEN_VERSION = "4"
+CODEGEN_VERSION = "5"
 
 
 class _Unavailable(Exception):
@@ -125,7 +125,8 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         slot = {s: k for k, s in enumerate(parameters)}
         inputs_m |= {matrix.n_inputs + i: f"P[{slot[s]}]" for s, i in matrix.parameters.items()}
         inputs_e |= {energy.n_inputs + i: f"P[{slot[s]}]" for s, i in energy.parameters.items()}
-    body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(m * m)] + [f"b[{k}]" for k in range(m)], "    ")
+    body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(m * m)] + [f"b[{k}]" for k in range(m)], "    ",
+                            zeroed=True)
     body_e = energy.c_lines(inputs_e, [f"o[{k}]" for k in range(4 + n)], "    ")
 
     def table(values):
@@ -149,6 +150,8 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         "/* The entries of A (row-major, NM x NM) and b of the solve A u = b, u = (accelerations, first-order rates, multipliers). */",
         "int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
         "    const double *P = ctx; (void)P;",
+        "    memset(A, 0, sizeof(double) * NM * NM);",
+        "    memset(b, 0, sizeof(double) * NM);",
         *body_m,
         "    return 0;",
         "}",

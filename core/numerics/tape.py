@@ -162,10 +162,14 @@ class Program:
             r[dst] = value if isinstance(value, float) else math.nan  # a complex power of a negative base: NaN in C
         return [r[k] for k in self.outputs.tolist()]
 
-    def c_lines(self, inputs: dict[int, str], targets: Sequence[str], indent: str = "") -> list[str]:
+    def c_lines(self, inputs: dict[int, str], targets: Sequence[str], indent: str = "", *,
+                zeroed: bool = False) -> list[str]:
         """Straight-line C: one ``const double wK = …;`` per instruction, then ``target = …;`` per output.
         ``inputs`` spells each input register (``{0: "t", 1: "q[0]", …}``), and may spell constant registers too
-        (a parameter read at run time, ``"P[3]"``); other constants are written as numbers."""
+        (a parameter read at run time, ``"P[3]"``); other constants are written as numbers.  ``zeroed``: the
+        targets hold +0.0 already (the caller cleared them with ``memset``), so an output that is the constant
+        +0.0 writes nothing: a mass matrix of 50 masses on a chain is 2,450 zeros of 2,500 entries, whose stores
+        took GCC 3.5 s at ``-O3`` (SLP vectorization and alias walking), against 0.2 s for the rest."""
         first = self.n_inputs + len(self.constants)
         names = dict(inputs)
         for k, c in enumerate(self.constants.tolist()):  # a constant spelled in ``inputs`` (a parameter) keeps it
@@ -178,7 +182,9 @@ class Program:
             text = "".join(spelled.get(ch, ch) if ch in "xyz" and _alone(template, i) else ch for i, ch in enumerate(template))
             names[dst] = f"w{dst - first}"
             lines.append(f"{indent}const double {names[dst]} = {text};")
-        lines += [f"{indent}{target} = {names[k]};" for target, k in zip(targets, self.outputs.tolist())]
+        zero = {self.n_inputs + k for k, c in enumerate(self.constants.tolist()) if c == 0.0 and math.copysign(1.0, c) > 0
+                and self.n_inputs + k not in inputs} if zeroed else set()
+        lines += [f"{indent}{target} = {names[k]};" for target, k in zip(targets, self.outputs.tolist()) if k not in zero]
         return lines
 
 
