@@ -150,8 +150,8 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         "/* The entries of A (row-major, NM x NM) and b of the solve A u = b, u = (accelerations, first-order rates, multipliers). */",
         "int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
         "    const double *P = ctx; (void)P;",
-        "    memset(A, 0, sizeof(double) * NM * NM);",
-        "    memset(b, 0, sizeof(double) * NM);",
+        *(["    memset(A, 0, sizeof(double) * NM * NM);", "    memset(b, 0, sizeof(double) * NM);"]
+          if matrix.zero_outputs(inputs_m) else []),  # (a dense matrix, a double pendulum's, is written whole)
         *body_m,
         "    return 0;",
         "}",

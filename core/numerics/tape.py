@@ -182,10 +182,17 @@ class Program:
             text = "".join(spelled.get(ch, ch) if ch in "xyz" and _alone(template, i) else ch for i, ch in enumerate(template))
             names[dst] = f"w{dst - first}"
             lines.append(f"{indent}const double {names[dst]} = {text};")
-        zero = {self.n_inputs + k for k, c in enumerate(self.constants.tolist()) if c == 0.0 and math.copysign(1.0, c) > 0
-                and self.n_inputs + k not in inputs} if zeroed else set()
-        lines += [f"{indent}{target} = {names[k]};" for target, k in zip(targets, self.outputs.tolist()) if k not in zero]
+        skip = set(self.zero_outputs(inputs)) if zeroed else set()
+        lines += [f"{indent}{target} = {names[k]};" for i, (target, k) in enumerate(zip(targets, self.outputs.tolist()))
+                  if i not in skip]
         return lines
+
+    def zero_outputs(self, inputs: Mapping[int, str] = {}) -> list[int]:
+        """The positions of the outputs that are the constant +0.0 (not a constant ``inputs`` spells: a parameter
+        read at run time)."""
+        zero = {self.n_inputs + k for k, c in enumerate(self.constants.tolist())
+                if c == 0.0 and math.copysign(1.0, c) > 0 and self.n_inputs + k not in inputs}
+        return [i for i, k in enumerate(self.outputs.tolist()) if k in zero]
 
 
 def _fold(program: Program) -> Program:
