@@ -23,6 +23,8 @@ import warnings
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import lagrangian as lg
 from lagrangian.netlist import ImportedNetlist, NetlistWarning, Transient, parse_number, read_netlist, read_netlist_file
@@ -98,6 +100,33 @@ def test_ladder_filter_matches_ngspice_running_the_same_netlist(formulation):
         # halving ngspice's cap divides the gap by ~4: the gap is ngspice's O(h²) error, not a modelling difference
         assert 3.0 < coarse[element] / fine[element] < 5.0, (element, coarse[element], fine[element])
         assert fine[element] < 1e-6, (element, fine[element])
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(-2, 2), st.floats(1e-3, 1e3), st.floats(0.05, 40), st.floats(0, 3), st.floats(0, 4), st.floats(-180, 180),
+       st.floats(0.01, 8))
+def test_flux_of_a_damped_delayed_sin_source_is_its_integral(vo, va, cycles, delay, damping, phase, t_end):
+    """In the flux formulation a voltage source fixes its branch's flux linkage to ∫₀ᵗ E dτ: for SPICE's SIN with
+    a delay and a damping (amplitudes, frequencies and times over decades), that integral agrees with SciPy's
+    adaptive quadrature of the same waveform, and its rate is the waveform."""
+    from scipy.integrate import IntegrationWarning, quad
+
+    scale = 10 ** np.floor(np.log10(t_end))  # the deck's time unit: 1e-2 s to 1 s
+    freq, td, theta = (float(f"{x:.6g}") for x in (cycles / (t_end * scale), delay * t_end * scale / 3, damping / (t_end * scale)))
+    deck = f"src\nV1 a 0 SIN({vo:.6g} {va:.6g} {freq!r} {td!r} {theta!r} {phase:.6g})\nR1 a b 1\nC1 b 0 1u\n.end\n"
+    model = read_netlist(deck, formulation="flux").model
+    source = model.components["V1"]
+    flux = model.assembly.views["electrical"].branch["V1"]  # λ_a − λ_0 = ∫ (v_a − v_0) = ∫ E
+    E, F, rate = (sp.lambdify(lg.t, e, "math") for e in (source.E, flux, sp.diff(flux, lg.t)))
+    span = t_end * scale
+    for x in np.linspace(0.0, span, 7)[1:]:
+        kinks = [td] if 0 < td < x else None
+        with warnings.catch_warnings():  # (quad's note that rounding limits it: the agreement below is the check)
+            warnings.simplefilter("ignore", IntegrationWarning)
+            expected = quad(E, 0.0, x, points=kinks, limit=2000, epsabs=0.0, epsrel=1e-12)[0]
+            size = quad(lambda s: abs(E(s)), 0.0, x, points=kinks, limit=2000)[0]
+        assert abs(F(x) - expected) <= 1e-9 * max(size, 1e-300), (x, F(x), expected)
+        assert rate(x) == pytest.approx(E(x), rel=1e-9, abs=1e-9 * abs(va))
 
 
 # ---------------------------------------------------------------------------

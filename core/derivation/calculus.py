@@ -12,6 +12,7 @@ substitutes with a memo shared between calls; :func:`trig` builds ``sin`` and
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 
 import sympy as sp
@@ -19,7 +20,7 @@ from sympy.core.function import AppliedUndef
 
 from ..errors import ModelError
 
-__all__ = ["Calculus", "Rewriter", "atoms_of", "cross", "nodes", "symbols_of", "time_derivative", "trig"]
+__all__ = ["Calculus", "Rewriter", "atoms_of", "cross", "nodes", "symbols_of", "time_derivative", "time_integral", "trig"]
 
 _ZERO = sp.Integer(0)
 _ONE = sp.Integer(1)
@@ -273,3 +274,113 @@ class Rewriter:
                 out = e.func(*new)
             self._memo[e] = out
         return out
+
+
+def time_integral(expr, t: sp.Symbol):
+    """``∫₀ᵗ expr dτ`` in closed form for the waveforms of sources, or ``None`` when ``expr`` is not one of them.
+
+    The forms: sums of terms ``c · tⁿ``, ``c · exp(a t + b)``, ``c · sin(w t + p)`` or ``cos``, ``c · exp(a t + b)
+    · sin(w t + p)`` or ``cos`` (``a``, ``b``, ``c``, ``w``, ``p`` free of ``t``), ``c · d/dt f(t)``; and
+    ``Piecewise`` of such sums under conditions ``t ≤ c₁ < c₂ < …`` (``0 ≤ c₁``) ending in ``True``, whose
+    integral carries each piece's total into the next.  SymPy's ``integrate`` finds the same integrals, but a SIN
+    source of SPICE with a delay and a damping (``exp(−θ t) sin(ω t + φ)`` with floating-point coefficients)
+    took it 2.4 s, where these rules take milliseconds.  Anything else is left to SymPy (``None``).
+
+    >>> import sympy as sp
+    >>> t = sp.Symbol("t")
+    >>> time_integral(2 * sp.cos(3 * t), t)
+    2*sin(3*t)/3
+    >>> time_integral(sp.Piecewise((1, t <= 2), (0, True)), t)
+    Piecewise((t, t <= 2), (2, True))
+    >>> time_integral(sp.log(t), t) is None
+    True
+    """
+    expr = sp.sympify(expr, strict=True)
+    if isinstance(expr, sp.Piecewise):
+        return _piecewise_integral(expr, t)
+    F = _antiderivative(expr, t)
+    return None if F is None else F - F.subs(t, _ZERO)
+
+
+def _piecewise_integral(expr: sp.Piecewise, t: sp.Symbol):
+    bounds, pieces = [], []
+    for value, cond in expr.args:
+        if cond is sp.true:
+            bounds.append(None)
+        elif isinstance(cond, (sp.LessThan, sp.StrictLessThan)) and cond.lhs == t and cond.rhs.is_number:
+            bounds.append(sp.Float(cond.rhs) if cond.rhs.is_Float else cond.rhs)
+        else:
+            return None
+        F = _antiderivative(value, t)
+        if F is None:
+            return None
+        pieces.append((F, cond))
+    numbers = [float(b) for b in bounds[:-1] if b is not None]
+    if bounds[-1] is not None or None in bounds[:-1] or any(not math.isfinite(x) for x in numbers) \
+            or not (numbers == sorted(set(numbers)) and (not numbers or numbers[0] >= 0.0)):
+        return None
+    out, start, carried = [], _ZERO, _ZERO
+    for (F, cond), bound in zip(pieces, bounds):
+        total = carried + F - F.subs(t, start)
+        out.append((total, cond))
+        if bound is not None:
+            carried, start = total.subs(t, bound), bound
+    return sp.Piecewise(*out)
+
+
+def _linear(e, t):
+    """``(a, b)`` with ``e = a t + b``, ``a`` and ``b`` free of ``t``; ``None`` otherwise."""
+    a = e.diff(t)
+    if a.has(t):
+        return None
+    return a, e.subs(t, _ZERO)
+
+
+def _antiderivative(expr, t):
+    """An antiderivative of ``expr`` in ``t`` by the rules of :func:`time_integral`, or ``None``."""
+    total = []
+    for term in sp.Add.make_args(sp.expand(expr, trig=False, log=False, power_base=False, power_exp=False)):
+        if not term.has(t):
+            total.append(term * t)
+            continue
+        coeff, rest = term.as_independent(t, as_Add=False)
+        if rest == _ONE:
+            total.append(coeff * t)
+            continue
+        if isinstance(rest, sp.Derivative) and rest.variables == (t,) and not coeff.has(t):
+            total.append(coeff * rest.expr)
+            continue
+        growth, wave, power = _ZERO, None, 0
+        for f in sp.Mul.make_args(rest):
+            if isinstance(f, sp.exp):
+                growth += f.args[0]
+            elif isinstance(f, (sp.sin, sp.cos)) and wave is None:
+                wave = f
+            elif f == t:
+                power += 1
+            elif f.is_Pow and f.base == t and f.exp.is_Integer and f.exp > 0:
+                power += int(f.exp)
+            else:
+                return None
+        if power:
+            if growth != _ZERO or wave is not None:
+                return None
+            total.append(coeff * t ** (power + 1) / (power + 1))
+            continue
+        ab = _linear(growth, t) if growth != _ZERO else (_ZERO, _ZERO)
+        wp = _linear(wave.args[0], t) if wave is not None else None
+        if ab is None or (wave is not None and (wp is None or wp[0] == _ZERO)):
+            return None
+        a = ab[0]
+        if wave is None:
+            if a == _ZERO:
+                return None
+            total.append(coeff * sp.exp(growth) / a)
+            continue
+        w, s, c = wp[0], sp.sin(wave.args[0]), sp.cos(wave.args[0])
+        if a == _ZERO:
+            total.append(coeff * (-c if isinstance(wave, sp.sin) else s) / w)
+            continue
+        rate = a * s - w * c if isinstance(wave, sp.sin) else a * c + w * s
+        total.append(coeff * sp.exp(growth) * rate / (a ** 2 + w ** 2))
+    return sp.Add(*total)

@@ -39,10 +39,11 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, cross, time_derivative, trig
+from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, cross, time_derivative, time_integral, trig
 from .probe import float_value
 
-__all__ = ["Calculus", "Derivation", "Rewriter", "cross", "float_value", "general", "time_derivative", "trig"]
+__all__ = ["Calculus", "Derivation", "Rewriter", "cross", "float_value", "general", "time_derivative", "time_integral",
+           "trig"]
 
 
 # -- the derivation -------------------------------------------------------------------------------
