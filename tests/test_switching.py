@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import lagrangian as lg
@@ -51,6 +51,9 @@ def test_switching_times_of_a_square_wave_are_its_corners():
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# a pulse of a tenth of a time constant: the run's last step before a corner spans the whole piece, and its dense
+# output must not see the input of the next piece (read at the corner itself, it bent the outputs by 1e-3 of high)
+@example(R=72950.0, C=1e-09, period=0.3, duty=0.1, delay=0.05, high=0.1)
 @given(
     R=st.floats(10.0, 1e5),
     C=st.floats(1e-9, 1e-3),
@@ -83,7 +86,7 @@ def test_a_switch_that_cannot_be_located_is_reported_and_the_run_still_goes():
     assert any("could not be found" in note for note in res.notes)
 
 
-@pytest.mark.parametrize("method", ["RK45", "Radau", "LSODA"])
+@pytest.mark.parametrize("method", ["RK45", "dopri5_c", "Radau", "LSODA"])
 def test_every_adaptive_method_restarts(method):
     R, C = 4.7e3, 2.2e-7
     tau = R * C

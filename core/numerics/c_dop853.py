@@ -71,7 +71,7 @@ static int d8_begin(rhs_fn f, const void *ctx, int dim, double t0, double t1, do
                     double first_step, double *work, double *h, long *nfev, double *fail) {
     double *y = work, *ys = y + 2 * dim, *err = y + 3 * dim, *scale = y + 5 * dim, *f1 = y + 6 * dim, *K[16], *F[7];
     d8_parts(dim, work, K, F);
-    int rc = f(ctx, t0, y, K[0]); (*nfev)++;
+    int rc = f(ctx, inside(t0, t0, t1), y, K[0]); (*nfev)++;
     if (rc) { fail_at(dim, fail, t0, y); return rc; }
     *h = first_step;
     if (*h > 0.0) return 0;
@@ -117,7 +117,7 @@ static int d8_step(rhs_fn f, const void *ctx, int dim, double t, double t1, doub
                 for (int j = 0; j < s; j++) acc += D8_A[s][j] * K[j][i];
                 target[i] = y[i] + hs * acc;
             }
-            double ts = s == 12 ? tnew : t + D8_C[s] * hs;
+            double ts = s == 12 ? inside(tnew, t, t1) : t + D8_C[s] * hs;
             rc = f(ctx, ts, target, K[s]); (*nfev)++;
             if (rc == 1) { fail_at(dim, fail, ts, target); return 1; }
             if (rc) bad = 1;

@@ -401,6 +401,15 @@ static double rms_scaled(int dim, const double *x, const double *scale) {
 
 static void fail_at(int dim, double *fail, double t, const double *y) { fail[0] = t; memcpy(fail + 1, y, dim * sizeof(double)); }
 
+/* s moved inside the run from a to b by 16 units in the last place at either end: an input that switches at a or b
+   (a pulse's corner, where an adaptive run restarts) is read on this run's side of its corner, not the next one's
+   (the last stage of a step that ends at b feeds the step's dense output). */
+static double inside(double s, double a, double b) {
+    const double ma = 16.0 * (nextafter(fabs(a), INFINITY) - fabs(a)), mb = 16.0 * (nextafter(fabs(b), INFINITY) - fabs(b));
+    if (!(b - a > 4.0 * (ma + mb))) return s;
+    return s < a + ma ? a + ma : s > b - mb ? b - mb : s;
+}
+
 /* After a step of an adaptive run to t: 6 where at its pace the run would need more than budget evaluations
    (judged from 131,072 on; budget 0: never), 7 where another thread asked it to stop (watch[1] set; watch[0] gets
    the time reached); else 0.  watch may be NULL. */
@@ -445,7 +454,7 @@ static int dp_begin(rhs_fn f, const void *ctx, int dim, double t0, double t1, do
                     double *work, double *h, long *nfev, double *fail) {
     double *y = work, *ys = y + 2 * dim, *err = y + 3 * dim, *scale = y + 4 * dim, *f1 = y + 5 * dim, *K[7];
     dp_stages(dim, work, K);
-    int rc = f(ctx, t0, y, K[0]); (*nfev)++;
+    int rc = f(ctx, inside(t0, t0, t1), y, K[0]); (*nfev)++;
     if (rc) { fail_at(dim, fail, t0, y); return rc; }
     *h = first_step;
     if (*h > 0.0) return 0;
@@ -490,7 +499,7 @@ static int dp_step(rhs_fn f, const void *ctx, int dim, double t, double t1, doub
                 for (int j = 0; j < s; j++) acc += DP_A[s][j] * K[j][i];
                 target[i] = y[i] + *hstep * acc;
             }
-            rc = f(ctx, s == 6 ? tnew : t + DP_C[s] * *hstep, target, K[s]); (*nfev)++;
+            rc = f(ctx, s == 6 ? inside(tnew, t, t1) : t + DP_C[s] * *hstep, target, K[s]); (*nfev)++;
             if (rc == 1) { fail_at(dim, fail, t + DP_C[s] * *hstep, target); return 1; }
             if (rc) bad = 1;
         }

@@ -271,7 +271,11 @@ def _solve_pieces(integrator, problem: Problem, t_span, y0: np.ndarray, t_eval: 
         last = i == len(edges) - 2
         inside = t_eval[(t_eval >= a) & ((t_eval <= b) if last else (t_eval < b))]
         grid = inside if last else np.append(inside, b)  # b: where the next piece starts
-        sol = integrator.solve(problem, (a, b), y, grid, **options)
+        problem.window = (a, b)  # inputs read on this piece's side of its corners (loops in C do so at any run's ends)
+        try:
+            sol = integrator.solve(problem, (a, b), y, grid, **options)
+        finally:
+            problem.window = None
         nfev += int(sol.nfev)
         notes += [n for n in sol.notes if n not in notes]
         sol_t = np.asarray(sol.t, dtype=float)
