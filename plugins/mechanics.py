@@ -445,6 +445,11 @@ class CentralForce(Component):
                 f"in one dimension use a spring or a force."
             )
         d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
+        if all(sp.sympify(e) == 0 for e in d):  # the same point by construction (structurally 0), not by values
+            raise ModelError(
+                f"central_force {self.name!r}: its nodes {self.nodes[0]!r} and {self.nodes[1]!r} are the same point, so "
+                f"their distance is 0 and the force k/rⁿ infinite at every instant. Join two different nodes."
+            )
         r = sp.sqrt(dot(d, d))
         n = sp.sympify(self.n)
         if n.is_Float:  # 3.0 → 3, 2.5 → 5/2: exact exponents keep the algebra exact

@@ -202,3 +202,26 @@ def test_the_fixed_step_loops_in_c_are_watched_and_budgeted(method, ctrl_c):
     finally:
         timer.cancel()
     assert seen and 0 < max(seen) < 50.0
+
+
+@pytest.mark.parametrize("nodes", [("ground", "ground"), ("p", "p")])
+def test_a_central_force_joining_a_node_to_itself_is_refused_by_name(nodes):
+    """Its distance is 0 at every instant, so its potential −k/r is infinite everywhere: a ModelError naming the
+    component, not a KeyError from SymPy's printer when the run is compiled."""
+    model = lg.Model("self-joined", dim=2)
+    model.add("mass", "bob", "p", m=0.3)
+    model.add("central_force", "K", nodes, k=-0.5)
+    with pytest.raises(lg.ModelError, match=r"central_force 'K'.*same point.*Join two different nodes"):
+        model.simulate(0.04, method="rk4_c", step=1.6e-3, initial={"x_p": 0.1})
+
+
+def test_equations_holding_an_undefined_constant_are_refused_before_they_run():
+    """A division by zero SymPy writes as ``zoo`` in equations (whatever their source) is a ModelError before any
+    evaluation, not a KeyError from the printer or NaNs."""
+    import sympy as sp
+
+    from lagrangian.simulation import _lambdify
+
+    x = sp.Symbol("x")
+    with pytest.raises(lg.ModelError, match="undefined constant"):
+        _lambdify([x], sp.Matrix([x, sp.zoo * x]), {})

@@ -127,6 +127,10 @@ def _floated(exprs: Any) -> Any:
 
 
 def _lambdify(args, exprs, signals):
+    if any(hasattr(e, "has") and e.has(sp.zoo, sp.nan) for e in (exprs if isinstance(exprs, (list, tuple)) else [exprs])):
+        raise ModelError("the equations of motion hold an undefined constant (a division by zero that SymPy wrote as "
+                         "zoo or nan, whatever the state): a component's energy or force is infinite everywhere, "
+                         "such as one joining a node to itself. Check the components' nodes and parameters.")
     modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, _scipy()["special"], "numpy"]
     return sp.lambdify(args, _floated(exprs), modules=modules, cse=True)
 
