@@ -308,7 +308,7 @@ def _piecewise_integral(expr: sp.Piecewise, t: sp.Symbol):
         if cond is sp.true:
             bounds.append(None)
         elif isinstance(cond, (sp.LessThan, sp.StrictLessThan)) and cond.lhs == t and cond.rhs.is_number:
-            bounds.append(sp.Float(cond.rhs) if cond.rhs.is_Float else cond.rhs)
+            bounds.append(cond.rhs)
         else:
             return None
         F = _antiderivative(value, t)

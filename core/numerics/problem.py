@@ -149,7 +149,6 @@ PACE_MIN = 1 << 17
 MAX_EVALUATIONS = 1e9
 
 
-
 def inside(s: float, a: float, b: float) -> float:
     """``s`` moved inside ``[a, b]`` by 16 units in the last place at either end, as the loops in C do: an input that
     switches at ``a`` or ``b`` (a pulse's corner, where an adaptive run restarts) is read on this piece's side of
@@ -163,6 +162,7 @@ def inside(s: float, a: float, b: float) -> float:
     if not b - a > 4.0 * (ma + mb):
         return s
     return a + ma if s < a + ma else b - mb if s > b - mb else s
+
 
 class Problem:
     """What an integrator integrates: ``y' = rhs(t, y)`` on ``y = (q, q̇_inertial)``, with the model's structure.

@@ -187,11 +187,11 @@ class Program:
                   if i not in skip]
         return lines
 
-    def zero_outputs(self, inputs: Mapping[int, str] = {}) -> list[int]:
+    def zero_outputs(self, inputs: Mapping[int, str] | None = None) -> list[int]:
         """The positions of the outputs that are the constant +0.0 (not a constant ``inputs`` spells: a parameter
         read at run time)."""
         zero = {self.n_inputs + k for k, c in enumerate(self.constants.tolist())
-                if c == 0.0 and math.copysign(1.0, c) > 0 and self.n_inputs + k not in inputs}
+                if c == 0.0 and math.copysign(1.0, c) > 0 and self.n_inputs + k not in (inputs or {})}
         return [i for i, k in enumerate(self.outputs.tolist()) if k in zero]
 
 
