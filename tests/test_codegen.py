@@ -503,7 +503,7 @@ def test_zero_entries_of_the_matrix_are_cleared_once_not_stored_one_by_one():
         model.add("spring", f"k{i}", ("ground" if i == 0 else f"p{i - 1}", f"p{i}"), k=40.0 + 3 * i)
     numeric = model.numeric()
     source = generate_source(numeric)
-    body = source[source.index("int lg_matrix("):source.index("static void energy_terms(")]
+    body = source[source.index("static int matrix_terms("):source.index("int lg_matrix(")]
     stores = re.findall(r"^\s+A\[(\d+)\] = ", body, re.M)
     assert "memset(A, 0, sizeof(double) * NM * NM);" in body
     assert sorted(map(int, stores)) == [13 * i for i in range(12)]  # the diagonal, by the physics of point masses

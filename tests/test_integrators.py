@@ -801,6 +801,22 @@ def test_the_dop853_tables_in_c_are_scipys():
     assert np.array_equal(table("D8_E5"), DOP853.E5) and np.array_equal(table("D8_E3"), DOP853.E3)
     assert np.array_equal(table("D8_D").reshape(4, 16), DOP853.D)
 
+    # the stages as the loop computes them, written out with the nonzero coefficients: SciPy's rows, term by term
+    def terms(text):
+        return [(float(c), int(j)) for c, j in re.findall(r"(-?\d[\d.e+-]*) \* k(\d+)\[i\]", text)]
+
+    def nonzero(row):
+        return [(float(c), j) for j, c in enumerate(row) if c != 0.0]
+
+    rows = [*DOP853.A[1:], DOP853.B, *DOP853.A_EXTRA]
+    for s, row in enumerate(rows, start=1):
+        case = re.search(rf"case {s}: \{{.*?\n(.*?); return; \}}", source, re.S).group(1)
+        assert terms(case) == nonzero(row), s
+    errors = re.search(r"e5\[i\] = (.*?);\s+e3\[i\] = (.*?);", source, re.S)
+    assert terms(errors.group(1)) == nonzero(DOP853.E5) and terms(errors.group(2)) == nonzero(DOP853.E3)
+    for r in range(4):
+        assert terms(re.search(rf"F{3 + r}\[i\] = hs \* \((.*?)\);", source).group(1)) == nonzero(DOP853.D[r]), r
+
 
 @settings(max_examples=30)
 @given(st.sampled_from([1, 2, 3]), st.lists(st.floats(-1e3, 1e3), min_size=4, max_size=4), st.floats(1e-4, 10.0))

@@ -15,7 +15,7 @@ from .c_dop853 import dop853_source
 from .tape import OPS, Program, TapeError, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
-CODEGEN_VERSION = "5"
+CODEGEN_VERSION = "6"
 
 
 class _Unavailable(Exception):
@@ -147,13 +147,18 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         _SOLVE,
         "int lg_dims(int *out) { out[0] = NQ; out[1] = NI; out[2] = NM; out[3] = NF; out[4] = NP; return 0; }",
         "",
-        "/* The entries of A (row-major, NM x NM) and b of the solve A u = b, u = (accelerations, first-order rates, multipliers). */",
-        "int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
+        "/* The entries of A (row-major, NM x NM) and b of the solve A u = b, u = (accelerations, first-order rates, multipliers).",
+        "   Static, so that lg_rhs calls it directly (an exported function is called through the PLT) or inlines it. */",
+        "static int matrix_terms(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
         "    const double *P = ctx; (void)P;",
         *(["    memset(A, 0, sizeof(double) * NM * NM);", "    memset(b, 0, sizeof(double) * NM);"]
           if matrix.zero_outputs(inputs_m) else []),  # (a dense matrix, a double pendulum's, is written whole)
         *body_m,
         "    return 0;",
+        "}",
+        "",
+        "int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
+        "    return matrix_terms(ctx, t, q, vI, A, b);",
         "}",
         "",
         "/* T, V, D, L and the momenta p at (t, q, v), v: the rates of all coordinates. */",
@@ -194,7 +199,7 @@ static int lu_solve(int nm, double *A, double *b) {
         /* In closed form: one division where the elimination chains three (9 % of a double pendulum's run).  The
            verdict is elimination's: its pivots are p and det / p. */
         const double a = A[0], c = A[1], d = A[2], e = A[3];
-        const double p = fmax(fabs(a), fabs(d)), det = a * e - c * d;
+        const double p = fabs(a) > fabs(d) ? fabs(a) : fabs(d), det = a * e - c * d;  /* (fmax is a call) */
         if (!(p > tiny) || !(fabs(det) > tiny * p)) return det == det ? 1 : 2;
         const double inv = 1.0 / det, x = (e * b[0] - c * b[1]) * inv, y = (a * b[1] - d * b[0]) * inv;
         b[0] = x;
@@ -254,7 +259,7 @@ int lg_rhs(const void *ctx, double t, const double *y, double *dy) {
     SCRATCH(A, NM * NM + NM + 1);
     if (!A) return 2;
     double *b = A + NM * NM;
-    lg_matrix(ctx, t, y, y + NQ, A, b);
+    matrix_terms(ctx, t, y, y + NQ, A, b);
     int rc = lu_solve(NM, A, b);
     if (!rc) rc = state_rate(NQ, NI, NF, INERTIAL, FIRST, y, b, dy);
     RELEASE(A);
@@ -510,7 +515,7 @@ static int dp_step(rhs_fn f, const void *ctx, int dim, double t, double t1, doub
                 double acc = 0.0;
                 for (int j = 0; j < 7; j++) acc += DP_E[j] * K[j][i];
                 err[i] = *hstep * acc;
-                scale[i] = atol + fmax(fabs(y[i]), fabs(ynew[i])) * rtol;
+                scale[i] = atol + (fabs(y[i]) > fabs(ynew[i]) ? fabs(y[i]) : fabs(ynew[i])) * rtol;
             }
             norm = rms_scaled(dim, err, scale);
             if (!(norm == norm)) norm = INFINITY;
