@@ -315,8 +315,10 @@ def test_interrupting_keeps_what_finished():
     ds = sweep(model, {"k_k1": np.linspace(10, 40, 12)}, initial={"x_p": 0.01}, velocity={"x_p": 0}, t_end=0.5,
                points=11, chunk=2, progress=stop, client=SERIAL)
     assert ds.attrs["interrupted"] == 1
-    assert (ds.status.values[:4] == DONE).all() and (ds.status.values[4:] == NOT_RUN).all()
-    assert np.isfinite(ds.x_p.values[:4]).all() and np.isnan(ds.x_p.values[4:]).all()
+    done = ds.status.values == DONE
+    # two tasks of two samples ran; tasks are dealt samples in turn (of six tasks, the first holds 0 and 6)
+    assert np.flatnonzero(done).tolist() == [0, 1, 6, 7] and (ds.status.values[~done] == NOT_RUN).all()
+    assert np.isfinite(ds.x_p.values[done]).all() and np.isnan(ds.x_p.values[~done]).all()
 
 
 def test_command_line_sweep_writes_a_dataset_and_a_chart(tmp_path, capsys):
@@ -402,3 +404,25 @@ def test_a_shipped_library_that_does_not_load_here_is_built_from_its_source(tmp_
         codegen.set_cache_dir(None)
     assert (again.status == 0).all() and np.array_equal(again.data, reference.data)
     assert any(f.suffix == ".so" and f.stat().st_size > 1000 for f in tmp_path.iterdir())
+
+
+@settings(max_examples=60)
+@given(st.integers(1, 5000), st.integers(1, 64), st.integers(1, 3000))
+def test_tasks_deal_every_sample_once_in_turn_within_their_size(count, tasks, cap):
+    """Cutting a sweep into tasks: every sample in exactly one task, none larger than the cap, about the number of
+    tasks asked for when the cap allows, and samples dealt in turn (neighbours of a grid, which often cost alike,
+    go to different tasks)."""
+    from lagrangian.analysis.sweep import _blocks, _chunk_size
+
+    indices = np.arange(count) * 3 + 7  # the samples not refused: any increasing indices
+    size = _chunk_size(count, tasks, None, cap)
+    blocks = _blocks(indices, size)
+    assert sorted(np.concatenate(blocks).tolist()) == indices.tolist()
+    assert all(1 <= len(b) <= size <= cap for b in blocks)
+    assert len(blocks) == math.ceil(count / size)
+    if count >= tasks and math.ceil(count / tasks) <= cap:
+        assert len(blocks) <= tasks
+    if len(blocks) > 1:
+        assert blocks[1][0] == indices[1]
+    if len(blocks[0]) > 1:
+        assert blocks[0][1] == indices[len(blocks)]

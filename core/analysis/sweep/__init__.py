@@ -56,7 +56,7 @@ from ..frequency import frequency_response
 from .dataset import DONE, FAILED, NOT_RUN, dataset, describe, plot
 from .designs import Distribution, LogUniform, Normal, Samples, Uniform, design, parse_axis
 from .designs import design as make_design
-from .execute import SERIAL, execute, local_client, local_cluster, shutdown, workers
+from .execute import SERIAL, connected, execute, local_client, local_cluster, shutdown, workers
 from .plan import plan
 
 __all__ = ["sweep", "response", "Uniform", "LogUniform", "Normal", "Distribution", "design", "parse_axis", "plot", "describe",
@@ -64,16 +64,39 @@ __all__ = ["sweep", "response", "Uniform", "LogUniform", "Normal", "Distribution
            "SERIAL", "DONE", "FAILED", "NOT_RUN"]
 
 
+#: What a task of a simulation sweep holds at most (its runs' states, energies and kept outputs, in bytes): long
+#: time series run in tasks a worker's memory holds.
+_TASK_BYTES = 32e6
+
+
 def _blocks(indices: np.ndarray, size: int) -> list[np.ndarray]:
-    return [indices[k:k + size] for k in range(0, len(indices), size)]
+    """``indices`` in blocks of at most ``size``, interleaved: block k of B holds indices k, k + B, k + 2B, ...
+    Neighbouring samples of a grid often cost alike (a stiff corner of the plane); spread over every task, the
+    costly ones do not leave one worker running alone at the end."""
+    count = -(-len(indices) // size)
+    return [indices[k::count] for k in range(count)]
 
 
-def _chunk_size(count: int, n_workers: int, chunk: int | None, cap: int) -> int:
+def _chunk_size(count: int, tasks: int, chunk: int | None, cap: int) -> int:
+    """Samples per task: ``chunk`` when given, else enough for about ``tasks`` tasks, at most ``cap``."""
     if chunk is not None:
         if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
             raise ModelError(f"sweep: chunk= is a positive whole number of samples per task, got {chunk!r}.")
         return int(chunk)
-    return max(1, min(cap, math.ceil(count / (8 * max(n_workers, 1)))))
+    return max(1, min(cap, math.ceil(count / max(tasks, 1))))
+
+
+def _tasks(client: Any) -> int:
+    """How many tasks a simulation sweep is cut into on ``client``: four per worker (fewer, larger tasks cost the
+    cluster less: the double pendulum's 10,000 samples on two workers took 166 µs a sample in tasks of 1,250,
+    178 µs in tasks of 500 and 187 µs in tasks of 250; four per worker keep them balanced), or 32 here (each
+    block a step of the progress bar)."""
+    if client == SERIAL:
+        return 32
+    try:
+        return 4 * max(workers(client), 1)
+    except Exception:  # a client without a scheduler answer: as for one worker
+        return 4
 
 
 def _simulate_block(shared, indices: np.ndarray, P: np.ndarray, Y0: np.ndarray) -> tuple[np.ndarray, Chunk]:
@@ -135,8 +158,8 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
     ``client`` (a :class:`distributed.Client`, or ``"serial"``) or
     ``address`` (``"tcp://host:8786"``) chooses where it runs; by default a
     local cluster of one process per core.  ``chunk`` is the number of
-    samples per task (default: about eight tasks per worker, at most 500
-    samples each).  ``progress``: ``True`` for a progress bar on standard
+    samples per task (default: about four tasks per worker, each holding at
+    most 32 MB of results; samples are dealt to tasks in turn).  ``progress``: ``True`` for a progress bar on standard
     error (the default when it is a terminal), ``False`` for none, or a
     callable ``progress(done, total)``.  ``units`` names the units of swept
     names the model does not know (an analysis's own parameters), for the
@@ -157,10 +180,13 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
                     t_eval=t_eval, method=method, rtol=rtol, atol=atol, max_step=max_step,
                     max_evaluations=max_evaluations)
     run = np.array([k for k in range(count) if k not in the_plan.refused], dtype=np.int64)
-    size = _chunk_size(len(run), 1 if client == SERIAL or address else _guess_workers(client), chunk, 500)
-    blocks = [(idx, the_plan.P[idx], the_plan.Y0[idx]) for idx in _blocks(run, size)]
-    outcome = execute(_simulate_block, (the_plan.form, the_plan.spec), blocks, [len(b[0]) for b in blocks],
-                      client=client, address=address, progress=progress, label=f"sweep {model.name}")
+    spec = the_plan.spec
+    cap = max(1, int(_TASK_BYTES // (8 * spec.t_eval.size * (the_plan.form.dim + 4 + 2 * len(spec.keep)))))
+    with connected(client, address) as on:  # (the cluster's size decides the tasks')
+        size = _chunk_size(len(run), _tasks(on), chunk, cap)
+        blocks = [(idx, the_plan.P[idx], the_plan.Y0[idx]) for idx in _blocks(run, size)]
+        outcome = execute(_simulate_block, (the_plan.form, spec), blocks, [len(b[0]) for b in blocks], client=on,
+                          progress=progress, label=f"sweep {model.name}")
     N, keep = the_plan.spec.t_eval.size, len(the_plan.spec.keep)
     data = np.full((count, keep, N), np.nan)
     status = np.full(count, NOT_RUN, dtype=np.int8)
@@ -242,15 +268,6 @@ def _finished(blocks, outcome, status: np.ndarray, errors: list[str]):
                 errors[k] = outcome.failures[i]
         elif i in outcome.results:
             yield idx, outcome.results[i][1]
-
-
-def _guess_workers(client: Any) -> int:
-    if client is None:
-        return workers(local_client())
-    try:
-        return max(workers(client), 1)
-    except Exception:  # a client without a scheduler answer: one block per task size of a single worker
-        return 1
 
 
 def _attrs(model: Model, samples: Samples, outcome, notes: list[str], **extra: Any) -> dict[str, Any]:

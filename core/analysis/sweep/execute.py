@@ -25,6 +25,7 @@ the cluster cannot start, and the sweep stops with an error that says why.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import logging
 import math
 import os
@@ -39,7 +40,7 @@ from typing import Any
 
 from ...errors import ModelError
 
-__all__ = ["SERIAL", "Outcome", "execute", "local_client", "local_cluster", "shutdown", "workers"]
+__all__ = ["SERIAL", "Outcome", "connected", "execute", "local_client", "local_cluster", "shutdown", "workers"]
 
 #: ``client=SERIAL`` runs every block in this process, in order, without Dask.
 SERIAL = "serial"
@@ -179,6 +180,18 @@ def _connect(client: Any, address: str | None):
     if not hasattr(client, "submit") or not hasattr(client, "scatter"):
         raise ModelError(f"sweep: client= takes a distributed.Client (or 'serial'), not {type(client).__name__}.")
     return client, False
+
+
+@contextlib.contextmanager
+def connected(client: Any = None, address: str | None = None):
+    """The client a sweep runs on, as :func:`execute` chooses it from ``client`` and ``address`` (the local
+    cluster's, by default), connected for the ``with`` block; one this opened (``address=``) is closed after it."""
+    client, close = _connect(client, address)
+    try:
+        yield client
+    finally:
+        if close:
+            client.close()
 
 
 def execute(fn: Callable, shared: Any, blocks: Sequence[tuple], sizes: Sequence[int], *, client: Any = None,
