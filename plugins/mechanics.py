@@ -178,6 +178,8 @@ class Spring(Component):
     ``V = ½ k |r_b − r_a|²`` in any dimension.
     """
 
+    distinct_terminals = True
+
     kind = "spring"
     domain = "mechanical"
     parameters = {
@@ -207,6 +209,8 @@ class Spring(Component):
 
 class Damper(Component):
     """Linear viscous damper along the line between its nodes: D = ½ c (d/dt |r_b − r_a|)²."""
+
+    distinct_terminals = True
 
     kind = "damper"
     domain = "mechanical"
@@ -280,6 +284,8 @@ class CoulombFriction(Component):
     >>> m.equations
     [Eq(0.3*Derivative(x_p(t), (t, 2)), -0.6*tanh(1000.0*Derivative(x_p(t), t)))]
     """
+
+    distinct_terminals = True
 
     kind = "coulomb_friction"
     domain = "mechanical"
@@ -430,6 +436,8 @@ class CentralForce(Component):
     >>> m.potential_energy
     -4/sqrt(x_p(t)**2 + y_p(t)**2)
     """
+
+    distinct_terminals = True
 
     kind = "central_force"
     domain = "mechanical"

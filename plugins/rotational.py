@@ -110,6 +110,8 @@ class Inertia(_Rotational):
 class TorsionSpring(_Rotational):
     """Linear torsion spring (a shaft) between two nodes: V = ½ k (θ_b − θ_a − θ₀)²."""
 
+    distinct_terminals = True
+
     kind = "torsion_spring"
     parameters = {
         "k": Parameter("torsional stiffness", unit="N m/rad"),
@@ -127,6 +129,8 @@ class TorsionSpring(_Rotational):
 
 class RotaryDamper(_Rotational):
     """Linear viscous rotary damper (a drag cup, bearing friction) between two nodes: D = ½ c (θ̇_b − θ̇_a)²."""
+
+    distinct_terminals = True
 
     kind = "rotary_damper"
     parameters = {"c": Parameter("rotary damping coefficient", check="nonnegative", unit="N m s/rad")}

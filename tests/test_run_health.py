@@ -204,15 +204,24 @@ def test_the_fixed_step_loops_in_c_are_watched_and_budgeted(method, ctrl_c):
     assert seen and 0 < max(seen) < 50.0
 
 
-@pytest.mark.parametrize("nodes", [("ground", "ground"), ("p", "p")])
-def test_a_central_force_joining_a_node_to_itself_is_refused_by_name(nodes):
-    """Its distance is 0 at every instant, so its potential −k/r is infinite everywhere: a ModelError naming the
-    component, not a KeyError from SymPy's printer when the run is compiled."""
-    model = lg.Model("self-joined", dim=2)
-    model.add("mass", "bob", "p", m=0.3)
-    model.add("central_force", "K", nodes, k=-0.5)
-    with pytest.raises(lg.ModelError, match=r"central_force 'K'.*same point.*Join two different nodes"):
-        model.simulate(0.04, method="rk4_c", step=1.6e-3, initial={"x_p": 0.1})
+@pytest.mark.parametrize("kind, nodes, params, dim", [
+    ("central_force", ("ground", "ground"), {"k": -0.5}, 2),
+    ("central_force", ("p", "p"), {"k": -0.5}, 2),
+    ("spring", ("ground", "0"), {"k": 4.7}, 1),  # ground under two of its names
+    ("spring", ("p", "p"), {"k": 4.7, "rest_length": 0.2}, 2),
+    ("damper", ("p", "p"), {"c": 0.03}, 2),  # its rate would be 0/0
+    ("coulomb_friction", ("p", "p"), {"F_c": 0.2}, 1),
+    ("torsion_spring", ("p", "p"), {"k": 3.0}, 1),
+    ("revolute", ("L0", "L0"), {}, 2),
+])
+def test_an_element_joining_a_node_to_itself_is_refused_by_name(kind, nodes, params, dim):
+    """A spring, damper, central force, friction or joint between a node and itself acts on nothing (or is singular:
+    a central force's k/r, a damper's rate in the plane): refused when added, naming the component, the node and the
+    fix, not accepted silently nor a KeyError from SymPy's printer when the run is compiled."""
+    model = lg.Model("self-joined", dim=dim)
+    with pytest.raises(lg.ModelError, match=rf"{kind} 'K'.*all node '(ground|p|L0)'.*act on nothing.*Join different"):
+        model.add(kind, "K", nodes, **params)
+    assert "K" not in model.components
 
 
 def test_equations_holding_an_undefined_constant_are_refused_before_they_run():

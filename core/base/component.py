@@ -431,6 +431,9 @@ class Component:
     6. ``role``: ``None``, ``"across"`` (an ideal source fixing the across
        quantity of its branch: a prescribed motion, a voltage source) or
        ``"through"`` (fixing its through quantity: a current source).
+    7. ``distinct_terminals`` (optional): ``True`` for an element that acts
+       between different nodes (a spring, a joint); ``Model.add`` then
+       refuses it given one node twice.
 
     and implement ``contribute(ctx)`` and the classmethod ``example()``.
     Parameters are available as attributes (``self.k``).
@@ -448,6 +451,9 @@ class Component:
     #: True for a component that gives the model coordinates or geometry (a joint, a massless link)
     #: rather than energy: its contribution may be empty.
     structural: ClassVar[bool] = False
+    #: True for a component that acts between different nodes (a spring, a damper, a joint): :meth:`Model.add`
+    #: refuses one given the same node twice (ground under any of its names included), which would act on nothing.
+    distinct_terminals: ClassVar[bool] = False
     #: The schematic symbol of a two-terminal circuit element: the name of a ``schemdraw.elements`` class
     #: (``"Resistor"``, ``"Capacitor"``, ``"Inductor2"``, ``"SourceV"``, ...), for ``Model.schematic``;
     #: ``None``: drawn as a box with the component's kind.

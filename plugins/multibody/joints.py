@@ -15,6 +15,7 @@ from .rotations import E3, _angle_descriptions, _angle_names, _check_sequence, _
 
 
 class _Joint(Component):
+    distinct_terminals = True
     domain = "mechanical"
     terminals = ("parent", "child")
     multibody = True

@@ -38,6 +38,8 @@ class BodyTorque(Component):
 class RotationalSpring(Component):
     """Planar torsional spring between two bodies: V = ½ k (φ_b − φ_a − θ₀)² (at a joint: its angle)."""
 
+    distinct_terminals = True
+
     kind = "rotational_spring"
     domain = "mechanical"
     terminals = ("a", "b")
@@ -59,6 +61,8 @@ class RotationalSpring(Component):
 
 class RotationalDamper(Component):
     """Planar torsional damper between two bodies: D = ½ c (φ̇_b − φ̇_a)²."""
+
+    distinct_terminals = True
 
     kind = "rotational_damper"
     domain = "mechanical"
