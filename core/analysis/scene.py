@@ -605,5 +605,7 @@ class Scene:
                     eq.display(rate), result)
             args.append(s)
             data.append(col)
+        if len(args) == 1 and expr == args[0]:  # a coordinate or rate as computed (lambdify's NumPy namespace: 0.1 s)
+            return np.broadcast_to(np.asarray(data[0], dtype=float), res.t.shape).copy()
         fn = _lambdify([t, args], expr, self.model.assembly.signals)
         return np.broadcast_to(np.asarray(fn(res.t, data), dtype=float), res.t.shape).copy()

@@ -95,19 +95,25 @@ def _checked_state(name: str, call: StateCall) -> Callable:
 _SCIPY: dict[str, Any] = {}
 
 
-def _scipy() -> dict[str, Any]:
-    """SciPy's functions this module calls, imported on first use: ``erf`` and ``erfc`` (what an expression may call,
-    :data:`lagrangian.text.FUNCTIONS`, that NumPy lacks; they take arrays, where lambdify would otherwise find the
-    scalar ``math.erf``), and LAPACK's LU factorization and solve (:meth:`NumericModel.solve`).  Imported here rather
-    than with the module: ``scipy.linalg`` and ``scipy.special`` are 0.2 s of CPU that a process running compiled
-    code never needs."""
-    if not _SCIPY:
-        import scipy.linalg
-        import scipy.special
+def _scipy(part: str) -> Any:
+    """What this module calls from SciPy, imported on first use: ``"special"``, the functions an expression may call
+    (:data:`lagrangian.text.FUNCTIONS`) that NumPy lacks, ``erf`` and ``erfc`` (they take arrays, where lambdify
+    would otherwise find the scalar ``math.erf``); ``"lapack"``, LAPACK's LU factorization and solve
+    (:meth:`NumericModel.solve`).  Each is imported when first needed rather than with the module: ``scipy.linalg``
+    and ``scipy.special`` are 0.2 s of CPU that a process running compiled code, or evaluating outputs without
+    ``erf``, never needs."""
+    if part not in _SCIPY:
+        if part == "special":
+            import scipy.special
 
-        _SCIPY.update(special={"erf": scipy.special.erf, "erfc": scipy.special.erfc},
-                      getrf=scipy.linalg.lapack.dgetrf, getrs=scipy.linalg.lapack.dgetrs)
-    return _SCIPY
+            _SCIPY[part] = {"erf": scipy.special.erf, "erfc": scipy.special.erfc}
+        else:
+            import scipy.linalg
+
+            _SCIPY[part] = {"getrf": scipy.linalg.lapack.dgetrf, "getrs": scipy.linalg.lapack.dgetrs}
+    return _SCIPY[part]
+
+
 _EPS = np.finfo(float).eps
 #: Integers beyond this are not exact in a float; beyond 2**63 NumPy holds them as Python objects, which its
 #: functions refuse (``np.tan(10**30)`` is a TypeError).
@@ -127,11 +133,13 @@ def _floated(exprs: Any) -> Any:
 
 
 def _lambdify(args, exprs, signals):
-    if any(hasattr(e, "has") and e.has(sp.zoo, sp.nan) for e in (exprs if isinstance(exprs, (list, tuple)) else [exprs])):
+    every = [e for e in (exprs if isinstance(exprs, (list, tuple)) else [exprs]) if hasattr(e, "has")]
+    if any(e.has(sp.zoo, sp.nan) for e in every):
         raise ModelError("the equations of motion hold an undefined constant (a division by zero that SymPy wrote as "
                          "zoo or nan, whatever the state): a component's energy or force is infinite everywhere, "
                          "such as one joining a node to itself. Check the components' nodes and parameters.")
-    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, _scipy()["special"], "numpy"]
+    special = [_scipy("special")] if any(e.has(sp.erf, sp.erfc) for e in every) else []
+    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, *special, "numpy"]
     return sp.lambdify(args, _floated(exprs), modules=modules, cse=True)
 
 
@@ -254,7 +262,7 @@ class NumericModel:
         if A.size and np.all(np.isfinite(A)):
             # LU with partial pivoting, and compiled code's rule for a singular matrix: a pivot at most
             # size·eps·max|A| (a mass of 1e-141 next to one of 1 is none, whatever the rounding leaves)
-            lapack = _SCIPY or _scipy()
+            lapack = _scipy("lapack")
             lu, piv, _ = lapack["getrf"](A)
             if not np.min(np.abs(np.diagonal(lu))) > A.shape[0] * _EPS * np.max(np.abs(A)):
                 raise SingularMassMatrixError(self._singular_message(time, A, qv))
