@@ -311,6 +311,21 @@ def test_netlist_times_that_are_numbers_are_written():
     assert ".tran 0.001 2 0 0.0001 uic" in netlist(rc(), t_end=np.float64(2.0), step=1e-3).text
 
 
+@pytest.mark.parametrize("value, why", [(sp.sqrt(-2), "not a real number"), (sp.I * 1e-12, "not a real number"),
+                                        (sp.Float("1e400"), "finite"), (sp.exp(1000.0), "finite")])
+def test_netlist_values_that_are_complex_or_beyond_a_float_are_a_model_error_naming_them(value, why):
+    """A SPICE option or element value that evaluates to a complex number or beyond a float is refused by name, not a
+    TypeError from SymPy's float() nor 'nan'/'inf' written into the deck."""
+    with pytest.raises(lg.ModelError, match=rf"SPICE option reltol: .*{why}"):
+        netlist(rc(), t_end=1e-3, options={"reltol": value})
+    model = lg.Model("rc")
+    model.add("voltage_source", "V1", ("n1", "0"), E=sp.sin(lg.t))
+    model.add("resistor", "R1", ("n1", "n2"), R=sp.Symbol("R"))
+    model.add("capacitor", "C1", ("n2", "0"), C=4.7e-6)
+    with pytest.raises(lg.ModelError, match="parameter 'R'"):  # an element's value: refused as a parameter's
+        netlist(model, t_end=1e-3, params={"R": value})
+
+
 # -- the exact solution's budget ----------------------------------------------------------------------
 
 NESTED = "sin(" * 10 + "t" + ")" * 10

@@ -7,12 +7,13 @@ marker must never appear.  Ordinary text still reads as the expression it
 writes.
 """
 
+import math
 import warnings
 
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import lagrangian as lg
@@ -113,6 +114,30 @@ def test_ordinary_text_reads_as_written():
 def test_what_an_expression_may_not_hold_is_named(text, why):
     with pytest.raises(lg.ExpressionError, match=why):
         parse_expression(text, "a force")
+
+
+@settings(max_examples=60)
+@given(st.integers(-10**6, 10**6).filter(lambda p: p not in (-1, 0, 1)), st.integers(1, 10**6),
+       st.integers(65, 10**40), st.sampled_from([1, -1]))
+@example(-7, 7, 10**31 + 1, 1)  # -1 to an odd power: -1, where the float of the exponent is even
+def test_a_power_of_numbers_with_a_large_exponent_is_the_float_it_fits_not_computed_exactly(p, q, e, sign):
+    """``(p/q)**(±e)`` with |e| beyond 64: the float ``math.pow`` gives (0.0 where it underflows), or refused where it
+    overflows; never SymPy's exact rational, whose numerator or denominator would have some e digits (3**-(10**31):
+    a hang)."""
+    if abs(p) == q:  # ±1: exactly, by the exponent's parity
+        assert parse_expression(f"({p}/{q})**({sign}*{e})", "a force") == (-1 if p < 0 and e % 2 else 1)
+        return
+    text = f"({p}/{q})**({sign}*{e})"
+    try:
+        expected = math.pow(p / q, sign * e)
+    except (OverflowError, ValueError):
+        expected = math.inf
+    if not math.isfinite(expected):
+        with pytest.raises(lg.ExpressionError, match="not a finite number"):
+            parse_expression(text, "a force")
+        return
+    value = parse_expression(text, "a force")
+    assert value.is_Float and float(value) == pytest.approx(expected, rel=1e-12, abs=0.0)
 
 
 ALPHABET = st.sampled_from(list("()[]{}.,:;'\"\\`$|&!?_=+-*/%<>^~@# \n\t0123456789abcxyzEIO") +

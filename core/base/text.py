@@ -176,4 +176,8 @@ class _Reader:
                     value = math.inf
                 if not math.isfinite(value):
                     raise ExpressionError(f"{self.what}: the power {base}**{exponent} is not a finite number.")
+                if base.is_Rational and abs(base) != 1 and exponent.is_Rational and (abs(exponent.p) > 64 or exponent.q > 64):
+                    # exactly, its numerator or denominator would have some |exponent| digits (3**-(10**31) underflows
+                    # to 0.0, and SymPy would compute 3**(10**31) first): the float it fits
+                    return sp.Float(value)
         return base**exponent

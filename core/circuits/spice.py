@@ -340,11 +340,18 @@ def _element_name(prefix: str, component: str, used: set[str]) -> str:
     return out
 
 
-def _number(value: Any, subs: Mapping, component: str) -> str:
-    value = as_expr(value, f"component {component!r}: its SPICE value").xreplace(subs)
+def _number(value: Any, subs: Mapping, what: str) -> str:
+    """``value`` (its parameters' values in) as a SPICE number; ``what`` names whose value it is in messages."""
+    value = as_expr(value, f"{what}: its SPICE value").xreplace(subs)
     if not value.is_number:
-        raise ModelError(f"component {component!r}: its SPICE value {value} is not a number; give parameter values (params=...).")
-    return _fmt(value)
+        raise ModelError(f"{what}: its SPICE value {value} is not a number; give parameter values (params=...).")
+    try:
+        x = float(value)  # a complex number (sqrt(-2), I) raises: it has no float
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{what}: its SPICE value {value} is not a real number; SPICE takes real values.") from None
+    if not math.isfinite(x):
+        raise ModelError(f"{what}: its SPICE value {value} is not finite ({x}); SPICE takes finite values.")
+    return _fmt(x)
 
 
 def netlist(
@@ -427,7 +434,7 @@ def netlist(
             if isinstance(el.value, Behaviour):
                 text = _behaviour(el.value, subs, nodes, tags, comp)
             elif isinstance(el.value, (sp.Basic, int, float)):
-                text = _number(el.value, subs, comp.name)
+                text = _number(el.value, subs, f"component {comp.name!r}")
             else:
                 text = el.value
             if (tags or el.refs) and not isinstance(el.value, Behaviour):
@@ -450,7 +457,7 @@ def netlist(
         bad = [k for k in options if not re.fullmatch(r"[a-z][a-z0-9_]*", str(k))]
         if bad:
             raise ModelError(f"SPICE option names are lower-case words; got {', '.join(map(repr, bad))}.")
-        lines.append(".options " + " ".join(f"{k}={_number(v, subs, 'options')}" for k, v in options.items()))
+        lines.append(".options " + " ".join(f"{k}={_number(v, subs, f'SPICE option {k}')}" for k, v in options.items()))
     step = step or t_end / 1000
     max_step = max_step or step / 10
     lines.append(f".tran {_fmt(step)} {_fmt(t_end)} 0 {_fmt(max_step)} uic")
