@@ -155,7 +155,7 @@ class Torque(_Rotational):
     kind = "torque"
     terminals = ("node",)
     role = "through"
-    parameters = {"tau": Parameter("torque", check="real", shape="signal", unit="N m", state=True)}
+    parameters = {"tau": Parameter("torque", check="real", shape="signal", unit="N m", state=True, vector=False)}
 
     def contribute(self, ctx) -> Contribution:
         if isinstance(self.tau, sp.MatrixBase):
@@ -177,7 +177,7 @@ class PrescribedRotation(_Rotational):
     kind = "prescribed_rotation"
     terminals = ("node",)
     role = "across"
-    parameters = {"angle": Parameter("angle as a function of t", check="real", shape="signal", unit="rad")}
+    parameters = {"angle": Parameter("angle as a function of t", check="real", shape="signal", unit="rad", vector=False)}
 
     def prescribed_angle(self) -> sp.Expr:
         if not isinstance(self.angle, sp.Expr) or self.signals():

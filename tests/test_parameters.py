@@ -100,3 +100,18 @@ def test_geometry_given_as_numbers_is_symbols_in_the_derivation():
     got = num.simulate(0.5, params={"com_top_2": 0.25}, rtol=1e-11, atol=1e-12, **start)
     want = models.heavy_top(0.3, 0.25, 0.3, 0.5, 9.81).simulate(0.5, rtol=1e-11, atol=1e-12, **start)
     np.testing.assert_allclose(got["theta_nutation"], want["theta_nutation"], atol=1e-10)
+
+
+@pytest.mark.parametrize("kind, nodes, name, value", [
+    ("revolute", ("ground", "b"), "angle", []),
+    ("revolute", ("ground", "b"), "angle", [0.3 * lg.t, 0.2]),
+    ("prismatic", ("ground", "b"), "displacement", (0.01, 0.02)),
+    ("prescribed_rotation", "a", "angle", [lg.t]),
+    ("torque", "a", "tau", [0.7]),
+])
+def test_a_scalar_signal_given_a_sequence_is_refused_by_name(kind, nodes, name, value):
+    """A driven joint's angle or displacement, a rotational node's angle or torque: one signal, not a list (an empty
+    list reached the kinematics as a matrix: a TypeError adding it to an angle)."""
+    model = lg.Model("driven", dim=2)
+    with pytest.raises(lg.ParameterError, match=rf"component 'j', parameter '{name}': is one signal .*not a sequence"):
+        model.add(kind, "j", nodes, **{name: value})

@@ -157,11 +157,15 @@ class _Reader:
                 self.refuse(f"{func}() takes plain arguments only")
             args = [self.read(a, depth + 1) for a in node.args]
             try:
-                return FUNCTIONS[func](*args)
+                value = FUNCTIONS[func](*args)
             except (TypeError, ValueError) as exc:
                 raise ExpressionError(f"{self.what}: {func}() cannot take these arguments ({exc}).") from None
-            except (OverflowError, ZeroDivisionError):  # SymPy evaluates a number's function now: erfc(1e308)
+            except (OverflowError, ZeroDivisionError, RecursionError):  # SymPy evaluates a number's function now:
+                # erfc(1e308) overflows, cot(-cosh(1e308)) recurses in mpmath's argument reduction
                 raise ExpressionError(f"{self.what}: {func}({', '.join(map(str, args))}) is not a finite number.") from None
+            if isinstance(value, sp.Float) and not math.isfinite(float(value)):  # cosh(1e308): beyond a float
+                raise ExpressionError(f"{self.what}: {func}({', '.join(map(str, args))}) is beyond a float's range.")
+            return value
         self.refuse(f"{_short(ast.unparse(node))} is not allowed")
 
     def power(self, base: sp.Expr, exponent: sp.Expr) -> sp.Expr:

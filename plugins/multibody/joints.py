@@ -78,7 +78,8 @@ class Revolute(_Joint):
     parameters = _joint_params({
         "axis": Parameter("rotation axis in the parent frame (spatial)", default=None, shape="vector", symbolic=False),
         "absolute": Parameter("planar: the angle is the child's absolute angle", default=False, shape="flag"),
-        "angle": Parameter("prescribed angle (an expression of t): a driven joint", default=None, check="real", shape="signal"),
+        "angle": Parameter("prescribed angle (an expression of t): a driven joint", default=None, check="real", shape="signal",
+                           vector=False),
     })
 
     def coordinate_names(self, dim):
@@ -114,7 +115,8 @@ class Prismatic(_Joint):
     kind = "prismatic"
     parameters = _joint_params({
         "axis": Parameter("sliding direction in the parent frame", default=None, shape="vector", symbolic=False),
-        "displacement": Parameter("prescribed displacement (expression of t)", default=None, check="real", shape="signal"),
+        "displacement": Parameter("prescribed displacement (expression of t)", default=None, check="real", shape="signal",
+                                  vector=False),
     })
 
     def coordinate_names(self, dim):

@@ -85,7 +85,7 @@ class Rolling(Component):
         "axis": Parameter("a disc's axis in the body's frame (space only)", default=(0, 0, 1), shape="vector",
                           symbolic=False),
         "turntable": Parameter("the ground's angular velocity about the vertical through the origin (space only; "
-                               "a signal of t)", default=0, check="real", shape="signal", unit="rad/s"),
+                               "a signal of t)", default=0, check="real", shape="signal", unit="rad/s", vector=False),
         "F_c": Parameter("sliding friction force μ N at the contact (None: it rolls without slipping)", default=None,
                          check="nonnegative", unit="N"),
         "v_s": Parameter("slip speed below which the friction fades (regularization)", default=1e-4, unit="m/s"),
