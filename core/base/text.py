@@ -109,6 +109,18 @@ def as_expr(value: Any, what: str, *, names: Mapping[str, sp.Basic] | None = Non
     return expr
 
 
+def _beyond_float(value: sp.Expr) -> bool:
+    """Whether ``value`` is a number whose size is beyond a float's (each function of a text is checked as it is
+    read, so the arguments of the one checked are within a float's range and its value takes little to evaluate)."""
+    if not (isinstance(value, sp.Expr) and value.is_number) or value.has(sp.zoo, sp.oo, -sp.oo, sp.nan):
+        return False  # log(0) is zoo: not finite, as where it is used says
+    try:
+        re_, im_ = (float(part) for part in value.evalf(17).as_real_imag())
+    except (TypeError, ValueError, OverflowError):
+        return False  # not a plain number (zoo, nan): the checks of where it is used name it
+    return not (math.isfinite(re_) and math.isfinite(im_))
+
+
 def _short(text: str, width: int = 60) -> str:
     return repr(text if len(text) <= width else text[: width - 3] + "...")
 
@@ -163,7 +175,7 @@ class _Reader:
             except (OverflowError, ZeroDivisionError, RecursionError):  # SymPy evaluates a number's function now:
                 # erfc(1e308) overflows, cot(-cosh(1e308)) recurses in mpmath's argument reduction
                 raise ExpressionError(f"{self.what}: {func}({', '.join(map(str, args))}) is not a finite number.") from None
-            if isinstance(value, sp.Float) and not math.isfinite(float(value)):  # cosh(1e308): beyond a float
+            if _beyond_float(value):  # cosh(1e308), exp(10**30): a function of it would reduce 10**(4e29) digits
                 raise ExpressionError(f"{self.what}: {func}({', '.join(map(str, args))}) is beyond a float's range.")
             return value
         self.refuse(f"{_short(ast.unparse(node))} is not allowed")
