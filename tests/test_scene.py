@@ -14,6 +14,8 @@ import sys
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import lagrangian as lg
 from lagrangian.scene import Scene
@@ -504,3 +506,62 @@ def test_branch_outputs_say_what_they_are_and_spice_names_give_voltages(tmp_path
     path.write_text(text)
     assert main(["scene", str(path), "-o", "[C1]"]) == 0
     assert "[C1] — charge through C1 [C] (its voltage: v(C1)): at t = 0.001" in capsys.readouterr().out
+
+
+def deck(masses, stiffnesses, damping=0.02):
+    """Assemblies of two masses hanging from a deck shaken in the plane, each mass in its own assembly (the
+    shaker scene of benchmarks/scenes.py, with values drawn by the caller), and gravity."""
+    m = lg.Model("deck", dim=2)
+    m.add("prescribed_motion", "table", "deck", position=sp.Matrix([sp.sin(4 * lg.t) / 20, 0]))
+    for k, (pair, (k_hang, k_link)) in enumerate(zip(masses, stiffnesses)):
+        m.add("mass", f"upper{k}", f"u{k}", m=pair[0])
+        m.add("mass", f"lower{k}", f"w{k}", m=pair[1])
+        m.add("spring", f"hang{k}", ("deck", f"u{k}"), k=k_hang, rest_length=0.5)
+        m.add("spring", f"link{k}", (f"u{k}", f"w{k}"), k=k_link, rest_length=0.4)
+        m.add("damper", f"drag{k}", ("deck", f"u{k}"), c=damping)
+    m.add("gravity", "g", g=9.81)
+    return m
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.05, 5.0), st.floats(0.05, 5.0)), min_size=3, max_size=3),
+       st.lists(st.tuples(st.floats(20.0, 2000.0), st.floats(20.0, 2000.0)), min_size=3, max_size=3),
+       st.integers(0, 2))
+def test_a_model_of_point_masses_is_pruned_by_its_graph_and_answers_as_the_whole_model(masses, stiffnesses, which):
+    """The assemblies a scene's outputs cannot reach (through components; the shaken deck passes nothing on) are
+    dropped before anything is derived, with the reason; the outputs equal the whole model's, simulated tightly;
+    initial values of dropped coordinates and values of dropped parameters are accepted and reported unused."""
+    model = deck(masses, stiffnesses)
+    start = {"initial": {}, "velocity": {}}
+    for k in range(3):
+        start["initial"].update({f"x_u{k}": 0.1, f"y_u{k}": -0.5, f"x_w{k}": 0.15, f"y_w{k}": -0.9})
+        start["velocity"].update({f"x_u{k}": 0.0, f"y_u{k}": 0.0, f"x_w{k}": 0.0, f"y_w{k}": 0.0})
+    other = (which + 1) % 3
+    scene = Scene(model, [f"x_w{which}", f"y_w{which}'"], 1.5, tol=1e-11, points=301,
+                  params={f"k_hang{other}": 50.0}, **start)
+    assert scene.pruned is not None and scene.full_model is model
+    assert set(scene.model.components) == {f"{kind}{which}" for kind in ("upper", "lower", "hang", "link", "drag")} | {
+        "table", "g"}
+    plan = scene.plan
+    assert "outputs' nodes do not reach" in plan.dropped[f"hang{other}"]
+    assert plan.after["coordinates"] == 4
+    assert plan.unused[f"x_u{other}"] == "coordinates the outputs do not depend on"
+    assert plan.unused[f"k_hang{other}"] == "parameters only of dropped components"
+    res = scene.run()
+    ref = full_run(model, 1.5, {**start, "points": 301})
+    assert np.max(np.abs(res[f"x_w{which}"] - ref[f"x_w{which}"])) < 1e-8
+    assert np.max(np.abs(res[f"y_w{which}'"] - ref.v[f"y_w{which}"])) < 1e-7
+    assert plan.before["coordinates"] == 12  # the whole model's, derived only when read
+
+
+def test_graph_pruning_gives_way_where_the_graph_cannot_tell():
+    """A load that reads another node's coordinate, an energy as output, or a name the model lacks: no pruning by
+    the graph (the planner works from the equations), and an unknown coordinate is refused with the whole model's."""
+    model = deck([(0.3, 0.2)] * 2, [(400.0, 300.0)] * 2)
+    assert Scene(model, ["x_w0"], 1.0).pruned is not None
+    assert Scene(model, ["x_w0", "E"], 1.0).pruned is None
+    coupled = deck([(0.3, 0.2)] * 2, [(400.0, 300.0)] * 2)
+    coupled.add("force", "pull", "w0", F=sp.Matrix([-2.0 * lg.coordinate("x_w1"), 0]))
+    assert Scene(coupled, ["x_w0"], 1.0).pruned is None
+    with pytest.raises(lg.UnknownNameError, match="x_w9.*x_u0"):
+        Scene(model, ["x_w0"], 1.0, initial={"x_w9": 0.1})

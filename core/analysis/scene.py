@@ -10,7 +10,12 @@ exact, none an approximation:
    acceleration appear there, or a loop constraint ties them); the rest —
    disconnected parts, parts cut off by a prescribed motion, parts only
    driven by the kept ones — is dropped.  Kept coordinates that do not
-   influence each other form separate *parts*, simulated separately.
+   influence each other form separate *parts*, simulated separately.  A
+   model of point masses whose outputs are coordinates is pruned by its
+   component graph first, before anything is derived
+   (:mod:`~lagrangian.analysis.scene_graph`): ``scene.model`` is then the
+   part the outputs reach, ``scene.full_model`` the one given, and the
+   report's sizes of the whole model are derived only when read.
 2. **reduction**: in each part, ignorable coordinates (see
    :mod:`lagrangian.routh`) are eliminated through the Routhian and never
    integrated, their momenta taken from the initial state; those whose
@@ -39,8 +44,8 @@ cut — it is *offered* in the report with its estimated effect, never applied.
 >>> scene = Scene(m, ["x_p1"], t_end=2, **start)
 >>> [part.coordinates for part in scene.plan.parts]
 [['x_p1']]
->>> scene.plan.dropped["m2"]
-'acts only on x_p2, which the outputs do not depend on'
+>>> scene.plan.dropped["m2"]  # found in the graph: the shaker's node passes nothing from p2's spring to p1's
+"joins only nodes the outputs' nodes do not reach (ground and nodes whose motion is prescribed pass nothing on)"
 >>> scene.plan.unused  # the full state was given: what the minimal model did not need
 {'x_p2': 'coordinates the outputs do not depend on', "x_p2'": 'coordinates the outputs do not depend on'}
 >>> res = scene.run()
@@ -68,7 +73,8 @@ from ..model import Model
 from .channels import _BRANCH, _output_expr
 from .routh import _depends, _drop, ignorable, reduce
 from .scene_cost import reduction_skipped
-from .scene_plan import Offer, Part, ScenePlan, SceneResult, _closure, _maybe_linear, _ops, _Output, _with_values
+from .scene_graph import prune
+from .scene_plan import Offer, Part, ScenePlan, SceneResult, Sizes, _closure, _maybe_linear, _ops, _Output, _with_values
 from ..numerics.simulation import InitialConditionWarning, Result, _lambdify
 
 __all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
@@ -125,6 +131,11 @@ class Scene:
             raise ModelError("a scene needs at least one output (a coordinate name, 'E', 'T[m1]', an expression...).")
         if not (isinstance(tol, (int, float)) and 0 < tol < 1):
             raise ModelError(f"tol must be a number between 0 and 1, got {tol!r}.")
+        # a model of point masses is pruned by its graph first: what the outputs cannot reach is never derived
+        self.pruned = prune(model, outputs, events)
+        self.full_model = model
+        if self.pruned is not None:
+            model = self.pruned.model
         model._holonomic_only("a scene")
         self.model = model
         self.requested = list(outputs)
@@ -144,15 +155,18 @@ class Scene:
         if self.events and t_eval is not None:
             raise ModelError("a scene with events gives its outputs on evenly spaced times: use points=, not t_eval=.")
         eq = model.eq
+        every = self.pruned.coordinates if self.pruned is not None else eq.names
         for given in (self.initial, self.velocity):
             for name in given:
-                if name not in eq.names:
-                    raise UnknownNameError("coordinate", name, eq.names)
+                if name not in eq.names and name not in every:
+                    raise UnknownNameError("coordinate", name, every)
         for name in self.velocity:
-            if eq.names.index(name) in eq.first_order:
+            if name in eq.names and eq.names.index(name) in eq.first_order:
                 raise ModelError(f"coordinate {name!r} is first-order (it has no inertia): its velocity follows from "
                                  f"the equations and cannot be given as an initial condition.")
         known = {s.name for s in model.parameters} | set(model.parameter_values)
+        if self.pruned is not None:
+            known |= self.pruned.parameters
         for name in self.params:
             if name not in known:
                 raise UnknownNameError("parameter", name, known)
@@ -272,6 +286,8 @@ class Scene:
         if not needed:  # outputs that depend on no coordinate (a function of time only)
             groups = []
         kept, dropped, held = self._components(needed)
+        if self.pruned is not None:
+            dropped = {**self.pruned.dropped, **dropped}
         for contact, touched in events.items():
             if not touched & needed:
                 dropped[f"event {contact.name}"] = "acts only on coordinates the outputs do not depend on"
@@ -279,7 +295,9 @@ class Scene:
         self.plan_dropped = dropped
         self._check_overrides(kept, dropped, held)
         parts = [self._part(sorted(g)) for g in groups]
-        before = {"coordinates": n, "equations": eq.A.shape[0], "operations": _ops(eq)}
+        whole = self.full_model
+        before = Sizes(lambda: {"coordinates": len(whole.eq.names), "equations": whole.eq.A.shape[0],
+                                "operations": _ops(whole.eq)})
         after = {
             "coordinates": sum(len(p.integrated) for p in parts),
             "equations": sum(p.model.eq.A.shape[0] if p.integrated else 0 for p in parts),

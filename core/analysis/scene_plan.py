@@ -12,6 +12,7 @@ measures the planner uses are here too: what coordinates are reachable
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -58,6 +59,31 @@ class Offer:
     note: str
 
 
+class Sizes(Mapping):
+    """A model's sizes (``coordinates``, ``equations``, ``operations``), computed when first read: those of a whole
+    model the scene pruned by its graph need its derivation, which the scene itself never needs."""
+
+    def __init__(self, compute: Callable[[], dict[str, int]]):
+        self._compute, self._sizes = compute, None
+
+    def _get(self) -> dict[str, int]:
+        if self._sizes is None:
+            self._sizes = self._compute()
+        return self._sizes
+
+    def __getitem__(self, key: str) -> int:
+        return self._get()[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._get())
+
+    def __len__(self) -> int:
+        return len(self._get())
+
+    def __repr__(self) -> str:
+        return repr(self._get())
+
+
 @dataclass
 class ScenePlan:
     """What the scene keeps, drops, eliminates, and how it solves each part."""
@@ -68,7 +94,7 @@ class ScenePlan:
     kept: list[str]
     dropped: dict[str, str]
     held: dict[str, str]
-    before: dict[str, int]
+    before: Mapping[str, int]  # the whole model's (a :class:`Sizes`: computed when read)
     after: dict[str, int]
     offers: list[Offer] = field(default_factory=list)
     unused: dict[str, str] = field(default_factory=dict)  # given initial values (``x``), velocities (``x'``), params: why not needed
