@@ -106,6 +106,7 @@ def test_ordinary_text_reads_as_written():
     ("sec(exp(10**30)) - 0.5", r"exp\(10+\) is beyond a float's range"),  # sec of it: mpmath reduces 4e29 digits
     ("exp(710)", r"exp\(710\) is beyond a float's range"),
     ("(" * 300 + "1" + ")" * 300, "nest|cannot read"),
+    ("x" + "%s" * 2000, "nested too deeply to show.* is not allowed"),  # ast.parse reads it; ast.unparse recursed
     ("1" * (MAX_LENGTH + 1), "longer than"),
     ("x if x else 1", "not allowed"),
     ("sin", "is a function"),

@@ -121,6 +121,15 @@ def _beyond_float(value: sp.Expr) -> bool:
     return not (math.isfinite(re_) and math.isfinite(im_))
 
 
+def _unparsed(node: ast.AST) -> str:
+    """``node`` written back as text for a message; a tree nested too deeply for :func:`ast.unparse` (a chain of a
+    thousand ``%``, which ``ast.parse`` reads) is named by its kind."""
+    try:
+        return ast.unparse(node)
+    except RecursionError:
+        return "(an operation nested too deeply to show)"
+
+
 def _short(text: str, width: int = 60) -> str:
     return repr(text if len(text) <= width else text[: width - 3] + "...")
 
@@ -163,7 +172,7 @@ class _Reader:
         if isinstance(node, ast.Call):
             func = node.func.id if isinstance(node.func, ast.Name) else None
             if func is None or func not in FUNCTIONS:
-                shown = func or ast.unparse(node.func)
+                shown = func or _unparsed(node.func)
                 self.refuse(f"{shown!r} is not a function an expression may call (known: {_known()})")
             if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
                 self.refuse(f"{func}() takes plain arguments only")
@@ -178,7 +187,7 @@ class _Reader:
             if _beyond_float(value):  # cosh(1e308), exp(10**30): a function of it would reduce 10**(4e29) digits
                 raise ExpressionError(f"{self.what}: {func}({', '.join(map(str, args))}) is beyond a float's range.")
             return value
-        self.refuse(f"{_short(ast.unparse(node))} is not allowed")
+        self.refuse(f"{_short(_unparsed(node))} is not allowed")
 
     def power(self, base: sp.Expr, exponent: sp.Expr) -> sp.Expr:
         """``base**exponent``; numbers only when the value fits a float (``9**9**9`` is refused, not computed)."""
