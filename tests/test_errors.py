@@ -278,6 +278,16 @@ def current_source_cut_set(formulation):
     m.coordinates  # noqa: B018
 
 
+def current_source_on_a_point_of_a_body(formulation):
+    """A current source between ground and a body's point: in the whole graph the point hangs on the body, so no
+    cut-set shows; in its own domain the source is alone."""
+    m = lg.Model("cart", dim=2, formulation=formulation)
+    m.add("body", "cart", "C", m=2.0, inertia=0.5)
+    m.add("prismatic", "PX", ("ground", "C"))
+    m.add("current_source", "Q", ("0", "C.origin"), I=sp.sin(lg.t))
+    m.coordinates  # noqa: B018
+
+
 def two_prescribed_motions_on_one_node():
     m = lg.Model()
     m.add("prescribed_motion", "P1", "s", position=lg.t)
@@ -546,6 +556,10 @@ CASES = [
      [r"through-sources I1, I2 form a cut-set", r"isolating nodes n1, n2", r"Add a path"]),
     ("current-source-cut-set-flux", lambda: current_source_cut_set("flux"), lg.TopologyError,
      [r"through-sources I1, I2 form a cut-set", r"isolating nodes n1, n2", r"Add a path"]),
+    ("current-source-on-a-body-point-charge", lambda: current_source_on_a_point_of_a_body("charge"), lg.TopologyError,
+     [r"component 'Q' closes no loop", r"'ground' and 'C.origin'", r"not a point of a body"]),
+    ("current-source-on-a-body-point-flux", lambda: current_source_on_a_point_of_a_body("flux"), lg.TopologyError,
+     [r"nodes 'C.origin' reach ground in their domain only through 'Q'", r"not a point of a body"]),
     ("prescribed-motion-loop", two_prescribed_motions_on_one_node, lg.TopologyError,
      [r"across-sources P1, P2 form a loop"]),
     ("callable-voltage-source-flux", callable_voltage_source_flux, lg.ModelError,

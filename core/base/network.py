@@ -123,7 +123,14 @@ def fundamental_loops(graph: nx.MultiGraph, tree: set[str]) -> dict[str, list[tu
             continue
         a, b = d["a"], d["b"]
         loop = [(k, 1)]
-        path = nx.shortest_path(tg, b, a)
+        try:
+            path = nx.shortest_path(tg, b, a)
+        except nx.NetworkXNoPath:  # nothing else of this domain joins its nodes (a body's point is another's)
+            raise TopologyError(
+                f"component {k!r} closes no loop: nothing else of its domain joins its nodes {a!r} and {b!r}, so "
+                f"what flows through it (a current source's current) has no path back. Join them by another element "
+                f"of its domain, or attach it to nodes of its domain (not a point of a body)."
+            ) from None
         for p, q in zip(path, path[1:]):
             e = tg.edges[p, q]
             loop.append((e["key"], 1 if (e["a"], e["b"]) == (p, q) else -1))
@@ -143,4 +150,12 @@ def tree_potentials(graph: nx.MultiGraph, tree: set[str], ground: str) -> dict[s
         # φ_child = φ_parent - drop if child is b (a=parent), + drop if child is a
         sign = -1 if e["b"] == child else 1
         result[child] = result[parent] + [(e["key"], sign)]
+    cut = sorted(set(graph.nodes) - set(result), key=str)
+    if cut:  # joined to ground only through elements kept out of the tree (sources of their through quantity)
+        names = sorted({k for u, v, k, _ in _edges(graph) if u in cut or v in cut})
+        raise TopologyError(
+            f"nodes {', '.join(map(repr, cut))} reach ground in their domain only through {', '.join(map(repr, names))}, "
+            f"which fix what flows (current sources): nothing sets their potential. Join them to ground by another "
+            f"element of their domain, or attach the sources to nodes of their domain (not a point of a body)."
+        )
     return result
