@@ -565,3 +565,22 @@ def test_graph_pruning_gives_way_where_the_graph_cannot_tell():
     assert Scene(coupled, ["x_w0"], 1.0).pruned is None
     with pytest.raises(lg.UnknownNameError, match="x_w9.*x_u0"):
         Scene(model, ["x_w0"], 1.0, initial={"x_w9": 0.1})
+
+
+def test_rotors_on_a_driven_shaft_are_pruned_by_the_graph_too():
+    """A motor (a prescribed rotation) drives two rotors through shafts; asked about one, the scene drops the other
+    branch before deriving anything, and answers as the whole model does."""
+    m = lg.Model("drivetrain")
+    m.add("prescribed_rotation", "motor", "m", angle=3.0 * lg.t + 0.2 * sp.sin(7 * lg.t))
+    m.add("torsion_spring", "shaft1", ("m", "a"), k=47.0)
+    m.add("inertia", "Ja", "a", J=7e-3)
+    m.add("rotary_damper", "bearing", ("ground", "a"), c=2e-3)
+    m.add("torsion_spring", "shaft2", ("m", "b"), k=120.0)
+    m.add("inertia", "Jb", "b", J=0.03)
+    m.add("torque", "load", "b", tau=-0.4)
+    start = {"initial": {"theta_a": 0.0, "theta_b": 0.1}, "velocity": {"theta_a": 0.0, "theta_b": 0.0}}
+    scene = Scene(m, ["theta_a'"], 2.0, tol=1e-11, points=201, **start)
+    assert scene.pruned is not None and set(scene.model.components) == {"motor", "shaft1", "Ja", "bearing"}
+    assert "outputs' nodes do not reach" in scene.plan.dropped["Jb"] and "theta_b" in scene.plan.unused
+    ref = full_run(m, 2.0, {**start, "points": 201})
+    assert np.max(np.abs(scene.run()["theta_a'"] - ref.v["theta_a"])) < 1e-8

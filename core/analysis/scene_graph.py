@@ -3,10 +3,12 @@
 A scene needs only the components its outputs can depend on.  For a model
 of point masses — ``mass``, ``spring``, ``damper``, ``force``,
 ``central_force``, smooth ``coulomb_friction``, ``prescribed_motion`` and
-``gravity`` — which ones those are follows from the graph alone: a
-component acts on the nodes it joins, and neither ground nor a node whose
-motion is prescribed passes anything from the components on one side to
-those on the other.  Pruning there spares the scene the symbolic work of
+``gravity`` — and of rotors on a common axis — ``inertia``,
+``torsion_spring``, ``rotary_damper``, ``torque``, ``prescribed_rotation``
+— which ones those are follows from the graph alone: a component acts on
+the nodes it joins, and neither ground nor a node whose motion is
+prescribed passes anything from the components on one side to those on the
+other.  Pruning there spares the scene the symbolic work of
 everything it drops: the shaker of ``benchmarks/scenes.py`` (ten
 assemblies hanging from a shaken deck, 40 coordinates) is assembled and
 derived as the 4 coordinates of the one assembly asked about, where
@@ -30,7 +32,6 @@ coordinates and their rates (an energy, a branch quantity, an expression).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -43,8 +44,10 @@ from ..model import Model
 
 __all__ = ["Pruned", "prune"]
 
-#: Components that act on the nodes they join and on nothing else (their positions' coordinates).
+#: Components that act on the nodes they join and on nothing else (their positions' or angles' coordinates).
 POINT_KINDS = frozenset({"mass", "spring", "damper", "force", "central_force", "coulomb_friction", "prescribed_motion"})
+ROTOR_KINDS = frozenset({"inertia", "torsion_spring", "rotary_damper", "torque", "prescribed_rotation"})
+_PRESCRIBED = frozenset({"prescribed_motion", "prescribed_rotation"})
 #: Components without nodes that act on every mass where it is (kept with whatever masses are kept).
 FIELD_KINDS = frozenset({"gravity"})
 _AXES = "xyz"
@@ -70,9 +73,11 @@ def prune(model: Model, outputs: Sequence[Any], events: Sequence[Any]) -> Pruned
     if events or not components or not _local(components):
         return None
     dim = int(model.options.get("dim", 1))
-    held = {c.nodes[0] for c in components if c.kind == "prescribed_motion"}
+    held = {c.nodes[0] for c in components if c.kind in _PRESCRIBED}
     nodes = [n for n in model.nodes if n != GROUND and n not in held]
-    seeds = _nodes_of(outputs, set(nodes), dim)
+    rotor = {n for c in components if c.kind in ROTOR_KINDS for n in c.nodes}
+    names = {n: ([f"theta_{n}"] if n in rotor else [f"{_AXES[i]}_{n}" for i in range(dim)]) for n in nodes}
+    seeds = _nodes_of(outputs, names)
     if seeds is None:
         return None
     at: dict[str, list] = {}
@@ -90,7 +95,7 @@ def prune(model: Model, outputs: Sequence[Any], events: Sequence[Any]) -> Pruned
                     reached.add(n)
                     if n not in held:  # a prescribed node passes nothing on; its prescription is kept below
                         frontier.append(n)
-    kept |= {c.name for c in components if c.kind in FIELD_KINDS or (c.kind == "prescribed_motion" and c.nodes[0] in reached)}
+    kept |= {c.name for c in components if c.kind in FIELD_KINDS or (c.kind in _PRESCRIBED and c.nodes[0] in reached)}
     if len(kept) == len(components):
         return None
     sub = Model(model.name, registry=model.registry, **model.options)
@@ -98,7 +103,7 @@ def prune(model: Model, outputs: Sequence[Any], events: Sequence[Any]) -> Pruned
         if c.name in kept:
             sub._graph.add(c)  # the component itself: its parameters' symbols and values stay the model's
     sub._changed()
-    coordinates = [f"{_AXES[i]}_{n}" for n in nodes for i in range(dim)]
+    coordinates = [name for n in nodes for name in names[n]]
     # the names Model.parameter_values gives (its components' symbols for numbers), without assembling the model
     parameters = {s.name for c in components for s in c.values} | {
         s.name for c in components for v in c.params.values() if isinstance(v, sp.Basic) for s in v.free_symbols if s != t}
@@ -109,7 +114,7 @@ def _local(components: list) -> bool:
     """Whether every component is a point-mass kind that acts only on its own nodes: no callable of the state, no
     coordinate in its parameters, no friction that sticks."""
     for c in components:
-        if c.kind not in POINT_KINDS | FIELD_KINDS or c.state_callables():
+        if c.kind not in POINT_KINDS | ROTOR_KINDS | FIELD_KINDS or c.state_callables():
             return False
         if c.kind == "coulomb_friction" and (c.params.get("stick_slip") or c.params.get("phase", "smooth") != "smooth"):
             return False
@@ -119,13 +124,16 @@ def _local(components: list) -> bool:
     return True
 
 
-def _nodes_of(outputs: Sequence[Any], nodes: set[str], dim: int) -> set[str] | None:
-    """The nodes whose coordinates ``outputs`` name (``x_p``, ``y_p'``), or ``None`` for any other output."""
-    pattern = re.compile(rf"([{_AXES[:dim]}])_(.+?)'?")
+def _nodes_of(outputs: Sequence[Any], names: dict[str, list[str]]) -> set[str] | None:
+    """The nodes whose coordinates ``outputs`` name (``x_p``, ``y_p'``, ``theta_s``), or ``None`` for any other
+    output.  ``names``: each node's coordinates."""
+    owner = {name: n for n, own in names.items() for name in own}
     seeds = set()
     for output in outputs:
-        match = pattern.fullmatch(output.strip()) if isinstance(output, str) else None
-        if match is None or match.group(2) not in nodes:
+        label = output.strip() if isinstance(output, str) else None
+        if label is not None and label.endswith("'"):
+            label = label[:-1]
+        if label not in owner:
             return None
-        seeds.add(match.group(2))
+        seeds.add(owner[label])
     return seeds
