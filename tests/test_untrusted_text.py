@@ -105,6 +105,7 @@ def test_ordinary_text_reads_as_written():
     ("cot(-cosh(1e308) + 7)", r"cosh\(1\.0+e\+308\) is beyond a float's range"),  # mpmath: 10**(4e307), then recursion
     ("sec(exp(10**30)) - 0.5", r"exp\(10+\) is beyond a float's range"),  # sec of it: mpmath reduces 4e29 digits
     ("exp(710)", r"exp\(710\) is beyond a float's range"),
+    ("cot(max())", r"max\(\) takes one argument or more"),  # Max() is -oo, and cot(-oo) an interval
     ("(" * 300 + "1" + ")" * 300, "nest|cannot read"),
     ("x" + "%s" * 2000, "nested too deeply to show.* is not allowed"),  # ast.parse reads it; ast.unparse recursed
     ("1" * (MAX_LENGTH + 1), "longer than"),

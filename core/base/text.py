@@ -177,6 +177,8 @@ class _Reader:
             if node.keywords or any(isinstance(a, ast.Starred) for a in node.args):
                 self.refuse(f"{func}() takes plain arguments only")
             args = [self.read(a, depth + 1) for a in node.args]
+            if not args and func in ("max", "min", "Max", "Min"):  # SymPy's Max() is -oo (and cot(-oo) an interval)
+                raise ExpressionError(f"{self.what}: {func}() takes one argument or more.")
             try:
                 value = FUNCTIONS[func](*args)
             except (TypeError, ValueError) as exc:
