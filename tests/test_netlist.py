@@ -679,6 +679,8 @@ def test_unsupported_input_is_refused_naming_the_line_and_what_is_supported(line
         ("R2 b 0", "expected a resistance"),
         ("R2 b", "expected 'R2 <node\\+> <node->"),
         ("R2 b 0 1x2", "expected a number for the resistance, got '1x2'"),
+        ("R2 b 0 1e999", "got '1e999', which is beyond a float's range"),
+        ("V2 b 0 PULSE(1 -2 -1e999ohm 0.05 0.1 0.2 0.5)", "got '-1e999ohm', which is beyond a float's range"),
         ("C2 b 0 1u ic", "unsupported capacitance parameters 'ic'"),
         ("L2 b 0 1m ic=x", "expected a number for ic"),
         ("V2 b 0 SIN(0 1", r"SIN\( is not closed"),

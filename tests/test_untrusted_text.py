@@ -145,6 +145,13 @@ def test_a_power_of_numbers_with_a_large_exponent_is_the_float_it_fits_not_compu
     assert value.is_Float and float(value) == pytest.approx(expected, rel=1e-12, abs=0.0)
 
 
+def test_a_function_of_a_large_number_that_evalf_cannot_settle_is_read_not_refused():
+    """floor(1e308/pi) is within a float's range, though evalf cannot give it to 17 digits (PrecisionExhausted): the
+    reader keeps it rather than raising SymPy's error."""
+    value = parse_expression("floor((1e308 / --pi))", "a force")
+    assert value.func == sp.floor and math.isclose(float(value.args[0]), 1e308 / math.pi, rel_tol=1e-15)
+
+
 def test_a_symbols_power_beyond_64_under_functions_is_accepted_undecided_not_queried_for_ever():
     """Whether cosh(sec(x**(10**30))) is real is a question SymPy's assumptions take minutes or more on (seconds at
     x**100): the parameter's rule leaves such an expression undecided, as it does any it cannot settle."""

@@ -116,8 +116,8 @@ def _beyond_float(value: sp.Expr) -> bool:
         return False  # log(0) is zoo: not finite, as where it is used says
     try:
         re_, im_ = (float(part) for part in value.evalf(17).as_real_imag())
-    except (TypeError, ValueError, OverflowError):
-        return False  # not a plain number (zoo, nan): the checks of where it is used name it
+    except (TypeError, ValueError, ArithmeticError):  # OverflowError; PrecisionExhausted: floor(1e308/pi)
+        return False  # not a plain number, or one evalf cannot settle in 17 digits: where it is used judges it
     return not (math.isfinite(re_) and math.isfinite(im_))
 
 

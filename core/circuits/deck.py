@@ -12,6 +12,7 @@ with their scale suffixes.  Whatever is not supported is refused here with a
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
@@ -77,9 +78,12 @@ def parse_number(text: str) -> float:
     letters = letters.lower()
     scale = next((factor for suffix, factor in _SCALES if letters.startswith(suffix)), "1")
     try:
-        return float(Decimal(mantissa) * Decimal(scale))
+        value = float(Decimal(mantissa) * Decimal(scale))
     except InvalidOperation:  # pragma: no cover - the pattern admits only decimals
         raise ValueError(f"{text!r} is not a SPICE number") from None
+    if not math.isfinite(value):  # 1e999: Decimal holds it, a float does not
+        raise ValueError(f"{text!r} is beyond a float's range")
+    return value
 
 
 @dataclass(frozen=True)
@@ -222,8 +226,10 @@ def _parse(text: str) -> _Parsed:
 def _number(token: str, where: str, what: str) -> float:
     try:
         return parse_number(token)
-    except ValueError:
-        raise ModelError(f"{where}: expected a number for {what}, got {token!r}.") from None
+    except ValueError as exc:
+        beyond = "beyond a float's range" in str(exc)
+        raise ModelError(f"{where}: expected a number for {what}, got {token!r}"
+                         + (", which is beyond a float's range." if beyond else ".")) from None
 
 
 def _node(token: str, where: str) -> str:
