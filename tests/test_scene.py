@@ -582,5 +582,6 @@ def test_rotors_on_a_driven_shaft_are_pruned_by_the_graph_too():
     scene = Scene(m, ["theta_a'"], 2.0, tol=1e-11, points=201, **start)
     assert scene.pruned is not None and set(scene.model.components) == {"motor", "shaft1", "Ja", "bearing"}
     assert "outputs' nodes do not reach" in scene.plan.dropped["Jb"] and "theta_b" in scene.plan.unused
+    assert "dropped 'shaft2', 'Jb', 'load': joins only nodes" in scene.report()  # one line for one reason
     ref = full_run(m, 2.0, {**start, "points": 201})
     assert np.max(np.abs(scene.run()["theta_a'"] - ref.v["theta_a"])) < 1e-8

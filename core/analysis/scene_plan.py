@@ -112,8 +112,11 @@ class ScenePlan:
                 lines.append(f"    eliminated through the Routhian: {', '.join(part.eliminated)}"
                              + (f"; reconstructed by quadrature: {', '.join(part.reconstructed)}" if part.reconstructed else ""))
         lines.append(f"  kept components: {', '.join(self.kept) if self.kept else '(none)'}")
+        dropped: dict[str, list[str]] = {}  # one line per reason: a graph's pruning drops dozens alike
         for name, why in self.dropped.items():
-            lines.append(f"  dropped {name!r}: {why}")
+            dropped.setdefault(why, []).append(name)
+        for why, names in dropped.items():
+            lines.append(f"  dropped {', '.join(map(repr, names))}: {why}")
         for name, why in self.held.items():
             lines.append(f"  held {name!r}: {why}")
         reasons: dict[str, list[str]] = {}
