@@ -11,8 +11,9 @@ exact, none an approximation:
    disconnected parts, parts cut off by a prescribed motion, parts only
    driven by the kept ones — is dropped.  Kept coordinates that do not
    influence each other form separate *parts*, simulated separately.  A
-   model of point masses whose outputs are coordinates is pruned by its
-   component graph first, before anything is derived
+   model of point masses or of rotors on one axis whose outputs are
+   coordinates is pruned by its component graph first, before anything is
+   derived
    (:mod:`~lagrangian.analysis.scene_graph`): ``scene.model`` is then the
    part the outputs reach, ``scene.full_model`` the one given, and the
    report's sizes of the whole model are derived only when read.
@@ -131,7 +132,7 @@ class Scene:
             raise ModelError("a scene needs at least one output (a coordinate name, 'E', 'T[m1]', an expression...).")
         if not (isinstance(tol, (int, float)) and 0 < tol < 1):
             raise ModelError(f"tol must be a number between 0 and 1, got {tol!r}.")
-        # a model of point masses is pruned by its graph first: what the outputs cannot reach is never derived
+        # a model of point masses or rotors is pruned by its graph first: what the outputs cannot reach is never derived
         self.pruned = prune(model, outputs, events)
         self.full_model = model
         if self.pruned is not None:
