@@ -63,6 +63,10 @@ _SCALES = (("meg", "1e6"), ("mil", "25.4e-6"), ("t", "1e12"), ("g", "1e9"), ("k"
 _TOKEN = re.compile(r"[^\s(),=]+|[()=]")
 
 
+class _BeyondFloat(ValueError):
+    """A SPICE number that a float cannot hold."""
+
+
 def parse_number(text: str) -> float:
     """A SPICE number: a decimal with an optional scale suffix, then ignored unit letters.
 
@@ -82,7 +86,7 @@ def parse_number(text: str) -> float:
     except InvalidOperation:  # pragma: no cover - the pattern admits only decimals
         raise ValueError(f"{text!r} is not a SPICE number") from None
     if not math.isfinite(value):  # 1e999: Decimal holds it, a float does not
-        raise ValueError(f"{text!r} is beyond a float's range")
+        raise _BeyondFloat(f"{text!r} is beyond a float's range")
     return value
 
 
@@ -226,10 +230,10 @@ def _parse(text: str) -> _Parsed:
 def _number(token: str, where: str, what: str) -> float:
     try:
         return parse_number(token)
-    except ValueError as exc:
-        beyond = "beyond a float's range" in str(exc)
-        raise ModelError(f"{where}: expected a number for {what}, got {token!r}"
-                         + (", which is beyond a float's range." if beyond else ".")) from None
+    except _BeyondFloat:
+        raise ModelError(f"{where}: expected a number for {what}, got {token!r}, which is beyond a float's range.") from None
+    except ValueError:
+        raise ModelError(f"{where}: expected a number for {what}, got {token!r}.") from None
 
 
 def _node(token: str, where: str) -> str:

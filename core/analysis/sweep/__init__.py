@@ -159,7 +159,8 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
     ``address`` (``"tcp://host:8786"``) chooses where it runs; by default a
     local cluster of one process per core.  ``chunk`` is the number of
     samples per task (default: about four tasks per worker, each holding at
-    most 32 MB of results; samples are dealt to tasks in turn).  ``progress``: ``True`` for a progress bar on standard
+    most 32 MB of results; samples are dealt to tasks in turn).
+    ``progress``: ``True`` for a progress bar on standard
     error (the default when it is a terminal), ``False`` for none, or a
     callable ``progress(done, total)``.  ``units`` names the units of swept
     names the model does not know (an analysis's own parameters), for the
