@@ -18,7 +18,8 @@ import importlib.util as _importlib_util
 import sys as _sys
 
 from .base.component import GROUND, Component, Contribution, Example, Load, MovingFrame, Parameter, dot, t
-from .base.domain import Context, Coordinate, Domain, DomainView, Network, Option, coordinate, rate
+from .base.domain import Context, Coordinate, Domain, DomainView, Incidence, Network, Option, coordinate, rate
+from .base.linear import Linear, LinearContext, Quantity
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
 from .plugin.hookspecs import hookimpl
@@ -89,6 +90,10 @@ __all__ = [
     "Network",
     "Option",
     "Context",
+    "Incidence",
+    "Linear",
+    "LinearContext",
+    "Quantity",
     "Coordinate",
     "coordinate",
     "rate",

@@ -37,6 +37,7 @@ import functools
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import sympy as sp
 
 from lagrangian import (
@@ -47,11 +48,15 @@ from lagrangian import (
     Domain,
     DomainView,
     Example,
+    Incidence,
+    Linear,
+    LinearContext,
     Load,
     ModelError,
     Network,
     Option,
     Parameter,
+    Quantity,
     hookimpl,
     t,
 )
@@ -141,8 +146,9 @@ class ElectricalDomain(Domain):
         )
     }
 
-    def build(self, network: Network, options: dict[str, Any]) -> ElectricalView:
-        formulation = options["formulation"]
+    @staticmethod
+    def _tree(network: Network) -> tuple[dict[str, Component], set[str]]:
+        """The components by edge key, and the normal tree: voltage sources, capacitors, resistors, inductors."""
         by_key = {k: d["component"] for _, _, k, d in network.graph.edges(keys=True, data=True)}
 
         def priority(key: str) -> float:
@@ -153,7 +159,58 @@ class ElectricalDomain(Domain):
                 return float("inf")
             return getattr(comp, "tree_priority", 2)
 
-        tree = normal_tree(network.graph, GROUND, priority)
+        return by_key, normal_tree(network.graph, GROUND, priority)
+
+    def incidence(self, network: Network, options: dict[str, Any]) -> Incidence:
+        """The coordinates of :meth:`build` and each branch's charge (flux linkage) over them, in numbers."""
+        by_key, tree = self._tree(network)
+        names: list[str] = []
+        branch: dict[str, dict[int, float]] = {key: {} for key in by_key}
+        prescribed: set[str] = set()
+        if options["formulation"] == "charge":
+            for chord, loop in fundamental_loops(network.graph, tree).items():
+                if by_key[chord].role == "through":
+                    prescribed.update(key for key, _ in loop)
+                    continue
+                names.append(f"q_{chord}")
+                for key, sign in loop:
+                    row = branch[key]
+                    row[len(names) - 1] = row.get(len(names) - 1, 0.0) + sign
+            return Incidence(names, branch, prescribed)
+        drops: dict[str, dict[int, float] | None] = {}
+        for u, v, key, data in network.graph.edges(keys=True, data=True):
+            if key not in tree:
+                continue
+            if by_key[key].role == "across":
+                drops[key] = None
+                continue
+            node = v if u == GROUND else u
+            names.append(f"lambda_{node}" if GROUND in (u, v) else f"lambda_{key}")
+            drops[key] = {len(names) - 1: -1.0 if GROUND in (u, v) and data["a"] != node else 1.0}
+        node_flux: dict[str, dict[int, float] | None] = {}
+        for node, path in tree_potentials(network.graph, tree, GROUND).items():
+            total: dict[int, float] | None = {}
+            for key, sign in path:
+                if drops[key] is None:
+                    total = None
+                    break
+                for i, c in drops[key].items():
+                    total[i] = total.get(i, 0.0) + sign * c
+            node_flux[node] = total
+        for _, _, key, data in network.graph.edges(keys=True, data=True):
+            a, b = node_flux[data["a"]], node_flux[data["b"]]
+            if a is None or b is None:
+                prescribed.add(key)
+                continue
+            row = dict(a)
+            for i, c in b.items():
+                row[i] = row.get(i, 0.0) - c
+            branch[key] = row
+        return Incidence(names, branch, prescribed)
+
+    def build(self, network: Network, options: dict[str, Any]) -> ElectricalView:
+        formulation = options["formulation"]
+        by_key, tree = self._tree(network)
         view = ElectricalView(formulation=formulation)
         if formulation == "charge":
             chords: dict[str, sp.Expr] = {}
@@ -217,6 +274,25 @@ class _Element(Component):
                          f"of the coordinates in the {ctx.view.formulation} formulation; use formulation={other!r}.")
 
 
+def _rate(order: int = 1, c: float = 1.0) -> Quantity:
+    """A quantity ``c · dᵒx/dtᵒ`` of the element's own branch quantity ``x``."""
+    return Quantity(((0, order, c),))
+
+
+def _coupled(component: Component, ctx) -> tuple[Any, ...] | None:
+    """For an inductor: ``()`` when no coupling names it, ``(other inductor, row of the pair's inductance matrix,
+    its own index)`` when one coupling does and gives its matrix in numbers, ``None`` otherwise."""
+    couplings = [c for c in ctx.naming(component.name) if hasattr(c, "current_correction")]
+    if not couplings:
+        return ()
+    got = couplings[0].numeric_inductance(ctx) if len(couplings) == 1 else None
+    if got is None:
+        return None
+    names, inductance = got
+    k = names.index(component.name)
+    return names[1 - k], inductance, k
+
+
 def _source(component: Component, letter: str, value: Any, ctx) -> SpiceElement:
     if isinstance(value, (sp.Basic, sp.MatrixBase)):
         value = value.xreplace(ctx.values)  # symbols of the waveform (an amplitude E, a frequency) as given values
@@ -239,6 +315,24 @@ class Inductor(_Element):
             return Contribution(T=self.L * ctx.view.current(self) ** 2 / 2)
         return Contribution(V=ctx.view.flux(self) ** 2 / (2 * self.L))
 
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        L = ctx.number(self, "L")
+        if L is None:
+            return None
+        coupled = _coupled(self, ctx)
+        charge = ctx.options["formulation"] == "charge"
+        own = Linear(T={(0, 0): L}, quantities={"i": _rate()}) if charge else Linear(V={(0, 0): 1 / L}, quantities={"v": _rate()})
+        if coupled is None:  # its law holds couplings not given in numbers: no "v" (charge), "i" (flux) here
+            return own
+        if not coupled:
+            own.quantities["v" if charge else "i"] = _rate(2, L) if charge else _rate(0, 1 / L)
+            return own
+        other, inductance, k = coupled  # v = L di/dt + M di₂/dt; i = (Γ λ)_k
+        row = inductance[k] if charge else np.linalg.inv(inductance)[k]
+        law = Quantity(((0, 2 if charge else 0, float(row[k])), (1, 2 if charge else 0, float(row[1 - k]))))
+        return Linear(branches=((self.name, 0), (other, 0)), T=own.T, V=own.V,
+                      quantities={**own.quantities, ("v" if charge else "i"): law})
+
     def spice(self, ctx) -> list[SpiceElement]:
         return [SpiceElement("L", self.nodes, self.L, state=("i", self._current(ctx)))]
 
@@ -253,10 +347,13 @@ class Inductor(_Element):
     def law(self, ctx, name: str) -> sp.Expr:
         if name == "i":
             return self._current(ctx)
-        coupled = [c.name for c in ctx.components if hasattr(c, "current_correction") and self.name in c.params.values()]
-        if coupled:
-            return super().law(ctx, name)
-        return self.L * time_derivative(ctx.view.current(self), t)
+        # v = L di/dt + Σ M di_other/dt over the couplings that name it (its own in the charge formulation: here)
+        total = self.L * time_derivative(ctx.view.current(self), t)
+        for c in ctx.components:
+            if hasattr(c, "current_correction") and self.name in c.params.values():
+                other = next(x for x in c.inductors(ctx) if x.name != self.name)
+                total += c.mutual(ctx) * time_derivative(ctx.view.current(other), t)
+        return total
 
     @classmethod
     def example(cls) -> Example:
@@ -275,6 +372,14 @@ class Capacitor(_Element):
         if ctx.view.formulation == "charge":
             return Contribution(V=ctx.view.charge(self) ** 2 / (2 * self.C))
         return Contribution(T=self.C * ctx.view.voltage(self) ** 2 / 2)
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        C = ctx.number(self, "C")
+        if C is None:
+            return None
+        if ctx.options["formulation"] == "charge":
+            return Linear(V={(0, 0): 1 / C}, quantities={"i": _rate(), "v": _rate(0, 1 / C)})
+        return Linear(T={(0, 0): C}, quantities={"v": _rate(), "i": _rate(2, C)})
 
     def spice(self, ctx) -> list[SpiceElement]:
         v = ctx.view.charge(self) / self.C if ctx.view.formulation == "charge" else ctx.view.voltage(self)
@@ -302,6 +407,14 @@ class Resistor(_Element):
         if ctx.view.formulation == "charge":
             return Contribution(D=self.R * ctx.view.current(self) ** 2 / 2)
         return Contribution(D=ctx.view.voltage(self) ** 2 / (2 * self.R))
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        R = ctx.number(self, "R")
+        if R is None:
+            return None
+        if ctx.options["formulation"] == "charge":
+            return Linear(D={(0, 0): R}, quantities={"i": _rate(), "v": _rate(1, R)})
+        return Linear(D={(0, 0): 1 / R}, quantities={"v": _rate(), "i": _rate(1, 1 / R)})
 
     def spice(self, ctx) -> list[SpiceElement]:
         return [SpiceElement("R", self.nodes, self.R)]
@@ -331,6 +444,11 @@ class VoltageSource(_Element):
             # power delivered to the rest of the circuit: −E · i_ab
             return Contribution(loads=[Load(-self.E, ctx.view.current(self))])
         return Contribution()
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        if ctx.options["formulation"] != "charge":
+            return None  # it fixes a branch's flux: the incidence says so
+        return Linear(force={0: -1.0}, quantities={"v": Quantity(signal=1.0), "i": _rate()})
 
     def spice(self, ctx) -> list[SpiceElement]:
         return [_source(self, "V", self.E, ctx)]
@@ -368,6 +486,11 @@ class CurrentSource(_Element):
             # power delivered to the rest of the circuit: −v_ab · I
             return Contribution(loads=[Load(-self.I, ctx.view.voltage(self))])
         return Contribution()
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        if ctx.options["formulation"] != "flux":
+            return None  # it fixes a loop's charge: the incidence says so
+        return Linear(force={0: -1.0}, quantities={"i": Quantity(signal=1.0), "v": _rate()})
 
     def spice(self, ctx) -> list[SpiceElement]:
         return [_source(self, "I", self.I, ctx)]
@@ -414,6 +537,12 @@ class Gyrator(_Element):
         if ctx.view.formulation != "charge":
             raise ModelError(f"gyrator {self.name!r} is defined in the charge formulation only: use formulation='charge'.")
         return Contribution(G=self.r * ctx.view.charge(self, 1) * ctx.view.current(self, 0))
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        r = ctx.number(self, "r")
+        if r is None or ctx.options["formulation"] != "charge":
+            return None
+        return Linear(G={(1, 0): r}, quantities={"i": _rate()})
 
     def spice(self, ctx) -> list[SpiceElement]:
         if not self.r.is_number:

@@ -42,7 +42,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from lagrangian import Component, Context, Contribution, Example, ModelError, Parameter, ParameterError, UnknownNameError, hookimpl, t
+from lagrangian import (Component, Context, Contribution, Example, Linear, LinearContext, ModelError, Parameter, ParameterError,
+                        UnknownNameError, hookimpl, t)
 
 __all__ = ["Coupling"]
 
@@ -139,6 +140,39 @@ class Coupling(Component):
         n = len(group)
         return Contribution(V=sp.expand(sp.Add(*[correction[i, j] * flux[i] * flux[j] for i in range(n) for j in range(n)
                                                  if correction[i, j] != 0]) / 2))
+
+    def numeric_inductance(self, ctx: LinearContext) -> tuple[tuple[str, str], np.ndarray] | None:
+        """The names of the pair and its inductance matrix ``[[L1, M], [M, L2]]`` in numbers, for a coupling that is
+        its inductors' only one with a nonsingular matrix; ``None`` otherwise (groups of couplings, ``k = 1``,
+        misnamed inductors: the symbolic path checks them)."""
+        pair = [ctx.components.get(n) for n in self.inductor_names]
+        if any(c is None or c.kind != "inductor" for c in pair):
+            return None
+        if any(isinstance(c, Coupling) and c is not self for n in self.inductor_names for c in ctx.naming(n)):
+            return None
+        k, L1, L2 = ctx.number(self, "k"), ctx.number(pair[0], "L"), ctx.number(pair[1], "L")
+        if k is None or L1 is None or L2 is None:
+            return None
+        M = k * float(np.sqrt(L1 * L2))
+        inductance = np.array([[L1, M], [M, L2]])
+        s = np.linalg.svd(inductance, compute_uv=False)
+        if s[-1] <= 1e-12 * s[0]:  # as _singular decides
+            return None
+        return self.inductor_names, inductance
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        """In numbers (see :meth:`numeric_inductance`): the mutual co-energy ``M i1 i2`` (charge formulation) or
+        the pair's ``½ λᵀ (Γ − diag(1/L)) λ`` (flux)."""
+        got = self.numeric_inductance(ctx)
+        if got is None:
+            return None
+        names, inductance = got
+        branches = ((names[0], 0), (names[1], 0))
+        if ctx.options["formulation"] == "charge":
+            M = float(inductance[0, 1])
+            return Linear(branches=branches, T={(0, 1): M, (1, 0): M})
+        correction = np.linalg.inv(inductance) - np.diag(1 / np.diag(inductance))
+        return Linear(branches=branches, V={(i, j): float(correction[i, j]) for i in range(2) for j in range(2)})
 
     def current_correction(self, ctx: Context, inductor: Component) -> sp.Expr:
         """Flux formulation: what coupling adds to ``inductor``'s current ``λ/L`` (zero in the charge formulation).

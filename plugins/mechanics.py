@@ -29,6 +29,9 @@ from lagrangian import (
     Domain,
     DomainView,
     Example,
+    Incidence,
+    Linear,
+    LinearContext,
     Load,
     ModelError,
     Network,
@@ -122,6 +125,36 @@ class MechanicalDomain(Domain):
         return view
 
 
+    def incidence(self, network: Network, options: dict[str, Any]) -> Incidence | None:
+        """In one dimension, without rigid bodies: the coordinates ``x_<node>`` and each branch's ``x_a − x_b``, in
+        numbers (a prescribed node's branches are prescribed)."""
+        if options["dim"] != 1 or any(getattr(c, "multibody", False) for c in network.components):
+            return None
+        prescribed = {c.nodes[0] for c in network.components if c.role == "across"}
+        names, index = [], {}
+        for node in network.nodes:
+            if node not in prescribed:
+                index[node] = len(names)
+                names.append(f"x_{node}")
+        branch, fixed = {}, set()
+        for _, _, key, data in network.graph.edges(keys=True, data=True):
+            a, b = data["a"], data["b"]
+            if a in prescribed or b in prescribed:
+                fixed.add(key)
+                continue
+            row: dict[int, float] = {}
+            for node, sign in ((a, 1.0), (b, -1.0)):
+                if node in index:
+                    row[index[node]] = row.get(index[node], 0.0) + sign
+            branch[key] = row
+        return Incidence(names, branch, fixed)
+
+
+def _one_axis(ctx: LinearContext) -> bool:
+    """Whether the model is one-dimensional, where the numeric assembly reads mechanical branches."""
+    return ctx.options.get("dim", 1) == 1
+
+
 def _vector(value: Any, dim: int, component: Component, pname: str) -> sp.Matrix:
     """A parameter as a ``dim × 1`` matrix: scalars are accepted in one dimension."""
     if isinstance(value, sp.MatrixBase):
@@ -165,6 +198,10 @@ class Mass(Component):
         v = ctx.view.velocity(self.nodes[0])
         return Contribution(T=sp.Mul(sp.Rational(1, 2), self.m, sp.Add(*[e**2 for e in v])))  # ½ m v·v
 
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        m = ctx.number(self, "m")
+        return Linear(T={(0, 0): m}) if m is not None and _one_axis(ctx) else None
+
     @classmethod
     def example(cls) -> Example:
         return Example("p", {"m": 2}, context=[("spring", "k", ("ground", "p"), {"k": 3})])
@@ -202,6 +239,12 @@ class Spring(Component):
             return Contribution(V=self.k * dot(d, d) / 2)
         return Contribution(V=_half_square(self.k, self.extension(ctx)))
 
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        k = ctx.number(self, "k")
+        if k is None or not _one_axis(ctx) or self.rest_length != 0:  # a rest length: a constant force too
+            return None
+        return Linear(V={(0, 0): k})
+
     @classmethod
     def example(cls) -> Example:
         return Example(("ground", "p"), {"k": 5, "rest_length": 0.5}, context=[("mass", "m", "p", {"m": 1})])
@@ -221,6 +264,10 @@ class Damper(Component):
         dv = sp.Matrix([time_derivative(e, t) for e in d])
         rate = dv[0] if ctx.view.dim == 1 else dot(d, dv) / sp.sqrt(dot(d, d))
         return Contribution(D=_half_square(self.c, rate))
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        c = ctx.number(self, "c")
+        return Linear(D={(0, 0): c}) if c is not None and _one_axis(ctx) else None
 
     @classmethod
     def example(cls) -> Example:
@@ -374,6 +421,12 @@ class Force(Component):
     def contribute(self, ctx) -> Contribution:
         F = _vector(self.F, ctx.view.dim, self, "F")
         return Contribution(loads=[Load(F, ctx.view.velocity(self.nodes[0]))])
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        """A force of time alone on one axis: the generalized force ``F`` on its node's coordinate."""
+        if not _one_axis(ctx) or isinstance(self.F, sp.MatrixBase) or self.state("F") or self.signals():
+            return None
+        return Linear(force={0: 1.0})
 
     @classmethod
     def example(cls) -> Example:

@@ -43,6 +43,25 @@ def _label(output: Any) -> str:
 def _with_inputs(model: Model, inputs: Sequence[str] | None) -> tuple[Model, dict[Any, tuple[str, int, Any]]]:
     """A copy of ``model`` whose input components carry ``u(t)``; ``channels`` maps each input function to
     ``(name, column, operating value)``."""
+    chosen = _chosen(model, inputs)
+    if not chosen:  # nothing to drive: the model itself (a reduced or derived model keeps its own equations)
+        return model, {}
+    twin = Model(model.name, registry=model.registry, **model._options)
+    twin._graph.declared = list(model._graph.declared)
+    channels: dict[Any, tuple[str, int, Any]] = {}
+    for comp in model.components.values():
+        if comp.name in chosen:
+            pname, index, label = chosen[comp.name]
+            original = comp.params[pname]
+            comp, function = comp.with_input(pname, f"w_{comp.name}", index)
+            channels[function] = (label, len(channels), original if index is None else original[index])
+        twin._graph.add(comp)
+    return twin, channels
+
+
+def _chosen(model: Model, inputs: Sequence[str] | str | None) -> dict[str, tuple[str, int | None, str]]:
+    """The input components by name, each as ``(signal parameter, index or None, label)``: those of ``inputs``
+    (checked), every source and load by default."""
     components = model.components
     if inputs is None:  # every source and load (a joint's free angle is no input)
         inputs = [c.name for c in components.values()
@@ -70,19 +89,7 @@ def _with_inputs(model: Model, inputs: Sequence[str] | None) -> tuple[Model, dic
         if name in chosen:
             raise ModelError(f"input {name!r} is listed twice.")
         chosen[name] = (pname, None if index is None else int(index), item.strip())
-    if not chosen:  # nothing to drive: the model itself (a reduced or derived model keeps its own equations)
-        return model, {}
-    twin = Model(model.name, registry=model.registry, **model._options)
-    twin._graph.declared = list(model._graph.declared)
-    channels: dict[Any, tuple[str, int, Any]] = {}
-    for comp in components.values():
-        if comp.name in chosen:
-            pname, index, label = chosen[comp.name]
-            original = comp.params[pname]
-            comp, function = comp.with_input(pname, f"w_{comp.name}", index)
-            channels[function] = (label, len(channels), original if index is None else original[index])
-        twin._graph.add(comp)
-    return twin, channels
+    return chosen
 
 
 def _signal_of(comp) -> str | None:
@@ -208,6 +215,15 @@ def _context(model: Model, comp) -> Context:
 def _node_voltage(model: Model, node: str) -> sp.Expr:
     """The voltage of circuit node ``node`` to ground: the element voltages along a path of two-terminal elements
     that name theirs (``v_a − v_b``, with the sign of the direction walked)."""
+    total = sp.Integer(0)
+    for comp, sign in _voltage_path(model, node):
+        total += sign * comp.quantity(_context(model, comp), "v")
+    return total
+
+
+def _voltage_path(model: Model, node: str) -> list[tuple[Any, int]]:
+    """The two-terminal elements that name their voltage along a path from ``node`` to ground, each with the sign
+    of the direction walked (+1 from its ``a`` to its ``b``)."""
     graph = nx.Graph()
     for comp in model.components.values():
         if len(comp.nodes) == 2 and "v" in comp.quantities:
@@ -217,12 +233,11 @@ def _node_voltage(model: Model, node: str) -> sp.Expr:
         raise ModelError(f"node {node!r} has no path of circuit elements to ground, so it has no voltage to report; "
                          f"give a voltage across an element, 'v(<element>)'.")
     path = nx.shortest_path(graph, node, GROUND)
-    total = sp.Integer(0)
+    out = []
     for a, b in zip(path, path[1:]):
         comp = graph.edges[a, b]["component"]
-        v = comp.quantity(_context(model, comp), "v")
-        total += v if comp.nodes == (a, b) else -v
-    return total
+        out.append((comp, 1 if comp.nodes == (a, b) else -1))
+    return out
 
 
 def _unit(label: str) -> str:

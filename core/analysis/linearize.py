@@ -52,7 +52,7 @@ from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..derivation.calculus import symbols_of
-from .lti import _number, stamped
+from .lti import _number, numeric, stamped
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
 
 __all__ = ["LinearModel", "linearize", "s"]
@@ -295,6 +295,13 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     if not np.isfinite(float(time)):
         raise ModelError(f"time must be a finite number, got {time!r}.")
     time = float(time)
+    if at is None and not params and symbolic is not True:
+        fast = numeric(model, inputs, outputs, time)
+        if fast is not None:  # linear time-invariant, said in numbers: nothing symbolic is built
+            Jq = np.zeros((0, len(fast["names"])))
+            return _linear_model(model, None, fast["channels"], None, outputs, fast["names"], fast["first_order"],
+                                 fast["point"], time, False, (fast["M"], fast["C"], fast["K"], Jq, fast["Bw"]),
+                                 fast["rows"])
     twin, channels = _with_inputs(model, inputs)  # the same components, inputs driven: its checks are the model's
     twin._holonomic_only("linearization")
     twin._no_state_callables("linearization")
@@ -429,7 +436,7 @@ def _linear_model(model: Model, twin: Model, channels, values, outputs, names, f
         M=conv(M0), C=conv(C0), K=conv(K0), Phi=conv(Jq), B=[conv(b) for b in Bw[1:]], Bi=conv(Bw[0]),
         Cq=[conv(c) for c in Cq], D=[conv(d) for d in Dw[1:]], Di=conv(Dw[0]), symbolic=is_symbolic, at=dict(point), time=time,
         u0={c[0]: c[2] for c in channels.values()}, y0=y0, first_order=first, units=units,
-        parameters=sorted(_unvalued(twin, values), key=lambda p: p.name),
+        parameters=[] if twin is None else sorted(_unvalued(twin, values), key=lambda p: p.name),
     )
 
 

@@ -41,13 +41,14 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..base.component import t
+from ..base.component import _CallableSignal, t
+from ..derivation.numeric import NumericAssembly, assemble_numeric
 from ..derivation.stamps import NotStampable, stamps
 from ..errors import ModelError
 from ..model import Model
-from .channels import _outputs
+from .channels import _BRANCH, _PRIMES, _chosen, _label, _outputs, _signal_of, _voltage_path
 
-__all__ = ["stamped"]
+__all__ = ["numeric", "stamped"]
 
 
 def _column(shape: sp.Expr, channels: Mapping[Any, tuple]) -> tuple[int, int] | None:
@@ -159,3 +160,113 @@ def stamped(twin: Model, channels: Mapping[Any, tuple], values: Mapping[sp.Symbo
             "Bw": [Bw.get(k, np.zeros((n, len(channels)))) for k in range(order + 1)],
             "first_order": [names[i] for i in st.first_order],
             "rows": _outputs(twin, eq, outputs, usym, channels, at_point)}
+
+
+def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
+    """The pieces of the linearization of ``model`` about its rest, assembled in numbers
+    (:mod:`lagrangian.derivation.numeric`): nothing symbolic is built.  ``None`` when a component, a domain, an
+    input or an output is not given in numbers; the caller then takes the symbolic path.
+
+    Returns what :func:`stamped` does, plus ``channels`` (by input name: ``(label, column, operating value)``).
+    """
+    chosen = _chosen(model, inputs)  # bad inputs are refused here as on the symbolic path
+    try:
+        asm = assemble_numeric(model)
+        n = len(asm.names)
+        channels = {}
+        Bw = [np.zeros((n, len(chosen))), np.zeros((n, len(chosen)))]
+        b0 = np.zeros(n)
+        signal: dict[str, float] = {}  # each source's signal at t₀
+        for cname, force in asm.forces.items():
+            comp = model.components[cname]
+            pname = _signal_of(comp)
+            if pname is None:
+                raise NotStampable(f"{comp.kind} {cname!r} has a force but no one signal")
+            signal[cname] = _at(comp.params[pname], time)
+            b0 += force * signal[cname]
+        for cname, (pname, index, label) in chosen.items():
+            comp = model.components[cname]
+            if index is not None or pname != _signal_of(comp):
+                raise NotStampable(f"input {label!r} is not its component's one signal")
+            col = len(channels)
+            channels[cname] = (label, col, comp.params[pname])
+            if cname in asm.forces:
+                Bw[1][:, col] = asm.forces[cname]
+        inertial = asm.M.any(axis=1)
+        idle = [nm for nm, m, c in zip(asm.names, inertial, asm.C.any(axis=0)) if not m and not c]
+        if idle:
+            raise NotStampable(f"coordinates without inertia or dissipation: {', '.join(idle[:5])}")
+        x = _rest(asm.K, b0)
+        rows = _numeric_outputs(model, asm, outputs, channels, signal, x, time)
+    except NotStampable:
+        return None
+    point = {nm: sp.Float(v) if v else sp.Integer(0) for nm, v in zip(asm.names, x)}
+    return {"M": asm.M, "C": asm.C, "K": asm.K, "point": point, "names": asm.names, "Bw": Bw,
+            "first_order": [nm for nm, m in zip(asm.names, inertial) if not m], "rows": rows, "channels": channels}
+
+
+def _at(value: Any, time: float) -> float:
+    """A signal's value at ``t₀`` as a float, or :class:`NotStampable` (a Python callable, a symbol)."""
+    if isinstance(value, _CallableSignal):
+        raise NotStampable("a signal given as a Python callable")
+    if isinstance(value, sp.Basic) and value.has(t):
+        value = value.xreplace({t: sp.Float(time)})
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise NotStampable(f"the signal {value} has no value") from None
+    if not np.isfinite(out):
+        raise NotStampable(f"the signal {value} is not finite at t = {time:g}")
+    return out
+
+
+def _numeric_outputs(model: Model, asm: NumericAssembly, outputs, channels, signal, x, time) -> tuple:
+    """``(Cq, Dw, y0)`` as :func:`lagrangian.analysis.channels._outputs` gives them, from the numeric assembly:
+    coordinates and their rates, component quantities and node voltages; :class:`NotStampable` for anything else
+    (an expression, an eliminated coordinate), which the symbolic path reads."""
+    names = asm.names
+    wanted = list(outputs) if outputs is not None else list(names)
+    n, m = len(names), len(wanted)
+    Cq = [np.zeros((m, n)) for _ in range(3)]
+    Dw = [np.zeros((m, len(channels))) for _ in range(2)]
+    y0 = {}
+    for r, output in enumerate(wanted):
+        if not isinstance(output, str):
+            raise NotStampable(f"output {output!r} is an expression")
+        terms: list[tuple[Any, int, list[np.ndarray], float]] = []  # (component, sign, rows by order, signal)
+        branch = _BRANCH.match(output)
+        if branch:
+            quantity, name = branch.group(1).lower(), branch.group(2)
+            if name not in model.components and quantity == "v" and name in model.nodes:
+                path = _voltage_path(model, name)
+            elif name in model.components:
+                path = [(model.components[name], 1)]
+            else:
+                raise NotStampable(f"output {output!r} names no component")
+            for comp, sign in path:
+                got = asm.quantity(comp, quantity)
+                if got is None:
+                    raise NotStampable(f"{comp.kind} {comp.name!r} gives no {quantity!r} in numbers")
+                terms.append((comp, sign, *got))
+        else:
+            base, primes = _PRIMES.match(output.strip()).groups()
+            if base not in names:
+                raise NotStampable(f"output {output!r} is no coordinate")
+            row = [np.zeros(n) for _ in range(len(primes) + 1)]
+            row[-1][names.index(base)] = 1.0
+            terms.append((None, 1, row, 0.0))
+        value = 0.0
+        for comp, sign, rows, coeff in terms:
+            if len(rows) > 3:
+                raise NotStampable(f"output {output!r} holds a third derivative")
+            for order, row in enumerate(rows):
+                Cq[order][r] += sign * row
+            if coeff:
+                if comp.name in channels:
+                    Dw[1][r, channels[comp.name][1]] += sign * coeff
+                value += sign * coeff * (signal[comp.name] if comp.name in signal
+                                         else _at(comp.params[_signal_of(comp)], time))
+        y0[_label(output)] = float(Cq[0][r] @ x) + value
+    while len(Cq) > 1 and not Cq[-1].any():
+        Cq.pop()
+    return Cq, Dw, y0

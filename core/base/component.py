@@ -156,6 +156,11 @@ class Parameter:
         return self._scalar(value, component, name, check=self.check)
 
     def _scalar(self, value: Any, component: str, name: str, check: str) -> sp.Expr:
+        kind = type(value)
+        if (kind is float or kind is int) and abs(value) <= LARGEST and _CHECKS[check][0](value):  # (nan, inf: no)
+            # a plain number within the rule, as users mostly give them: what the general path below makes of it,
+            # without its tree walks (a third of the cost of adding a component); anything else takes that path
+            return sp.Float(value) if kind is float else sp.Integer(value)
         if isinstance(value, bool):
             raise ParameterError(component, name, f"expected a number or a SymPy expression, got {value!r}.")
         if is_quantity(value) or split(value) is not None:  # "0.3 kg", 300 * ureg.g: converted to SI
@@ -439,7 +444,9 @@ class Component:
        between different nodes (a spring, a joint); ``Model.add`` then
        refuses it given one node twice.
 
-    and implement ``contribute(ctx)`` and the classmethod ``example()``.
+    and implement ``contribute(ctx)`` and the classmethod ``example()``;
+    optionally ``linear(ctx)``, the same contribution in numbers for a
+    component linear with constant coefficients (:mod:`lagrangian.base.linear`).
     Parameters are available as attributes (``self.k``).
     """
 
@@ -484,21 +491,51 @@ class Component:
             else:
                 values[pname] = spec.coerce(spec.default, name, pname) if spec.default is not None else None
         self.params = values
-        self.values: dict[sp.Symbol, sp.Expr] = {}  # symbol → value, for parameters given as numbers
-        self._symbols: dict[str, sp.Symbol] = {}
+        self._given = frozenset(params)
+
+    def _stand(self) -> None:
+        """Make the symbols standing for the parameters given as numbers (:attr:`values`), on first use: a model
+        assembled in numbers (:mod:`lagrangian.derivation.numeric`) never needs them, and they are a third of the
+        cost of adding a component."""
+        if "_values" in self.__dict__:
+            return
+        standing_values: dict[sp.Symbol, sp.Expr] = {}
+        symbols: dict[str, Any] = {}
         for pname, spec in self.parameters.items():
-            value = values.get(pname)
-            if pname not in params or not spec.symbolic or value is None:
+            value = self.params.get(pname)
+            if pname not in self._given or not spec.symbolic or value is None:
                 continue
             if spec.shape in ("scalar", "signal", "tensor") and _plain_number(value):
-                symbol = sp.Dummy(f"{pname}_{name}", **_ASSUMPTIONS[spec.check])
-                self._symbols[pname] = symbol
-                self.values[symbol] = value
+                symbol = sp.Dummy(f"{pname}_{self.name}", **_ASSUMPTIONS[spec.check])
+                symbols[pname] = symbol
+                standing_values[symbol] = value
             elif spec.shape in ("vector", "tensor", "mapping"):
-                standing = _Standing(f"{pname}_{name}", self.values)
+                standing = _Standing(f"{pname}_{self.name}", standing_values)
                 view = standing.view(value)
                 if standing.used:
-                    self._symbols[pname] = view
+                    symbols[pname] = view
+        self.__dict__["_values"], self.__dict__["_symbols_"] = standing_values, symbols
+
+    @property
+    def values(self) -> dict[sp.Symbol, sp.Expr]:
+        """Symbol → value, for the parameters given as numbers (see :meth:`symbolic_view`)."""
+        self._stand()
+        return self.__dict__["_values"]
+
+    @values.setter
+    def values(self, values: dict[sp.Symbol, sp.Expr]) -> None:
+        self._stand()
+        self.__dict__["_values"] = values
+
+    @property
+    def _symbols(self) -> dict[str, Any]:
+        self._stand()
+        return self.__dict__["_symbols_"]
+
+    @_symbols.setter
+    def _symbols(self, symbols: dict[str, Any]) -> None:
+        self._stand()
+        self.__dict__["_symbols_"] = symbols
 
     def symbolic_view(self) -> "Component":
         """This component with every parameter given as a number replaced by a symbol standing for it.
@@ -642,6 +679,12 @@ class Component:
         for outputs of analyses (transfer functions, impedances).  Types list theirs in :attr:`quantities`."""
         raise ParameterError(self.name, name, f"{self.kind!r} names no such quantity; it names "
                              f"{', '.join(f'{k} ({v})' for k, v in self.quantities.items()) or 'none'}.")
+
+    def linear(self, ctx: Any) -> Any:
+        """This component's contribution in numbers, a :class:`lagrangian.base.linear.Linear` (``ctx``: a
+        :class:`~lagrangian.base.linear.LinearContext`), or ``None`` (the default) when it is not linear with
+        constant coefficients or a parameter it needs has no value: the model is then derived symbolically."""
+        return None
 
     def contribute(self, ctx: Any) -> Contribution:  # pragma: no cover - abstract
         """Return this component's :class:`Contribution` for the model context ``ctx``."""

@@ -20,7 +20,8 @@ import sympy as sp
 from ..errors import ModelError
 from .component import GROUND, Component, t
 
-__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context", "check_name", "coordinate", "rate"]
+__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context", "Incidence", "check_name", "coordinate",
+           "rate"]
 
 
 def check_name(name: str, what: str) -> None:
@@ -139,13 +140,32 @@ class DomainView:
         return f"{'rate of the ' if rate else ''}branch quantity of {key}"
 
 
+@dataclass
+class Incidence:
+    """A domain's coordinates and branch quantities in numbers, for the numeric assembly
+    (:mod:`lagrangian.derivation.numeric`).
+
+    ``coordinates``: their names, in the order of the view's.  ``branch``: by
+    edge key, the branch quantity as ``{coordinate index: coefficient}``
+    (a branch charge as the loop charges through it; a flux linkage as the
+    difference of node fluxes).  ``prescribed``: keys of branches whose
+    quantity a source fixes in part (a current source's loop in loop charges,
+    a voltage source's path in node fluxes): not numbers alone.
+    """
+
+    coordinates: list[str]
+    branch: dict[str, dict[int, float]]
+    prescribed: set[str] = field(default_factory=set)
+
+
 class Domain:
     """Base class of a physical domain.
 
     Subclasses set ``name`` and ``options`` and implement
     ``build(network, options) -> DomainView``, which must raise a
     :class:`lagrangian.errors.ModelError` subclass naming the culprit when the
-    network cannot be given coordinates.
+    network cannot be given coordinates; optionally ``incidence(network,
+    options)``, the same coordinates and branch quantities in numbers.
     """
 
     name: ClassVar[str]
@@ -153,6 +173,11 @@ class Domain:
 
     def build(self, network: Network, options: Mapping[str, Any]) -> DomainView:  # pragma: no cover
         raise NotImplementedError
+
+    def incidence(self, network: Network, options: Mapping[str, Any]) -> Incidence | None:
+        """The coordinates and branch quantities of :meth:`build` as an :class:`Incidence`, or ``None`` (the
+        default) for a domain whose branch quantities are not linear in its coordinates (a mechanism's)."""
+        return None
 
 
 @dataclass

@@ -25,11 +25,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import networkx as nx
+import numpy as np
 import sympy as sp
 
 from ..base.arguments import check_mapping
 from ..base.component import GROUND, Component, _CallableSignal, t
 from ..base.text import as_expr
+from ..derivation.numeric import assemble_numeric
+from ..derivation.stamps import NotStampable
 from ..plugin.contracts import AnalogueBuilder, Analogy, Element, Ports
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -57,7 +60,16 @@ class Mapped:
     analogy: Analogy
     direction: str
     origin: dict[str, str]
-    coordinates: dict[sp.Expr, sp.Expr]
+    #: the map, or what solves for it when first asked for (:attr:`coordinates`)
+    _map: dict[sp.Expr, sp.Expr] | Callable[[], dict[sp.Expr, sp.Expr]]
+
+    @property
+    def coordinates(self) -> dict[sp.Expr, sp.Expr]:
+        """Each coordinate function of the analogue as an expression in the source model's coordinates (solved
+        exactly on first use; :func:`map_model` has checked in numbers that the branches fix it)."""
+        if callable(self._map):
+            self._map = self._map()
+        return self._map
 
     def to_source(self, expr: Any) -> sp.Expr:
         """Rewrite an expression in the analogue's coordinates in terms of the source model's."""
@@ -279,6 +291,48 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
             for mine, theirs in el.pairs():
                 identities.append((_key(el.name, mine), _key(comp.name, theirs), el.sign))
 
+    checked = _checked_in_numbers(model, target_model, identities, analogy)
+    if checked:  # the map is consistent and determined: its expressions are solved for when first asked for
+        return Mapped(target_model, model, an, direction, origin,
+                      lambda: _coordinate_map(model, target_model, identities, analogy))
+    return Mapped(target_model, model, an, direction, origin, _coordinate_map(model, target_model, identities, analogy))
+
+
+def _checked_in_numbers(model: Model, target: Model, identities: list[tuple[str, str, int]], analogy: str) -> bool:
+    """Check, in numbers, that the identities of branches fix the analogue's coordinates as linear functions of the
+    model's (:mod:`lagrangian.derivation.numeric`), raising what :func:`_coordinate_map` would; ``False`` when
+    either model is not assembled in numbers (the symbolic map then checks)."""
+    try:
+        mine, theirs = assemble_numeric(target), assemble_numeric(model)
+    except NotStampable:
+        return False
+    if not mine.names:
+        _no_coordinates(model, analogy, theirs.names)
+    A = np.array([mine.branch_row(el) for el, _, _ in identities]).reshape(len(identities), len(mine.names))
+    B = np.array([sign * theirs.branch_row(src) for _, src, sign in identities]).reshape(len(identities), -1)
+    X = np.linalg.lstsq(A, B, rcond=None)[0]
+    scale = max(np.abs(B).max(initial=0.0), np.abs(A).max(initial=0.0) * np.abs(X).max(initial=0.0), 1e-300)
+    if np.abs(A @ X - B).max(initial=0.0) > 1e-9 * scale:
+        raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has no consistent coordinate map.")
+    if np.linalg.matrix_rank(A) < len(mine.names):
+        raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has coordinates no source branch determines.")
+    return True
+
+
+def _no_coordinates(model: Model, analogy: str, have: list[str]) -> None:
+    has = (f"while the model has {', '.join(have)}" if have else
+           "and neither has the model: no branch lies on a loop or meets a free node, as with a lone inductor")
+    raise AnalogyError(
+        f"the {analogy} analogue of model {model.name!r} has no generalized coordinates ({has}), so there is "
+        f"nothing to map: close the network (a loop through ground, a mass or capacitor on a free node), or use "
+        f"the other analogy."
+    )
+
+
+def _coordinate_map(model: Model, target_model: Model, identities: list[tuple[str, str, int]],
+                    analogy: str) -> dict[sp.Expr, sp.Expr]:
+    """Each coordinate of the analogue as an expression of the model's, from the identities of branches, solved
+    exactly; an :class:`AnalogyError` when they do not fix it."""
     unknowns = [c.function for c in target_model.coordinates]
     plain = {f: sp.Dummy(str(f.func)) for f in unknowns}
     equations = [
@@ -286,14 +340,7 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
         for el, src, sign in identities
     ]
     if not unknowns:  # nothing to solve for (and sympy.linsolve needs unknowns)
-        have = [c.name for c in model.coordinates]
-        has = (f"while the model has {', '.join(have)}" if have else
-               "and neither has the model: no branch lies on a loop or meets a free node, as with a lone inductor")
-        raise AnalogyError(
-            f"the {analogy} analogue of model {model.name!r} has no generalized coordinates ({has}), so there is "
-            f"nothing to map: close the network (a loop through ground, a mass or capacitor on a free node), or use "
-            f"the other analogy."
-        )
+        _no_coordinates(model, analogy, [c.name for c in model.coordinates])
     solution = sp.linsolve(equations, [plain[f] for f in unknowns])
     if not solution or solution == sp.EmptySet:
         raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has no consistent coordinate map.")
@@ -301,4 +348,4 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
     free = set().union(*(v.free_symbols for v in values)) & set(plain.values())
     if free:
         raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has coordinates no source branch determines.")
-    return Mapped(target_model, model, an, direction, origin, dict(zip(unknowns, values)))
+    return dict(zip(unknowns, values))

@@ -18,6 +18,8 @@ import numpy as np
 import sympy as sp
 
 from ..base.component import t
+from ..derivation.numeric import assemble_numeric
+from ..derivation.stamps import NotStampable
 from ..errors import ModelError
 from ..model import Model
 from .deck import _Parsed
@@ -112,6 +114,9 @@ def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, flo
     """Coordinates and inertial velocities at ``t = 0`` that put every capacitor and inductor at ``ic``, and the
     elements the sources move away from theirs (flux formulation: capacitors in a loop with voltage sources;
     charge formulation: inductors in series with current sources), with the value each starts at."""
+    numeric = _numeric(model)
+    if numeric is not None:
+        return _from_rows(model, ic, *numeric)
     view = model.assembly.views["electrical"]
     eq = model.eq
     coords = model.coordinates
@@ -125,21 +130,53 @@ def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, flo
     def at_zero(expr: sp.Expr) -> sp.Expr:
         return sp.sympify(expr).xreplace(to_symbols).subs(t, 0)
 
+    initial, v0, moved = _conditions(model, ic, view.formulation, lambda n: at_zero(view.branch[n]),
+                                     lambda n: at_zero(view.branch[n].diff(t)), q, v)
+    return ({c.name: x for c, x in zip(coords, initial)}, {eq.names[i]: float(v0[i]) + 0.0 for i in eq.inertial},
+            moved)
+
+
+def _numeric(model: Model) -> tuple | None:
+    """``(coordinate names, the row of an element's branch quantity by its name, inertial coordinates)`` from the numeric
+    assembly (:mod:`lagrangian.derivation.numeric`), or ``None`` where it does not apply (a source fixes a branch,
+    a coordinate has neither inertia nor dissipation): then the symbolic view answers."""
+    try:
+        asm = assemble_numeric(model)
+    except NotStampable:
+        return None
+    inertial = asm.M.any(axis=1)
+    if not np.all(inertial | asm.C.any(axis=0)):
+        return None
+    return asm.names, asm.branch_row, np.flatnonzero(inertial)
+
+
+def _from_rows(model: Model, ic, names, row, inertial):
+    """:func:`_initial_state` from numeric rows: a branch's quantity and its rate are the same row of the
+    coordinates and of their rates."""
+    unknowns = list(range(len(names)))
+    initial, v0, moved = _conditions(model, ic, model.options["formulation"], row, row, unknowns, unknowns)
+    return {n: x for n, x in zip(names, initial)}, {names[i]: float(v0[i]) + 0.0 for i in inertial}, moved
+
+
+def _conditions(model: Model, ic, formulation: str, position, rate, q, v):
+    """``(coordinate values, inertial velocities, moved)``: the conditions that put every capacitor and inductor at
+    ``ic``, from ``position(name)`` and ``rate(name)`` (a branch quantity and its rate at ``t = 0``: expressions in
+    ``q`` and ``v``, or rows over them), solved."""
     components = model.components
     capacitors = [n for n in ic if components[n].kind == "capacitor"]
     inductors = [n for n in ic if components[n].kind == "inductor"]
-    if view.formulation == "charge":
-        positions = [(n, at_zero(view.branch[n]), float(components[n].C) * ic[n]) for n in capacitors]
-        rates = [(n, at_zero(view.branch[n].diff(t)), ic[n]) for n in inductors]
+    if formulation == "charge":
+        positions = [(n, position(n), float(components[n].C) * ic[n]) for n in capacitors]
+        rates = [(n, rate(n), ic[n]) for n in inductors]
     else:
         positions = []
         for n in inductors:
             flux = sum((float(m) * ic[other] for other, m in _mutuals(model, n)), float(components[n].L) * ic[n])
-            positions.append((n, at_zero(view.branch[n]), flux))
-        rates = [(n, at_zero(view.branch[n].diff(t)), ic[n]) for n in capacitors]
-    q0 = _solve(positions, q, model, view.formulation, "position")
+            positions.append((n, position(n), flux))
+        rates = [(n, rate(n), ic[n]) for n in capacitors]
+    q0 = _solve(positions, q, model, formulation, "position")
     moved: dict[str, float] = {}
-    if view.formulation == "flux":
+    if formulation == "flux":
         # capacitor voltages that break Kirchhoff's voltage law around a loop of capacitors and voltage sources (a
         # capacitor across a source) cannot be held: the sources move charge through them at t = 0, as a circuit
         # does, and that charge is conserved at every node the sources do not hold.  The voltages that conserve it
@@ -151,9 +188,7 @@ def _initial_state(model: Model, ic: Mapping[str, float]) -> tuple[dict[str, flo
         # currents nearest the ones asked in the inductors' energy norm, ΔIᵀ 𝐋 ΔI (𝐋 with the mutual inductances).
         weight = _root(_inductances(model, inductors))
     v0, moved = _jump(rates, v, weight)
-    initial = {c.name: float(x) + 0.0 for c, x in zip(coords, q0)}
-    velocity = {eq.names[i]: float(v0[i]) + 0.0 for i in eq.inertial}
-    return initial, velocity, moved
+    return [float(x) + 0.0 for x in q0], v0, moved
 
 
 def _inductances(model: Model, inductors: list[str]) -> np.ndarray:
@@ -193,6 +228,9 @@ def _linear(rows: list[tuple[str, sp.Expr, float]], unknowns: list[sp.Symbol]) -
     A = np.zeros((len(rows), len(unknowns)))
     b = np.zeros(len(rows))
     for r, (name, expr, value) in enumerate(rows):
+        if isinstance(expr, np.ndarray):  # a row over the unknowns already
+            A[r], b[r] = expr, value
+            continue
         expr = sp.expand(expr)
         for j, u in enumerate(unknowns):
             A[r, j] = float(expr.coeff(u))
@@ -232,7 +270,8 @@ def _solve(
     """Least-norm solution of the linear conditions ``expr = value``; a ModelError naming the elements if there is none."""
     n = len(unknowns)
     if not rows or not n:
-        bad = [name for name, expr, value in rows if abs(value - float(expr)) > 0] if rows else []
+        bad = [name for name, expr, value in rows
+               if abs(value - (0.0 if isinstance(expr, np.ndarray) else float(expr))) > 0] if rows else []
         if bad:
             raise ModelError(f"model {model.name!r}: " + _TROUBLE[formulation, level].format(names=", ".join(bad)))
         return np.zeros(n)

@@ -8,7 +8,7 @@ from typing import Any
 
 import sympy as sp
 
-from lagrangian import GROUND, Component, Contribution, Example, ModelError, Parameter
+from lagrangian import GROUND, Component, Contribution, Example, Linear, ModelError, Parameter
 
 
 class _Transducer(Component):
@@ -87,6 +87,13 @@ class MovingCoil(_Transducer):
     def contribute(self, ctx) -> Contribution:
         self._charge_only(ctx, "λ_ab = Bl·x")
         return Contribution(G=self.Bl * self.displacement(ctx) * ctx.view.current(self))
+
+    def linear(self, ctx):
+        """``G = Bl·x·q̇`` in numbers (charge formulation, one axis): ``x`` is branch 1, ``q`` branch 0."""
+        Bl = ctx.number(self, "Bl")
+        if Bl is None or ctx.options.get("formulation") != "charge" or ctx.options.get("dim", 1) != 1:
+            return None
+        return Linear(G={(1, 0): Bl})
 
     @classmethod
     def example(cls) -> Example:

@@ -1,0 +1,169 @@
+"""Linear time-invariant models assembled in numbers from the components' own numeric description.
+
+Where :mod:`lagrangian.derivation.stamps` differentiates each component's
+symbolic energy, this module reads what components and domains say in
+numbers (:mod:`lagrangian.base.linear`, :meth:`lagrangian.Domain.incidence`)
+and builds no expression at all: a branch quantity is a row of coefficients
+over the coordinates, each component's ``T``, ``V``, ``D`` and ``G`` are
+scattered through the rows of its branches, and each source's force is one
+more row.  With ``e_i`` the row of variable ``x_i``,
+
+    M += Σ T_ij e_i e_jᵀ,   K += Σ V_ij e_i e_jᵀ,   C += Σ D_ij e_i e_jᵀ + Σ G_ij (e_j e_iᵀ − e_i e_jᵀ),
+
+and a source's signal ``s`` adds ``s · Σ f_i e_i`` to the right-hand side
+(``L ∋ G_ij x_i ẋ_j`` gives ``G_ij (ẋ_i e_j − ẋ_j e_i)`` on the left).
+Measured on a 100-section RLC ladder (300 components): 1.9 ms, where the
+symbolic assembly and the stamps took 115 ms.
+
+Anything not said in numbers — a component or domain without a numeric
+description, a branch a source fixes, a parameter without a value — raises
+:class:`~lagrangian.derivation.stamps.NotStampable`, and callers take the
+symbolic path, whose messages name the fault.
+
+>>> import lagrangian as lg
+>>> from lagrangian.derivation.numeric import assemble_numeric
+>>> m = lg.Model("rlc")
+>>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+>>> _ = m.add("resistor", "R1", ("in", "a"), R=10.0)
+>>> _ = m.add("inductor", "L1", ("a", "b"), L=7e-3)
+>>> _ = m.add("capacitor", "C1", ("b", "0"), C=2.2e-6)
+>>> asm = assemble_numeric(m)
+>>> asm.names, asm.M, asm.C, asm.forces["V1"]     # L q̈ + R q̇ + q/C = E
+(['q_L1'], array([[0.007]]), array([[10.]]), array([1.]))
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..base.component import GROUND, Component
+from ..base.domain import Network
+from ..base.linear import Linear, LinearContext, Quantity
+from ..base.network import check_topology
+from .stamps import NotStampable
+
+__all__ = ["NumericAssembly", "assemble_numeric"]
+
+
+@dataclass
+class NumericAssembly:
+    """A linear time-invariant model in numbers: ``M q̈ + C q̇ + K q = Σ_c forces[c] · s_c(t)``.
+
+    ``names``: the coordinates; ``forces``: by component name, the column its signal ``s_c`` multiplies;
+    ``linears``: each component's :class:`~lagrangian.base.linear.Linear`; ``rows``: each variable of each
+    component (by name) as ``{coordinate index: coefficient}``, for its quantities; ``branch``: every branch quantity by
+    edge key, as ``{coordinate index: coefficient}``.
+    """
+
+    names: list[str]
+    M: np.ndarray
+    C: np.ndarray
+    K: np.ndarray
+    forces: dict[str, np.ndarray] = field(default_factory=dict)
+    linears: dict[str, Linear] = field(default_factory=dict)
+    rows: dict[str, list[dict[int, float]]] = field(default_factory=dict)
+    branch: dict[str, dict[int, float]] = field(default_factory=dict)
+
+    def branch_row(self, key: str) -> np.ndarray:
+        """Branch ``key``'s quantity as a dense row over the coordinates."""
+        return _dense(self.branch[key], len(self.names))
+
+    def quantity(self, component: Component, name: str) -> tuple[list[np.ndarray], float] | None:
+        """Component quantity ``name`` as rows by derivative order (``Σ_o rows[o] · dᵒq/dtᵒ``) and the coefficient
+        of the component's signal; ``None`` when the component does not give it in numbers."""
+        q: Quantity | None = self.linears[component.name].quantities.get(name)
+        if q is None:
+            return None
+        n = len(self.names)
+        out = [np.zeros(n) for _ in range(1 + max((o for _, o, _ in q.terms), default=0))]
+        for k, order, c in q.terms:
+            for j, cj in self.rows[component.name][k].items():
+                out[order][j] += c * cj
+        return out, q.signal
+
+
+def assemble_numeric(model: Any) -> NumericAssembly:
+    """The :class:`lagrangian.Model` ``model`` in numbers (see the module documentation), or
+    :class:`NotStampable` saying why not.
+
+    The topology is checked as the symbolic assembly checks it (the same
+    errors); coordinates come in the order of the symbolic assembly's.
+    """
+    model._check_node_names()  # the symbolic assembly's warnings, said here too
+    graph, registry, options = model._graph, model.registry, model.options
+    components = list(graph.components.values())
+    if not components:
+        raise NotStampable("the model has no components")
+    graph.node_domains()
+    whole = graph.graph()
+    roles = {k: d["component"].role for _, _, k, d in whole.edges(keys=True, data=True)}
+    check_topology(whole, GROUND, roles.get)
+    names: list[str] = []
+    branch: dict[str, dict[int, float]] = {}
+    domains = list(dict.fromkeys(d for c in components for d in c.domains))
+    for dname in domains:
+        domain = registry.domains.get(dname)
+        if domain is None:
+            raise NotStampable(f"no domain {dname!r}")
+        members = [c for c in components if dname in c.domains]
+        opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
+        network = whole if len(domains) == 1 else graph.graph(members, domain=dname)  # one domain: the whole graph
+        inc = domain.incidence(Network(network, members), opts)
+        if inc is None:
+            raise NotStampable(f"the {dname} domain gives no incidence in numbers")
+        if inc.prescribed:
+            raise NotStampable(f"sources fix the branches {', '.join(sorted(inc.prescribed)[:3])}")
+        offset = len(names)
+        names.extend(inc.coordinates)
+        for key, row in inc.branch.items():
+            branch[key] = {offset + i: c for i, c in row.items()}
+    n = len(names)
+    if not n or len(set(names)) != n:
+        raise NotStampable("no coordinates, or one named twice")
+    ctx = LinearContext(options, graph.components)
+    M, C, K = (np.zeros((n, n)) for _ in range(3))
+    out = NumericAssembly(names, M, C, K, branch=branch)
+    for comp in components:
+        lin = comp.linear(ctx)
+        if lin is None:
+            raise NotStampable(f"{comp.kind} {comp.name!r} gives no linear contribution in numbers")
+        refs = lin.branches if lin.branches is not None else [(comp.name, i) for i in range(len(comp.branches()))]
+        sparse = []
+        for cname, i in refs:
+            row = branch.get(cname if i == 0 else f"{cname}#{i}")
+            if row is None:
+                raise NotStampable(f"{comp.kind} {comp.name!r} names branch {i} of {cname!r}, which is no branch")
+            sparse.append(row)
+        for part, target in ((lin.T, M), (lin.V, K), (lin.D, C)):
+            for (i, j), c in part.items():
+                _scatter(target, sparse[i], sparse[j], c)
+        for (i, j), g in lin.G.items():
+            _scatter(C, sparse[j], sparse[i], g)
+            _scatter(C, sparse[i], sparse[j], -g)
+        if lin.force:
+            force = np.zeros(n)
+            for i, f in lin.force.items():
+                for j, c in sparse[i].items():
+                    force[j] += f * c
+            out.forces[comp.name] = force
+        out.linears[comp.name] = lin
+        out.rows[comp.name] = sparse
+    return out
+
+
+
+def _scatter(target: np.ndarray, a: dict[int, float], b: dict[int, float], c: float) -> None:
+    """``target += c · a bᵀ`` for sparse rows ``a``, ``b`` (a branch crosses few loops: no dense outer products)."""
+    for i, ca in a.items():
+        for j, cb in b.items():
+            target[i, j] += c * ca * cb
+
+
+def _dense(row: dict[int, float], n: int) -> np.ndarray:
+    out = np.zeros(n)
+    for j, c in row.items():
+        out[j] = c
+    return out

@@ -1,0 +1,343 @@
+"""Circuits assembled in numbers (``lagrangian.derivation.numeric``) against the symbolic derivation and ngspice.
+
+The reference for every linearization here is the model's symbolic derivation (its Lagrangian differentiated, the
+path every model can take); the numeric assembly must give the same coordinates, matrices, output rows and operating
+values, on circuits drawn at random with values over decades.  The banded solver of frequency responses is checked
+against dense LAPACK solves.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from unittest import mock
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import lagrangian as lg
+import lagrangian.analysis.frequency as frequency
+import lagrangian.analysis.linearize as linearize_module
+from lagrangian.analysis.lti import numeric
+from lagrangian.derivation.numeric import assemble_numeric
+from lagrangian.derivation.stamps import NotStampable
+from lagrangian.frequency import frequency_response, linearize
+
+
+@contextmanager
+def derived_only():
+    """Linearizations derived symbolically: neither the numeric assembly nor the stamps."""
+    with mock.patch.object(linearize_module, "numeric", lambda *a, **k: None), \
+            mock.patch.object(linearize_module, "stamped", lambda *a, **k: None):
+        yield
+
+
+def _close(a, b, what):
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    assert a.shape == b.shape, what
+    scale = max(np.abs(b).max(initial=0.0), 1e-300)
+    assert np.abs(a - b).max(initial=0.0) <= 1e-11 * scale, f"{what}:\n{a}\n{b}"
+
+
+def _padded(rows, count):
+    rows = [np.asarray(r, dtype=float) for r in rows]
+    return rows + [np.zeros_like(rows[0])] * (count - len(rows))
+
+
+def same_linearization(fast, slow):
+    assert fast.coordinates == slow.coordinates
+    assert fast.inputs == slow.inputs and fast.outputs == slow.outputs
+    for name in ("M", "C", "K", "Bi", "Di"):
+        _close(getattr(fast, name), getattr(slow, name), name)
+    for name in ("B", "Cq", "D"):
+        a, b = getattr(fast, name), getattr(slow, name)
+        count = max(len(a), len(b))
+        for k, (x, y) in enumerate(zip(_padded(a, count), _padded(b, count))):
+            _close(x, y, f"{name}[{k}]")
+    assert fast.first_order == slow.first_order
+    for label in slow.y0:
+        assert fast.y0[label] == pytest.approx(float(slow.y0[label]), rel=1e-9, abs=1e-12)
+    for name in slow.at:
+        assert float(fast.at[name]) == pytest.approx(float(slow.at[name]), rel=1e-9, abs=1e-12)
+
+
+values = st.floats(-4, 4).map(lambda e: float(f"{10 ** e:.3g}"))  # values as users type them, over decades
+
+
+@st.composite
+def circuits(draw):
+    """A random RLC network: every node has a capacitor to ground (so every coordinate has inertia or
+    dissipation), a tree of resistors and inductors joins the nodes, a few more join random pairs; a voltage
+    source behind a resistor (loop charges) or a current source (node fluxes) drives node n1."""
+    formulation = draw(st.sampled_from(["charge", "flux"]))
+    nodes = draw(st.integers(1, 5))
+    m = lg.Model("random", formulation=formulation)
+    names = [f"n{i}" for i in range(1, nodes + 1)]
+    scale = {"resistor": ("R", 1e2), "inductor": ("L", 1e-3), "capacitor": ("C", 1e-6)}
+
+    def element(kind, a, b):
+        pname, unit = scale[kind]
+        m.add(kind, f"{pname}{len(m.components)}", (a, b), **{pname: draw(values) * unit})
+
+    for i, node in enumerate(names):
+        element("capacitor", node, "0")
+        if i:
+            element(draw(st.sampled_from(["resistor", "inductor"])), names[draw(st.integers(0, i - 1))], node)
+    for _ in range(draw(st.integers(0, 3))):
+        a = draw(st.sampled_from(names))
+        b = draw(st.sampled_from([n for n in names + ["0"] if n != a]))
+        element(draw(st.sampled_from(["resistor", "inductor"])), a, b)
+    if formulation == "charge":
+        m.add("voltage_source", "V1", ("in", "0"), E=draw(st.sampled_from([0.0, 1.5])))
+        element("resistor", "in", "n1")
+    else:
+        m.add("current_source", "I1", ("0", "n1"), I=draw(st.sampled_from([0.0, 2e-3])))
+    elements = [c.name for c in m.components.values() if c.kind != "coupling"]
+    outputs = draw(st.lists(st.sampled_from(
+        [f"v({e})" for e in elements] + [f"i({e})" for e in elements] + [f"v({n})" for n in names]
+        + [c + p for c in m.coordinate_names for p in ("", "'", "''")]), min_size=1, max_size=4, unique=True))
+    return m, outputs
+
+
+@settings(max_examples=40, deadline=None)
+@given(circuits())
+def test_a_random_circuit_in_numbers_is_its_derivation(case):
+    m, outputs = case
+    source = "V1" if "V1" in m.components else "I1"
+    assert numeric(m, [source], outputs, 0.0) is not None  # the numeric path applies: what is compared is it
+    fast = linearize(m, inputs=[source], outputs=outputs)
+    with derived_only():
+        slow = linearize(m, inputs=[source], outputs=outputs)
+    same_linearization(fast, slow)
+
+
+@pytest.mark.parametrize("formulation", ["charge", "flux"])
+def test_coupled_inductors_in_numbers_are_their_derivation_and_ngspice(formulation):
+    from lagrangian.ac import compare_ac_with_ngspice
+
+    m = lg.Model("transformer", formulation=formulation)
+    if formulation == "charge":
+        m.add("voltage_source", "V1", ("in", "0"), E=0)
+        m.add("resistor", "R1", ("in", "a"), R=47.0)
+        source = "V1"
+    else:
+        m.add("current_source", "V1", ("0", "a"), I=0)
+        m.add("resistor", "R1", ("a", "0"), R=470.0)
+        source = "V1"
+    m.add("inductor", "L1", ("a", "0"), L=7e-3)
+    m.add("inductor", "L2", ("b", "0"), L=2.2e-3)
+    m.add("capacitor", "C1", ("a", "0"), C=3.3e-6)
+    m.add("capacitor", "C2", ("b", "0"), C=1e-6)
+    m.add("resistor", "R2", ("b", "0"), R=220.0)
+    m.add("coupling", "K1", inductor1="L1", inductor2="L2", k=0.6)
+    outputs = ["v(L1)", "i(L1)", "v(L2)", "i(L2)", "v(b)"]
+    assert numeric(m, [source], outputs, 0.0) is not None
+    fast = linearize(m, inputs=[source], outputs=outputs)
+    with derived_only():
+        slow = linearize(m, inputs=[source], outputs=outputs)
+    same_linearization(fast, slow)
+    cmp = compare_ac_with_ngspice(m, input=source, outputs=outputs, start=10.0, stop=1e5, points=20)
+    assert cmp.worst_rel < 1e-9, cmp.table()
+
+
+def test_a_gyrator_in_numbers_is_its_derivation():
+    m = lg.Model("gyrated")
+    m.add("voltage_source", "V1", ("n0", "0"), E=0.5)
+    m.add("resistor", "R", ("n0", "n1"), R=6.0)
+    m.add("inductor", "L1", ("n1", "n4"), L=0.5e-3)
+    m.add("gyrator", "G", ("n4", "0", "n2", "0"), r=7.0)
+    m.add("inductor", "L2", ("n2", "n3"), L=0.02)
+    m.add("capacitor", "C2", ("n3", "0"), C=5e-4)
+    m.add("resistor", "R2", ("n2", "n3"), R=1 / 1.5)
+    outputs = ["i(V1)", "v(C2)", "i(G)", "q_L1'"]
+    assert numeric(m, ["V1"], outputs, 0.0) is not None
+    fast = linearize(m, inputs=["V1"], outputs=outputs)
+    with derived_only():
+        slow = linearize(m, inputs=["V1"], outputs=outputs)
+    same_linearization(fast, slow)
+
+
+def test_a_source_at_its_operating_value_sets_the_rest_point_and_the_outputs_there():
+    """A DC source: the capacitor charges to E·C, its voltage is E, and the current is 0 (the numeric path's rest
+    point and output values, against the circuit's DC solution)."""
+    m = lg.Model("dc")
+    m.add("voltage_source", "V1", ("in", "0"), E=1.5)
+    m.add("resistor", "R1", ("in", "a"), R=330.0)
+    m.add("inductor", "L1", ("a", "b"), L=7e-3)
+    m.add("capacitor", "C1", ("b", "0"), C=2.2e-6)
+    lin = linearize(m, inputs=["V1"], outputs=["v(C1)", "i(L1)", "v(V1)", "v(a)"])
+    assert float(lin.at["q_L1"]) == pytest.approx(1.5 * 2.2e-6, rel=1e-12)
+    assert lin.y0 == pytest.approx({"v(C1)": 1.5, "i(L1)": 0.0, "v(V1)": 1.5, "v(a)": 1.5}, rel=1e-12, abs=1e-15)
+    assert lin.u0 == {"V1": 1.5}
+
+
+@pytest.mark.parametrize("build", [
+    # a current source fixes its loop's charge: a branch not in numbers alone
+    lambda: [("current_source", "I1", ("0", "n1"), {"I": 0}), ("resistor", "R", ("n1", "0"), {"R": 1.0}),
+             ("capacitor", "C", ("n1", "0"), {"C": 1e-6})],
+    # a parameter without a value
+    lambda: [("voltage_source", "V1", ("n1", "0"), {"E": 0}), ("resistor", "R", ("n1", "n2"), {"R": lg.t * 0 + 5}),
+             ("capacitor", "C", ("n2", "0"), {"C": __import__("sympy").Symbol("C", positive=True)})],
+])
+def test_what_is_not_in_numbers_takes_the_symbolic_path(build):
+    m = lg.Model("fallback")
+    for kind, name, nodes, params in build():
+        m.add(kind, name, nodes, **params)
+    source = next(c.name for c in m.components.values() if "source" in c.kind)
+    with pytest.raises(NotStampable):
+        assemble_numeric(m)
+    assert numeric(m, [source], None, 0.0) is None
+    lin = linearize(m, inputs=[source])  # the symbolic path answers
+    assert lin.coordinates == m.coordinate_names
+
+
+def test_an_expression_output_takes_the_symbolic_path_and_agrees():
+    m = lg.Model("rc")
+    m.add("voltage_source", "V1", ("in", "0"), E=0)
+    m.add("resistor", "R1", ("in", "out"), R=1e3)
+    m.add("capacitor", "C1", ("out", "0"), C=2.2e-6)
+    q = lg.coordinate("q_R1")
+    assert numeric(m, ["V1"], [3 * q], 0.0) is None
+    lin = linearize(m, inputs=["V1"], outputs=[3 * q, "q_R1"])
+    assert np.allclose(lin.Cq[0], [[3.0], [1.0]])
+
+
+def test_bad_inputs_are_refused_on_the_numeric_path_as_on_the_symbolic_one():
+    m = lg.Model("rc")
+    m.add("voltage_source", "V1", ("in", "0"), E=0)
+    m.add("resistor", "R1", ("in", "out"), R=1e3)
+    m.add("capacitor", "C1", ("out", "0"), C=2.2e-6)
+    with pytest.raises(lg.UnknownNameError, match="V2"):
+        linearize(m, inputs=["V2"])
+    with pytest.raises(lg.ModelError, match="no signal parameter"):
+        linearize(m, inputs=["R1"])
+
+
+# ---------------------------------------------------------------------------
+# the banded solve without pivoting, checked by its residual
+# ---------------------------------------------------------------------------
+
+
+def _dense(A, lower):
+    """The matrices of a band stack ``A[i, d, f]`` as a dense stack ``out[f]``."""
+    N, W, F = A.shape
+    out = np.zeros((F, N, N), dtype=complex)
+    for i in range(N):
+        for d in range(W):
+            j = i + d - lower
+            if 0 <= j < N:
+                out[:, i, j] = A[i, d]
+    return out
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(2, 30), st.integers(0, 3), st.integers(0, 3), st.integers(0, 2**32 - 1))
+def test_the_banded_solve_is_a_dense_solve_where_its_residual_says_so(N, lower, upper, seed):
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(N, lower + upper + 1, 5)) + 1j * rng.normal(size=(N, lower + upper + 1, 5))
+    A *= 10.0 ** rng.uniform(-3, 3, size=5)
+    b = rng.normal(size=(N, 2, 5)) + 0j
+    y = frequency._band_solve(A, b, lower, upper)
+    ok = frequency._backward_error(A, y, b, lower) <= frequency.BACKWARD
+    dense = np.linalg.solve(_dense(A, lower), np.moveaxis(b, -1, 0))
+    for f in range(5):
+        expected = dense[f]
+        got = y[:, :, f] if ok[f] else frequency._gbsv(A[:, :, f], b[:, :, f], lower, upper)
+        assert np.allclose(got, expected, rtol=1e-6, atol=1e-9 * np.abs(expected).max())
+
+
+def test_a_zero_pivot_is_caught_by_the_residual_and_solved_with_pivoting():
+    A = np.zeros((3, 3, 1), dtype=complex)  # tridiagonal [[0, 1, 0], [1, 2, 1], [0, 1, 3]]
+    A[:, 1, 0] = [0, 2, 3]
+    A[:-1, 2, 0] = 1
+    A[1:, 0, 0] = 1
+    b = np.array([[1.0], [2.0], [3.0]], dtype=complex)[:, :, None]
+    y = frequency._band_solve(A, b, 1, 1)
+    assert not frequency._backward_error(A, y, b, 1)[0] <= frequency.BACKWARD
+    fixed = frequency._gbsv(A[:, :, 0], b[:, :, 0], 1, 1)
+    assert np.allclose(_dense(A, 1)[0] @ fixed, b[:, :, 0], rtol=1e-14, atol=1e-14)
+
+
+def test_a_ladder_response_in_numbers_is_the_dense_response_of_its_derivation():
+    rng = np.random.default_rng(3)
+    m = lg.Model("ladder50")
+    m.add("voltage_source", "V1", ("in", "0"), E=0)
+    prev = "in"
+    for k in range(50):
+        m.add("resistor", f"R{k}", (prev, f"m{k}"), R=float(f"{rng.uniform(0.2, 1):.3g}"))
+        m.add("inductor", f"L{k}", (f"m{k}", f"n{k}"), L=float(f"{rng.uniform(0.5, 2):.3g}"))
+        m.add("capacitor", f"C{k}", (f"n{k}", "0"), C=float(f"{rng.uniform(0.2, 1):.3g}"))
+        prev = f"n{k}"
+    f = np.geomspace(1e-3, 1.0, 200)
+    outputs = ["i(L0)", "v(C49)", "v(n25)"]
+    fast = frequency_response(m, f, inputs=["V1"], outputs=outputs).H
+    with derived_only():
+        lin = linearize(m, inputs=["V1"], outputs=outputs)
+    with mock.patch.object(frequency, "BANDED_MIN", 10**9):
+        dense = frequency_response(lin, f).H
+    floor = 1e-12 * np.abs(dense).max(axis=-1, keepdims=True)
+    assert np.max(np.abs(fast - dense) / np.maximum(np.abs(dense), floor)) < 1e-10
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 4), st.data())
+def test_a_mass_spring_damper_chain_in_numbers_is_its_derivation(n, data):
+    m = lg.Model("chain")
+    prev = "ground"
+    for i in range(n):
+        m.add("mass", f"m{i}", f"p{i}", m=data.draw(values) * 0.1)
+        m.add("spring", f"k{i}", (prev, f"p{i}"), k=data.draw(values) * 100)
+        if data.draw(st.booleans()):
+            m.add("damper", f"c{i}", (prev, f"p{i}"), c=data.draw(values))
+        prev = f"p{i}"
+    m.add("force", "F", f"p{n - 1}", F=data.draw(st.sampled_from([0.0, 2.5])))
+    outputs = [f"x_p{n - 1}", "x_p0'", "x_p0''"]
+    assert numeric(m, ["F"], outputs, 0.0) is not None
+    fast = linearize(m, inputs=["F"], outputs=outputs)
+    with derived_only():
+        slow = linearize(m, inputs=["F"], outputs=outputs)
+    same_linearization(fast, slow)
+
+
+def loudspeaker() -> lg.Model:
+    m = lg.Model("loudspeaker")
+    m.add("voltage_source", "E", ("n1", "0"), E=0)
+    m.add("resistor", "Re", ("n1", "n2"), R=6.0)
+    m.add("inductor", "Le", ("n2", "n3"), L=0.5e-3)
+    m.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=7.0)
+    m.add("mass", "m", "cone", m=0.02)
+    m.add("spring", "k", ("ground", "cone"), k=2000.0)
+    m.add("damper", "c", ("ground", "cone"), c=1.5)
+    return m
+
+
+def test_a_moving_coil_loudspeaker_in_numbers_is_its_derivation_and_so_is_its_analogue():
+    from lagrangian.analogy import map_model
+
+    m = loudspeaker()
+    outputs = ["i(E)", "x_cone'", "v(Re)"]
+    assert numeric(m, ["E"], outputs, 0.0) is not None
+    fast = linearize(m, inputs=["E"], outputs=outputs)
+    with derived_only():
+        slow = linearize(m, inputs=["E"], outputs=outputs)
+    same_linearization(fast, slow)
+    analogue = map_model(m, "force-voltage")
+    f = np.geomspace(5.0, 5e3, 50)
+    mapped = frequency_response(analogue.model, f, inputs=["E"], outputs=["i(E)"]).H
+    direct = frequency_response(m, f, inputs=["E"], outputs=["i(E)"]).H
+    assert np.allclose(mapped, direct, rtol=1e-12, atol=0)
+    # the coordinate map, solved when first asked for: the cone's position is the analogue's mass-loop charge
+    assert {str(k.func): v for k, v in analogue.coordinates.items()} == {"q_L_m": lg.coordinate("x_cone"),
+                                                                           "q_Le": lg.coordinate("q_Le")}
+
+
+def test_a_base_excited_mass_is_not_in_numbers_and_takes_the_symbolic_path():
+    m = lg.Model("isolator")
+    m.add("prescribed_motion", "base", "b", position=0)
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("b", "p"), k=40.0)
+    m.add("damper", "c", ("b", "p"), c=0.5)
+    with pytest.raises(NotStampable, match="fix the branches"):
+        assemble_numeric(m)
+    lin = linearize(m, inputs=["base"], outputs=["x_p"])
+    assert lin.coordinates == ["x_p"]
