@@ -10,10 +10,11 @@ Cases (each on 1,000 log-spaced frequencies):
 
 Timing, per case, best of ``--repeat`` runs: ngspice's cold run is the deck loaded into ngspice's shared
 library and its ``.ac`` run, through PySpice (``lagrangian.spice.run_ac``); ours is from cold as well: the model
-built from its components (the deck read, for the netlist) and derived, linearized and solved at every
-frequency (``lagrangian.frequency.frequency_response``), in one process after the imports.  (The best of the
-repeats: from the second on, the process's caches of symbolic work, such as the stamps' derivatives by structure,
-are warm; ``--repeat 1`` times a first build alone.)  Agreement is the
+built from its components (the deck read, for the netlist; the mechanism mapped, for the loudspeaker), linearized
+and solved at every frequency (``lagrangian.frequency.frequency_response``), in one process after the imports.
+Every case here is linear with numeric values, so it is assembled in numbers
+(``lagrangian.derivation.numeric``): nothing is derived symbolically, and nothing is kept between repeats but
+what a process keeps (imported modules, compiled code).  The best of ``--repeat`` runs is kept.  Agreement is the
 largest relative difference of the complex responses (relative to the response, floored at 1e-12 of its peak:
 ``lagrangian.ac.FLOOR``).  Prints a table; its last line is
 ``{"cases": N, "worst_rel_error": …, "speedup_vs_ngspice": …}``, the speed-up being ngspice's time over ours for

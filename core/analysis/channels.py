@@ -221,14 +221,21 @@ def _node_voltage(model: Model, node: str) -> sp.Expr:
     return total
 
 
-def _voltage_path(model: Model, node: str) -> list[tuple[Any, int]]:
-    """The two-terminal elements that name their voltage along a path from ``node`` to ground, each with the sign
-    of the direction walked (+1 from its ``a`` to its ``b``)."""
+def _voltage_graph(model: Model) -> nx.Graph:
+    """The graph of the two-terminal elements that name their voltage (what :func:`_voltage_path` walks)."""
     graph = nx.Graph()
     for comp in model.components.values():
         if len(comp.nodes) == 2 and "v" in comp.quantities:
             a, b = comp.nodes
             graph.add_edge(a, b, component=comp)
+    return graph
+
+
+def _voltage_path(model: Model, node: str, graph: nx.Graph | None = None) -> list[tuple[Any, int]]:
+    """The two-terminal elements that name their voltage along a path from ``node`` to ground, each with the sign
+    of the direction walked (+1 from its ``a`` to its ``b``); ``graph``: :func:`_voltage_graph`, when made
+    already."""
+    graph = _voltage_graph(model) if graph is None else graph
     if node not in graph or GROUND not in graph or not nx.has_path(graph, node, GROUND):
         raise ModelError(f"node {node!r} has no path of circuit elements to ground, so it has no voltage to report; "
                          f"give a voltage across an element, 'v(<element>)'.")

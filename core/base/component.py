@@ -161,6 +161,8 @@ class Parameter:
             # a plain number within the rule, as users mostly give them: what the general path below makes of it,
             # without its tree walks (a third of the cost of adding a component); anything else takes that path
             return sp.Float(value) if kind is float else sp.Integer(value)
+        if isinstance(value, (sp.Float, sp.Rational)) and _plain_within(value, check):
+            return value  # a SymPy number within the rule (an analogue's values, a copy's): itself, as below
         if isinstance(value, bool):
             raise ParameterError(component, name, f"expected a number or a SymPy expression, got {value!r}.")
         if is_quantity(value) or split(value) is not None:  # "0.3 kg", 300 * ureg.g: converted to SI
@@ -213,6 +215,15 @@ class Parameter:
 
 #: The largest magnitude a parameter's value may have (a square of it still fits a double).
 LARGEST = 1e150
+
+
+def _plain_within(value: sp.Number, check: str) -> bool:
+    """Whether the SymPy number ``value`` is finite, within :data:`LARGEST` and passes the rule ``check``."""
+    try:
+        x = float(value)
+    except (OverflowError, TypeError, ValueError):
+        return False
+    return abs(x) <= LARGEST and _CHECKS[check][0](x)  # (nan: no)
 
 
 def check_value(expr: Any, check: str, component: str, name: str) -> None:
