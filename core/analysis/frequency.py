@@ -140,7 +140,8 @@ def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
         except np.linalg.LinAlgError:
             X = _singular_solve(P, rhs)
         Xq = X[:, :n, :]
-        H = sum(np.matmul(c, Xq) * sv**k for k, c in enumerate(lin.Cq))  # each Cq_k once, not one per frequency
+        # each Cq_k once, by one matrix product over every frequency (not a product per frequency)
+        H = sum(np.moveaxis(np.tensordot(c, Xq, axes=(1, 1)), 0, 1) * sv**k for k, c in enumerate(lin.Cq))
         D = sum(d * sv**k for k, d in enumerate(lin.D))
         if np.any(lin.Di):
             with np.errstate(divide="ignore", invalid="ignore"):
