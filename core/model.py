@@ -626,11 +626,18 @@ class Model:
         'exact'
         """
 
-        names = self.coordinate_names
-        refuse_eliminated(self.assembly.eliminated, self.assembly.values, initial=initial, velocity=velocity)
-        params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.assembly.values]}))
-        # a large linear model with every parameter valued is solved from its stamps, never derived symbolically
-        st = stamped(self, params) if method in ("auto", "exact") and not events else None
+        # a large linear model with every parameter valued is solved from its stamps, never derived symbolically;
+        # one whose components say their contributions in numbers is not even assembled symbolically
+        exact = method in ("auto", "exact") and not events
+        st = stamped(self) if exact and not params else None
+        numeric = st is not None and "assembly" not in self._cache
+        if numeric:
+            names, params = list(st.names), {}
+        else:
+            names = self.coordinate_names
+            refuse_eliminated(self.assembly.eliminated, self.assembly.values, initial=initial, velocity=velocity)
+            params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.assembly.values]}))
+            st = stamped(self, params) if exact else None
         dim = len(names) + len(st.inertial if st is not None else self.eq.inertial)
         span = check_span(t_end)
         run = RunOptions(
@@ -661,7 +668,7 @@ class Model:
                 res = simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,
                                      points=points, t_eval=t_eval, progress=run.progress)
                 res.notes.insert(0, "auto: exact, the model is linear time-invariant (assembled from its components' "
-                                    "stamps)")
+                                    + ("numbers)" if numeric else "stamps)"))
                 return res
             except ModelError as exc:  # an input the exact solution does not take: integrate
                 _log.info("%s: auto: not solved exactly: %s", self.name, exc)

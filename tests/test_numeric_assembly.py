@@ -448,3 +448,39 @@ def test_fundamental_loops_follow_the_trees_paths_as_networkx_finds_them(n, data
         expected = [(chord, 1)] + [(tg.edges[p, q]["key"], 1 if (tg.edges[p, q]["a"], tg.edges[p, q]["b"]) == (p, q)
                                     else -1) for p, q in zip(path, path[1:])]
         assert loop == expected
+
+
+@settings(max_examples=25, deadline=None)
+@given(circuits(), st.sampled_from([None, "sin", "sum"]))
+def test_a_circuits_stamps_in_numbers_are_its_stamps_from_its_energies(case, signal):
+    """What the exact time-domain solution reads (``numeric_stamps``) equals the stamps differentiated from the
+    components' symbolic energies: ``M``, ``C``, ``K``, the forcing ``B s(t)`` at several instants, the energies'
+    quadratic forms, and which coordinates have inertia."""
+    import sympy as sp
+
+    from lagrangian.derivation.numeric import numeric_stamps
+    from lagrangian.derivation.stamps import stamps
+
+    m, _ = case
+    source = m.components["V1" if "V1" in m.components else "I1"]
+    pname = "E" if source.kind == "voltage_source" else "I"
+    value = {None: 1.5, "sin": 2 * sp.sin(3 * lg.t), "sum": 0.5 + sp.cos(7 * lg.t) / 4}[signal]
+    twin = lg.Model("twin", formulation=m.options["formulation"])
+    for comp in m.components.values():
+        params = {k: v for k, v in comp.params.items() if v is not None}
+        if comp is source:
+            params[pname] = value
+        twin.add(comp.kind, comp.name, comp.nodes, **params)
+    fast = numeric_stamps(twin)
+    slow = stamps(twin.assembly, twin.assembly.values)
+    assert fast.names == slow.names
+    for name in ("M", "C", "K"):
+        _close(getattr(fast, name).toarray(), getattr(slow, name).toarray(), name)
+    for time in (0.0, 0.37, 1.9):
+        def forcing(stmp):
+            s = np.array([float(sp.sympify(e).subs(lg.t, time)) for e in stmp.inputs])
+            return stmp.B.toarray() @ s if len(s) else np.zeros(stmp.n)
+        _close(forcing(fast), forcing(slow), f"B s({time})")
+    for part in "TVD":
+        _close(fast.energies[part].H.toarray(), slow.energies[part].H.toarray(), part)
+    assert fast.inertial == slow.inertial and fast.first_order == slow.first_order

@@ -38,14 +38,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
-from ..base.component import GROUND, Component
+from ..base.component import GROUND, Component, _CallableSignal
+from ..base.component import t as _t
 from ..base.domain import Network
 from ..base.linear import Linear, LinearContext, Quantity
 from ..base.network import check_topology
-from .stamps import NotStampable
+from .stamps import NotStampable, Quadratic, Stamps
 
-__all__ = ["NumericAssembly", "assemble_numeric"]
+__all__ = ["NumericAssembly", "assemble_numeric", "numeric_stamps"]
 
 
 @dataclass
@@ -63,6 +65,8 @@ class NumericAssembly:
     C: np.ndarray
     K: np.ndarray
     forces: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the share of ``C`` from dissipation alone (``D``), for the dissipation function's values
+    Cd: np.ndarray | None = None
     linears: dict[str, Linear] = field(default_factory=dict)
     rows: dict[str, list[dict[int, float]]] = field(default_factory=dict)
     branch: dict[str, dict[int, float]] = field(default_factory=dict)
@@ -103,7 +107,7 @@ def assemble_numeric(model: Any) -> NumericAssembly:
         except NotStampable as exc:
             got = exc
         else:
-            for array in (got.M, got.C, got.K, *got.forces.values()):
+            for array in (got.M, got.C, got.K, got.Cd, *got.forces.values()):
                 array.setflags(write=False)
         cache["numeric"] = got
     if isinstance(got, NotStampable):
@@ -144,8 +148,8 @@ def _assemble(model: Any) -> NumericAssembly:
     if not n or len(set(names)) != n:
         raise NotStampable("no coordinates, or one named twice")
     ctx = LinearContext(options, graph.components)
-    M, C, K = (np.zeros((n, n)) for _ in range(3))
-    out = NumericAssembly(names, M, C, K, branch=branch)
+    M, C, K, Cd = (np.zeros((n, n)) for _ in range(4))
+    out = NumericAssembly(names, M, C, K, branch=branch, Cd=Cd)
     for comp in components:
         lin = comp.linear(ctx)
         if lin is None:
@@ -157,7 +161,7 @@ def _assemble(model: Any) -> NumericAssembly:
             if row is None:
                 raise NotStampable(f"{comp.kind} {comp.name!r} names branch {i} of {cname!r}, which is no branch")
             sparse.append(row)
-        for part, target in ((lin.T, M), (lin.V, K), (lin.D, C)):
+        for part, target in ((lin.T, M), (lin.V, K), (lin.D, C), (lin.D, Cd)):
             for (i, j), c in part.items():
                 _scatter(target, sparse[i], sparse[j], c)
         for (i, j), g in lin.G.items():
@@ -187,3 +191,64 @@ def _dense(row: dict[int, float], n: int) -> np.ndarray:
     for j, c in row.items():
         out[j] = c
     return out
+
+
+def numeric_stamps(model: Any) -> Stamps:
+    """The :class:`~lagrangian.derivation.stamps.Stamps` of ``model`` (what the exact time-domain solution reads)
+    from its numeric assembly: ``M``, ``C``, ``K``; each source's signal split, as the stamps split it, into
+    distinct shapes of ``t`` and their coefficients (``B``); the energies' quadratic forms.  Kept with the model;
+    :class:`NotStampable` where the numeric assembly does not apply or a signal is a Python callable.
+
+    >>> import sympy as sp, lagrangian as lg
+    >>> m = lg.Model("rc")
+    >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=2 * sp.sin(3 * lg.t) + 1)
+    >>> _ = m.add("resistor", "R1", ("in", "out"), R=1e3)
+    >>> _ = m.add("capacitor", "C1", ("out", "0"), C=2.2e-6)
+    >>> st = numeric_stamps(m)
+    >>> st.inputs, st.B.toarray()        # R q̇ + q/C = 1 + 2 sin 3t
+    ([1, sin(3*t)], array([[1., 2.]]))
+    """
+    got = model._cache.get("numeric_stamps")
+    if got is None:
+        try:
+            got = _stamps(model, assemble_numeric(model))
+        except NotStampable as exc:
+            got = exc
+        model._cache["numeric_stamps"] = got
+    if isinstance(got, NotStampable):
+        raise NotStampable(*got.args)
+    return got
+
+
+def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
+    import scipy.sparse as sps  # imported by what uses it, as the stamps do
+
+    n = len(asm.names)
+    columns: dict[sp.Expr, int] = {}
+    entries: list[tuple[int, np.ndarray]] = []
+    for cname, force in asm.forces.items():
+        comp = model._graph.components[cname]
+        signals = [p for p, spec in comp.parameters.items() if spec.shape == "signal"]
+        value = comp.params.get(signals[0]) if len(signals) == 1 else None
+        if value is None or isinstance(value, _CallableSignal) or not isinstance(value, (sp.Expr, int, float)):
+            raise NotStampable(f"{comp.kind} {cname!r}: its signal is not an expression of t")
+        for term in sp.Add.make_args(sp.sympify(value, strict=True)):
+            coeff, shape = term.as_coeff_Mul()
+            if coeff == 0 or not force.any():
+                continue
+            if shape.free_symbols - {_t}:
+                raise NotStampable(f"{comp.kind} {cname!r}: its signal holds symbols other than t")
+            entries.append((columns.setdefault(shape, len(columns)), float(coeff) * force))
+    B = np.zeros((n, len(columns)))
+    for col, values in entries:
+        B[:, col] += values
+    zero = np.zeros((n, n))
+    forms = {"T": np.block([[zero, zero], [zero, asm.M]]), "V": np.block([[asm.K, zero], [zero, zero]]),
+             "D": np.block([[zero, zero], [zero, asm.Cd]])}
+    inertial = [int(i) for i in np.flatnonzero(asm.M.any(axis=1))]
+    first = [i for i in range(n) if not asm.M[i].any()]
+    if any(not asm.C[:, i].any() for i in first):
+        raise NotStampable("a coordinate without inertia or dissipation")
+    return Stamps(list(asm.names), sps.csr_matrix(asm.M), sps.csr_matrix(asm.C), sps.csr_matrix(asm.K),
+                  sps.csr_matrix(B), list(columns), {k: Quadratic(sps.csr_matrix(h)) for k, h in forms.items()},
+                  inertial, first, [int(np.flatnonzero(B[:, c])[0]) if B[:, c].any() else 0 for c in range(B.shape[1])])
