@@ -575,10 +575,10 @@ def simulate_exact(
     """
     span = check_span(t_end)
     st = stamped(model, params)
-    numeric = st is not None and not params and "assembly" not in model._cache  # assembled in numbers: nothing to
-    if not numeric:  # eliminate (no component of such a model eliminates a coordinate), names from the stamps
+    in_numbers = st is not None and not params and "assembly" not in model._cache  # assembled in numbers: nothing
+    if not in_numbers:  # to eliminate (no component of such a model eliminates a coordinate), names from the stamps
         refuse_eliminated(model.assembly.eliminated, model.assembly.values, initial=initial, velocity=velocity)
-    names = st.names if numeric else model.coordinate_names
+    names = st.names if in_numbers else model.coordinate_names
     initial = check_mapping("initial", initial, names)
     velocity = check_mapping("velocity", velocity, names)
     with _blas_threads(st):  # one BLAS thread where a second costs more CPU than it saves (SINGLE_THREAD_MAX)
@@ -724,7 +724,7 @@ def simulate_exact(
             nfev=0,
             method="exact",
             evaluator=evaluator,
-            derived={} if numeric else {name: e.function for name, e in model.assembly.eliminated.items()},
+            derived={} if in_numbers else {name: e.function for name, e in model.assembly.eliminated.items()},
             notes=[f"solved exactly from the components' stamps: {n} coordinates, "
                    f"{'sparse (expm_multiply)' if isinstance(ss, SparseSpace) else 'dense'} matrices"] if st is not None else [],
         )
