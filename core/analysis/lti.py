@@ -199,8 +199,8 @@ def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
             channels[cname] = (label, col, comp.params[pname])
             if cname in asm.forces:
                 Bw[1][:, col] = asm.forces[cname]
-        inertial = asm.M.any(axis=1)
-        idle = [nm for nm, m, c in zip(asm.names, inertial, asm.C.any(axis=0)) if not m and not c]
+        inertial = asm.inertial()
+        idle = [nm for nm, m, c in zip(asm.names, inertial, asm.dissipative()) if not m and not c]
         if idle:
             raise NotStampable(f"coordinates without inertia or dissipation: {', '.join(idle[:5])}")
         x = _rest(asm.K, b0)

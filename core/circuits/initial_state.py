@@ -144,8 +144,8 @@ def _numeric(model: Model) -> tuple | None:
         asm = assemble_numeric(model)
     except NotStampable:
         return None
-    inertial = asm.M.any(axis=1)
-    if not np.all(inertial | asm.C.any(axis=0)):
+    inertial = asm.inertial()
+    if not np.all(inertial | asm.dissipative()):
         return None
     return asm.names, asm.branch_row, np.flatnonzero(inertial)
 

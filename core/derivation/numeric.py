@@ -54,22 +54,68 @@ __all__ = ["NumericAssembly", "assemble_numeric", "numeric_stamps"]
 class NumericAssembly:
     """A linear time-invariant model in numbers: ``M q̈ + C q̇ + K q = Σ_c forces[c] · s_c(t)``.
 
-    ``names``: the coordinates; ``forces``: by component name, the column its signal ``s_c`` multiplies;
-    ``linears``: each component's :class:`~lagrangian.base.linear.Linear`; ``rows``: each variable of each
-    component (by name) as ``{coordinate index: coefficient}``, for its quantities; ``branch``: every branch quantity by
-    edge key, as ``{coordinate index: coefficient}``.
+    ``names``: the coordinates; ``entries``: ``M``, ``C``, ``K`` and ``Cd``
+    (the share of ``C`` from dissipation alone, for the dissipation
+    function's values) as ``(rows, columns, values)``, each entry summed
+    once (:meth:`dense` and :meth:`sparse` give the matrices: a chain of
+    10,000 masses is never held dense); ``forces``: by component name, the
+    column its signal ``s_c`` multiplies; ``linears``: each component's
+    :class:`~lagrangian.base.linear.Linear`; ``rows``: each variable of each
+    component (by name) as ``{coordinate index: coefficient}``, for its
+    quantities; ``branch``: every branch quantity by edge key, likewise.
     """
 
     names: list[str]
-    M: np.ndarray
-    C: np.ndarray
-    K: np.ndarray
+    entries: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]
     forces: dict[str, np.ndarray] = field(default_factory=dict)
-    #: the share of ``C`` from dissipation alone (``D``), for the dissipation function's values
-    Cd: np.ndarray | None = None
     linears: dict[str, Linear] = field(default_factory=dict)
     rows: dict[str, list[dict[int, float]]] = field(default_factory=dict)
     branch: dict[str, dict[int, float]] = field(default_factory=dict)
+
+    def dense(self, which: str) -> np.ndarray:
+        """Matrix ``which`` (``"M"``, ``"C"``, ``"K"``, ``"Cd"``) as a read-only array, made on first use."""
+        key = f"_dense_{which}"
+        if key not in self.__dict__:
+            n = len(self.names)
+            out = np.zeros((n, n))
+            r, c, v = self.entries[which]
+            out[r, c] = v
+            out.setflags(write=False)
+            self.__dict__[key] = out
+        return self.__dict__[key]
+
+    def sparse(self, which: str):
+        """Matrix ``which`` as a SciPy CSR matrix."""
+        import scipy.sparse as sps  # imported by what uses it, as the stamps do
+
+        n = len(self.names)
+        r, c, v = self.entries[which]
+        return sps.csr_matrix((v, (r, c)), shape=(n, n))
+
+    @property
+    def M(self) -> np.ndarray:
+        return self.dense("M")
+
+    @property
+    def C(self) -> np.ndarray:
+        return self.dense("C")
+
+    @property
+    def K(self) -> np.ndarray:
+        return self.dense("K")
+
+    def inertial(self) -> np.ndarray:
+        """Whether each coordinate has inertia (a nonzero row of ``M``)."""
+        return self._touched("M", 0)
+
+    def dissipative(self) -> np.ndarray:
+        """Whether each coordinate's rate enters the equations through ``C`` (a nonzero column)."""
+        return self._touched("C", 1)
+
+    def _touched(self, which: str, axis: int) -> np.ndarray:
+        out = np.zeros(len(self.names), dtype=bool)
+        out[self.entries[which][axis]] = True
+        return out
 
     def branch_row(self, key: str) -> np.ndarray:
         """Branch ``key``'s quantity as a dense row over the coordinates."""
@@ -107,7 +153,7 @@ def assemble_numeric(model: Any) -> NumericAssembly:
         except NotStampable as exc:
             got = exc
         else:
-            for array in (got.M, got.C, got.K, got.Cd, *got.forces.values()):
+            for array in got.forces.values():
                 array.setflags(write=False)
         cache["numeric"] = got
     if isinstance(got, NotStampable):
@@ -148,8 +194,8 @@ def _assemble(model: Any) -> NumericAssembly:
     if not n or len(set(names)) != n:
         raise NotStampable("no coordinates, or one named twice")
     ctx = LinearContext(options, graph.components)
-    M, C, K, Cd = (np.zeros((n, n)) for _ in range(4))
-    out = NumericAssembly(names, M, C, K, branch=branch, Cd=Cd)
+    M, C, K, Cd = ([], [], []), ([], [], []), ([], [], []), ([], [], [])
+    out = NumericAssembly(names, {}, branch=branch)
     for comp in components:
         lin = comp.linear(ctx)
         if lin is None:
@@ -175,15 +221,49 @@ def _assemble(model: Any) -> NumericAssembly:
             out.forces[comp.name] = force
         out.linears[comp.name] = lin
         out.rows[comp.name] = sparse
+    out.entries = {which: _summed(*triplets, n) for which, triplets in (("M", M), ("C", C), ("K", K), ("Cd", Cd))}
     return out
 
 
 
-def _scatter(target: np.ndarray, a: dict[int, float], b: dict[int, float], c: float) -> None:
-    """``target += c · a bᵀ`` for sparse rows ``a``, ``b`` (a branch crosses few loops: no dense outer products)."""
+def _scatter(target: tuple[list, list, list], a: dict[int, float], b: dict[int, float], c: float) -> None:
+    """Entries of ``c · a bᵀ`` for sparse rows ``a``, ``b`` (a branch crosses few loops), added to the triplets
+    ``target``."""
+    rows, cols, vals = target
     for i, ca in a.items():
         for j, cb in b.items():
-            target[i, j] += c * ca * cb
+            rows.append(i)
+            cols.append(j)
+            vals.append(c * ca * cb)
+
+
+#: An entry that sums to less than this many ε of the sum of its addends' sizes is round-off, zero (as the stamps
+#: decide: a mutual term and its opposite cancel to nothing, not to 1e-19).
+_ROUNDOFF = 64 * np.finfo(float).eps
+
+
+def _summed(rows: list, cols: list, vals: list, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triplets summed per entry, round-off residuals dropped, as ``(rows, columns, values)``."""
+    if len(vals) <= 256:  # a small model: a dictionary costs less than NumPy's sorting
+        sums: dict[tuple[int, int], float] = {}
+        sizes: dict[tuple[int, int], float] = {}
+        for entry in zip(rows, cols, vals):
+            key2, value = entry[:2], entry[2]
+            sums[key2] = sums.get(key2, 0.0) + value
+            sizes[key2] = sizes.get(key2, 0.0) + abs(value)
+        kept = [(i, j, x) for (i, j), x in sums.items() if abs(x) > _ROUNDOFF * sizes[i, j]]
+        return (np.array([e[0] for e in kept], dtype=np.intp), np.array([e[1] for e in kept], dtype=np.intp),
+                np.array([e[2] for e in kept], dtype=float))
+    key = np.asarray(rows, dtype=np.int64) * n + np.asarray(cols, dtype=np.int64)
+    vals = np.asarray(vals, dtype=float)
+    order = np.argsort(key, kind="stable")
+    key, vals = key[order], vals[order]
+    first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    sums = np.add.reduceat(vals, first)
+    sizes = np.add.reduceat(np.abs(vals), first)
+    keep = np.abs(sums) > _ROUNDOFF * sizes
+    key = key[first][keep]
+    return (key // n).astype(np.intp), (key % n).astype(np.intp), sums[keep]
 
 
 def _dense(row: dict[int, float], n: int) -> np.ndarray:
@@ -242,13 +322,22 @@ def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
     B = np.zeros((n, len(columns)))
     for col, values in entries:
         B[:, col] += values
-    zero = np.zeros((n, n))
-    forms = {"T": np.block([[zero, zero], [zero, asm.M]]), "V": np.block([[asm.K, zero], [zero, zero]]),
-             "D": np.block([[zero, zero], [zero, asm.Cd]])}
-    inertial = [int(i) for i in np.flatnonzero(asm.M.any(axis=1))]
-    first = [i for i in range(n) if not asm.M[i].any()]
-    if any(not asm.C[:, i].any() for i in first):
+    # over z = (q, q̇): T = ½ q̇ᵀ M q̇, V = ½ qᵀ K q, D = ½ q̇ᵀ Cd q̇
+    forms = {"T": Quadratic(_placed(asm, "M", n)), "V": Quadratic(_placed(asm, "K", 0)),
+             "D": Quadratic(_placed(asm, "Cd", n))}
+    inertial = [int(i) for i in np.flatnonzero(asm.inertial())]
+    first = [int(i) for i in np.flatnonzero(~asm.inertial())]
+    if not np.all(asm.inertial() | asm.dissipative()):
         raise NotStampable("a coordinate without inertia or dissipation")
-    return Stamps(list(asm.names), sps.csr_matrix(asm.M), sps.csr_matrix(asm.C), sps.csr_matrix(asm.K),
-                  sps.csr_matrix(B), list(columns), {k: Quadratic(sps.csr_matrix(h)) for k, h in forms.items()},
+    return Stamps(list(asm.names), asm.sparse("M"), asm.sparse("C"), asm.sparse("K"),
+                  sps.csr_matrix(B), list(columns), forms,
                   inertial, first, [int(np.flatnonzero(B[:, c])[0]) if B[:, c].any() else 0 for c in range(B.shape[1])])
+
+
+def _placed(asm: NumericAssembly, which: str, at: int):
+    """Matrix ``which`` placed at row and column ``at`` of a ``2n × 2n`` CSR matrix (over ``z = (q, q̇)``)."""
+    import scipy.sparse as sps
+
+    n = len(asm.names)
+    r, c, v = asm.entries[which]
+    return sps.csr_matrix((v, (r + at, c + at)), shape=(2 * n, 2 * n))
