@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.ac import FLOOR, compare_ac_with_ngspice
 from lagrangian.frequency import frequency_response, sweep
 from lagrangian.netlist import read_netlist
@@ -52,15 +53,7 @@ def series_rlc() -> lg.Model:
 def loudspeaker() -> lg.Model:
     from lagrangian.analogy import map_model
 
-    m = lg.Model("loudspeaker")
-    m.add("voltage_source", "E", ("n1", "0"), E=0)
-    m.add("resistor", "Re", ("n1", "n2"), R=6.0)
-    m.add("inductor", "Le", ("n2", "n3"), L=0.5e-3)
-    m.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=7.0)
-    m.add("mass", "m", "cone", m=0.02)
-    m.add("spring", "k", ("ground", "cone"), k=2000.0)
-    m.add("damper", "c", ("ground", "cone"), c=1.5)
-    return map_model(m, "force-voltage").model
+    return map_model(models.loudspeaker(), "force-voltage").model
 
 
 def coupled_tanks() -> lg.Model:
@@ -75,17 +68,7 @@ def coupled_tanks() -> lg.Model:
 
 
 def ladder(n: int = 100) -> lg.Model:
-    rng = np.random.default_rng(1)
-    m = lg.Model(f"ladder{n}")
-    m.add("voltage_source", "V1", ("in", "0"), E=0)
-    prev = "in"
-    for k in range(n):
-        R, L, C = (float(f"{x:.3g}") for x in (rng.uniform(0.2, 1.0), rng.uniform(0.5, 2.0), rng.uniform(0.2, 1.0)))
-        m.add("resistor", f"R{k}", (prev, f"m{k}"), R=R)
-        m.add("inductor", f"L{k}", (f"m{k}", f"n{k}"), L=L)
-        m.add("capacitor", f"C{k}", (f"n{k}", "0"), C=C)
-        prev = f"n{k}"
-    return m
+    return models.rlc_ladder(n, seed=1)
 
 
 def butterworth():

@@ -14,9 +14,11 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from .model import Model
 
-__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum"]
+__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "loudspeaker", "rlc_ladder"]
 
 
 def spherical_pendulum(m: Any = 1.0, length: Any = 1.0, g: Any = 9.81) -> Model:
@@ -77,4 +79,47 @@ def heavy_top(m: Any = 0.3, l: Any = 0.4, I1: Any = 0.3, I3: Any = 0.5, g: Any =
     model.add("revolute", "nutation", ("a", "b"), axis=(1, 0, 0))
     model.add("revolute", "spin", ("b", "top"), axis=(0, 0, 1))
     model.add("gravity", "g", g=g)
+    return model
+
+
+def loudspeaker(Re: Any = 6.0, Le: Any = 0.5e-3, Bl: Any = 7.0, m: Any = 0.02, k: Any = 2000.0, c: Any = 1.5,
+                E: Any = 0) -> Model:
+    """A moving-coil loudspeaker: a voltage source ``E`` driving the voice coil's resistance ``Re`` and inductance
+    ``Le`` into a moving coil of force factor ``Bl`` on the cone (mass ``m`` on a suspension of stiffness ``k`` and
+    damping ``c``), in loop charges and the cone's position.
+
+    >>> model = loudspeaker()
+    >>> model.coordinate_names
+    ['q_Le', 'x_cone']
+    """
+    model = Model("loudspeaker")
+    model.add("voltage_source", "E", ("n1", "0"), E=E)
+    model.add("resistor", "Re", ("n1", "n2"), R=Re)
+    model.add("inductor", "Le", ("n2", "n3"), L=Le)
+    model.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=Bl)
+    model.add("mass", "m", "cone", m=m)
+    model.add("spring", "k", ("ground", "cone"), k=k)
+    model.add("damper", "c", ("ground", "cone"), c=c)
+    return model
+
+
+def rlc_ladder(sections: int, seed: int = 1, E: Any = 0) -> Model:
+    """An RLC ladder of ``sections`` sections driven by a voltage source ``V1`` (value ``E``): each a series
+    resistor ``R<k>`` (0.2–1 Ω) and inductor ``L<k>`` (0.5–2 H) into a shunt capacitor ``C<k>`` (0.2–1 F) at node
+    ``n<k>``, values drawn with the random ``seed`` and rounded to three digits, as a user types them.
+
+    >>> ladder = rlc_ladder(3)
+    >>> ladder.coordinate_names, str(ladder.components["L0"].L)
+    (['q_L0', 'q_L1', 'q_L2'], '1.93000000000000')
+    """
+    rng = np.random.default_rng(seed)
+    model = Model(f"ladder{sections}")
+    model.add("voltage_source", "V1", ("in", "0"), E=E)
+    prev = "in"
+    for k in range(sections):
+        R, L, C = (float(f"{x:.3g}") for x in (rng.uniform(0.2, 1.0), rng.uniform(0.5, 2.0), rng.uniform(0.2, 1.0)))
+        model.add("resistor", f"R{k}", (prev, f"m{k}"), R=R)
+        model.add("inductor", f"L{k}", (f"m{k}", f"n{k}"), L=L)
+        model.add("capacitor", f"C{k}", (f"n{k}", "0"), C=C)
+        prev = f"n{k}"
     return model

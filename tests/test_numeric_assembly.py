@@ -16,6 +16,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import lagrangian as lg
+from lagrangian import models
 import lagrangian.analysis.frequency as frequency
 import lagrangian.analysis.linearize as linearize_module
 from lagrangian.analysis.lti import numeric
@@ -259,15 +260,7 @@ def test_a_zero_pivot_is_caught_by_the_residual_and_solved_with_pivoting():
 
 
 def test_a_ladder_response_in_numbers_is_the_dense_response_of_its_derivation():
-    rng = np.random.default_rng(3)
-    m = lg.Model("ladder50")
-    m.add("voltage_source", "V1", ("in", "0"), E=0)
-    prev = "in"
-    for k in range(50):
-        m.add("resistor", f"R{k}", (prev, f"m{k}"), R=float(f"{rng.uniform(0.2, 1):.3g}"))
-        m.add("inductor", f"L{k}", (f"m{k}", f"n{k}"), L=float(f"{rng.uniform(0.5, 2):.3g}"))
-        m.add("capacitor", f"C{k}", (f"n{k}", "0"), C=float(f"{rng.uniform(0.2, 1):.3g}"))
-        prev = f"n{k}"
+    m = models.rlc_ladder(50, seed=3)
     f = np.geomspace(1e-3, 1.0, 200)
     outputs = ["i(L0)", "v(C49)", "v(n25)"]
     fast = frequency_response(m, f, inputs=["V1"], outputs=outputs).H
@@ -299,22 +292,10 @@ def test_a_mass_spring_damper_chain_in_numbers_is_its_derivation(n, data):
     same_linearization(fast, slow)
 
 
-def loudspeaker() -> lg.Model:
-    m = lg.Model("loudspeaker")
-    m.add("voltage_source", "E", ("n1", "0"), E=0)
-    m.add("resistor", "Re", ("n1", "n2"), R=6.0)
-    m.add("inductor", "Le", ("n2", "n3"), L=0.5e-3)
-    m.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=7.0)
-    m.add("mass", "m", "cone", m=0.02)
-    m.add("spring", "k", ("ground", "cone"), k=2000.0)
-    m.add("damper", "c", ("ground", "cone"), c=1.5)
-    return m
-
-
 def test_a_moving_coil_loudspeaker_in_numbers_is_its_derivation_and_so_is_its_analogue():
     from lagrangian.analogy import map_model
 
-    m = loudspeaker()
+    m = models.loudspeaker()
     outputs = ["i(E)", "x_cone'", "v(Re)"]
     assert numeric(m, ["E"], outputs, 0.0) is not None
     fast = linearize(m, inputs=["E"], outputs=outputs)
