@@ -177,6 +177,7 @@ def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
     Returns what :func:`stamped` does, plus ``channels`` (by input name: ``(label, column, operating value)``).
     """
     chosen = _chosen(model, inputs)  # bad inputs are refused here as on the symbolic path
+    components = model.components
     try:
         asm = assemble_numeric(model)
         n = len(asm.names)
@@ -185,14 +186,14 @@ def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
         b0 = np.zeros(n)
         signal: dict[str, float] = {}  # each source's signal at t₀
         for cname, force in asm.forces.items():
-            comp = model.components[cname]
+            comp = components[cname]
             pname = _signal_of(comp)
             if pname is None:
                 raise NotStampable(f"{comp.kind} {cname!r} has a force but no one signal")
             signal[cname] = _at(comp.params[pname], time)
             b0 += force * signal[cname]
         for cname, (pname, index, label) in chosen.items():
-            comp = model.components[cname]
+            comp = components[cname]
             if index is not None or pname != _signal_of(comp):
                 raise NotStampable(f"input {label!r} is not its component's one signal")
             col = len(channels)
@@ -238,6 +239,7 @@ def _numeric_outputs(model: Model, asm: NumericAssembly, outputs, channels, sign
     Dw = [np.zeros((m, len(channels))) for _ in range(2)]
     y0 = {}
     graph = None  # of the elements naming their voltage, made for the first node voltage asked for
+    components, nodes = model.components, set(model.nodes)
     for r, output in enumerate(wanted):
         if not isinstance(output, str):
             raise NotStampable(f"output {output!r} is an expression")
@@ -245,11 +247,11 @@ def _numeric_outputs(model: Model, asm: NumericAssembly, outputs, channels, sign
         branch = _BRANCH.match(output)
         if branch:
             quantity, name = branch.group(1).lower(), branch.group(2)
-            if name not in model.components and quantity == "v" and name in model.nodes:
+            if name not in components and quantity == "v" and name in nodes:
                 graph = graph if graph is not None else _voltage_graph(model)
                 path = _voltage_path(model, name, graph)
-            elif name in model.components:
-                path = [(model.components[name], 1)]
+            elif name in components:
+                path = [(components[name], 1)]
             else:
                 raise NotStampable(f"output {output!r} names no component")
             for comp, sign in path:

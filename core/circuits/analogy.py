@@ -304,10 +304,8 @@ def _checked_in_numbers(model: Model, target: Model, identities: list[tuple[str,
     either model is not assembled in numbers (the symbolic map then checks)."""
     try:
         mine, theirs = assemble_numeric(target), assemble_numeric(model)
-    except NotStampable:
+    except NotStampable:  # (a model without coordinates among them: the symbolic map says so)
         return False
-    if not mine.names:
-        _no_coordinates(model, analogy, theirs.names)
     A = np.array([mine.branch_row(el) for el, _, _ in identities]).reshape(len(identities), len(mine.names))
     B = np.array([sign * theirs.branch_row(src) for _, src, sign in identities]).reshape(len(identities), -1)
     X = np.linalg.lstsq(A, B, rcond=None)[0]
