@@ -311,3 +311,41 @@ def _plugin(cls):
 
     plugin.register_component_types = register_component_types
     return plugin
+
+
+LINEAR_KINDS = [k for k in KINDS if lg.default_registry().component_type(k).linear is not lg.Component.linear]
+
+
+@pytest.mark.parametrize("kind", LINEAR_KINDS, ids=LINEAR_KINDS)
+def test_a_kind_said_in_numbers_linearizes_as_its_energy_does(kind):
+    """A kind that says its contribution in numbers (``linear``) gives, on its example, the linearization its
+    symbolic energy gives: coordinates, matrices, inputs and every coordinate as output.  An example that the
+    numeric assembly does not take (a spring's rest length) is skipped, saying why."""
+    from unittest import mock
+
+    import lagrangian.analysis.linearize as linearize_module
+    from lagrangian.analysis.lti import numeric
+    from lagrangian.derivation.numeric import assemble_numeric
+    from lagrangian.derivation.stamps import NotStampable
+    from lagrangian.frequency import linearize
+
+    m, _ = build(kind)
+    try:
+        assemble_numeric(m)
+    except NotStampable as exc:
+        pytest.skip(f"its example is not assembled in numbers: {exc}")
+    assert numeric(m, None, None, 0.0) is not None
+    fast = linearize(m)
+    with mock.patch.object(linearize_module, "numeric", lambda *a, **k: None), \
+            mock.patch.object(linearize_module, "stamped", lambda *a, **k: None):
+        slow = linearize(m)
+    assert fast.coordinates == slow.coordinates and fast.inputs == slow.inputs
+    for name in ("M", "C", "K", "Bi"):
+        a, b = np.asarray(getattr(fast, name), float), np.asarray(getattr(slow, name), float)
+        assert np.allclose(a, b, rtol=1e-12, atol=1e-12 * max(np.abs(b).max(initial=0), 1e-300)), name
+    for name in ("B", "Cq"):
+        a, b = getattr(fast, name), getattr(slow, name)
+        for k in range(max(len(a), len(b))):
+            x = np.asarray(a[k], float) if k < len(a) else 0 * np.asarray(b[k], float)
+            y = np.asarray(b[k], float) if k < len(b) else 0 * x
+            assert np.allclose(x, y, rtol=1e-12, atol=1e-12 * max(np.abs(y).max(initial=0), 1e-300)), (name, k)
