@@ -3,7 +3,7 @@
 :func:`numeric` takes a model whose components and domains say their
 contributions in numbers (:mod:`lagrangian.derivation.numeric`): nothing
 symbolic is built at all, and a 100-section RLC ladder is linearized in
-about 8 ms.  :func:`stamped`, next, differentiates each component's own
+about 7 ms.  :func:`stamped`, next, differentiates each component's own
 symbolic energy (the stamps) where the model is linear time-invariant but
 not said in numbers.
 
