@@ -22,7 +22,7 @@ import numpy as np
 import sympy as sp
 
 from .base.arguments import RunOptions, check_atol, check_max_step, check_state, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
-from .derivation.assembly import Assembly, assemble, refuse_eliminated
+from .derivation.assembly import Assembly, assemble
 from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
 from .derivation.equations import Equations
@@ -36,7 +36,7 @@ from .numerics.simulation import NumericModel, Result, initial_state
 from .numerics.integrate import choose, integrate, Problem, resolve
 from .numerics.events import Event
 from .numerics.events import check as check_events
-from .numerics.linear import simulate_exact, stamped, state_space
+from .numerics.linear import prepared, simulate_exact, state_space
 
 __all__ = ["Model"]
 
@@ -626,18 +626,9 @@ class Model:
         'exact'
         """
 
-        # a large linear model with every parameter valued is solved from its stamps, never derived symbolically;
-        # one whose components say their contributions in numbers is not even assembled symbolically
-        exact = method in ("auto", "exact") and not events
-        st = stamped(self) if exact and not params else None
-        numeric = st is not None and "assembly" not in self._cache
-        if numeric:
-            names, params = list(st.names), {}
-        else:
-            names = self.coordinate_names
-            refuse_eliminated(self.assembly.eliminated, self.assembly.values, initial=initial, velocity=velocity)
-            params = check_mapping("params", params, sorted({s.name for s in [*self.parameters, *self.assembly.values]}))
-            st = stamped(self, params) if exact else None
+        # a large linear model with every parameter valued is solved from its stamps, never derived symbolically
+        # (nor assembled symbolically, when its components say their contributions in numbers)
+        st, names, params, numeric = prepared(self, params, method in ("auto", "exact") and not events, initial, velocity)
         dim = len(names) + len(st.inertial if st is not None else self.eq.inertial)
         span = check_span(t_end)
         run = RunOptions(

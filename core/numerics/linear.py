@@ -306,6 +306,19 @@ def stamped(model, params: Mapping[str, float] | None = None) -> Stamps | None:
     return model._get(("stamps", tuple(sorted((s.name, v) for s, v in values.items()))), build)
 
 
+def prepared(model, params, exact: bool, initial, velocity) -> tuple[Stamps | None, list[str], dict, bool]:
+    """What ``Model.simulate`` starts from: ``(stamps or None, coordinate names, params checked, in numbers)``.
+    Without ``params``, a model whose numeric assembly applies is not assembled symbolically at all (nothing to
+    eliminate: no component said in numbers eliminates a coordinate); else the names, eliminated coordinates and
+    ``params`` are checked against the symbolic assembly, and the stamps come from it (``exact``: only then)."""
+    st = stamped(model) if exact and not params else None
+    if st is not None and "assembly" not in model._cache:
+        return st, list(st.names), {}, True
+    refuse_eliminated(model.assembly.eliminated, model.assembly.values, initial=initial, velocity=velocity)
+    params = check_mapping("params", params, sorted({s.name for s in [*model.parameters, *model.assembly.values]}))
+    return (stamped(model, params) if exact else None), model.coordinate_names, params, False
+
+
 def _from_stamps(st: Stamps) -> StateSpace | SparseSpace:
     """The state space of a stamped model: dense up to :data:`DENSE_MAX` states, sparse beyond."""
     space = st.__dict__.get("_space")
