@@ -37,6 +37,9 @@ from lagrangian import (
     Domain,
     DomainView,
     Example,
+    Incidence,
+    Linear,
+    LinearContext,
     Load,
     ModelError,
     Network,
@@ -87,6 +90,28 @@ class RotationalDomain(Domain):
         return view
 
 
+    def incidence(self, network: Network, options: dict[str, Any]) -> Incidence:
+        """The coordinates ``theta_<node>`` and each branch's ``θ_a − θ_b``, in numbers (a prescribed node's branches
+        are prescribed)."""
+        prescribed = {c.nodes[0] for c in network.components if c.role == "across" and c.domain == self.name}
+        index = {}
+        for node in network.nodes:
+            if node not in prescribed:
+                index[node] = len(index)
+        branch, fixed = {}, set()
+        for _, _, key, data in network.graph.edges(keys=True, data=True):
+            a, b = data["a"], data["b"]
+            if a in prescribed or b in prescribed:
+                fixed.add(key)
+                continue
+            row: dict[int, float] = {}
+            for node, sign in ((a, 1.0), (b, -1.0)):
+                if node in index:
+                    row[index[node]] = row.get(index[node], 0.0) + sign
+            branch[key] = row
+        return Incidence([f"theta_{node}" for node in index], branch, fixed)
+
+
 class _Rotational(Component):
     domain = "rotational"
 
@@ -101,6 +126,10 @@ class Inertia(_Rotational):
     def contribute(self, ctx) -> Contribution:
         w = ctx.view.angular_velocity(self.nodes[0])
         return Contribution(T=self.J * w**2 / 2)
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        J = ctx.number(self, "J")
+        return None if J is None else Linear(T={(0, 0): J})
 
     @classmethod
     def example(cls) -> Example:
@@ -122,6 +151,12 @@ class TorsionSpring(_Rotational):
         twist = ctx.view.angle(self.nodes[1]) - ctx.view.angle(self.nodes[0]) - self.rest_angle
         return Contribution(V=self.k * twist**2 / 2)
 
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        k = ctx.number(self, "k")
+        if k is None or ctx.number(self, "rest_angle") != 0:  # a rest angle: a constant torque too
+            return None
+        return Linear(V={(0, 0): k})
+
     @classmethod
     def example(cls) -> Example:
         return Example(("ground", "s"), {"k": 5, "rest_angle": 0.5}, context=[("inertia", "J", "s", {"J": 1})])
@@ -138,6 +173,10 @@ class RotaryDamper(_Rotational):
     def contribute(self, ctx) -> Contribution:
         rate = ctx.view.angular_velocity(self.nodes[1]) - ctx.view.angular_velocity(self.nodes[0])
         return Contribution(D=self.c * rate**2 / 2)
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        c = ctx.number(self, "c")
+        return None if c is None else Linear(D={(0, 0): c})
 
     @classmethod
     def example(cls) -> Example:
@@ -161,6 +200,12 @@ class Torque(_Rotational):
         if isinstance(self.tau, sp.MatrixBase):
             raise ModelError(f"torque {self.name!r}: tau must be a scalar (rotation is about one axis), got {list(self.tau)}.")
         return Contribution(loads=[Load(self.tau, ctx.view.angular_velocity(self.nodes[0]))])
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        """A torque of time alone: the generalized force ``τ`` on its node's angle."""
+        if isinstance(self.tau, sp.MatrixBase) or self.state("tau") or self.signals():
+            return None
+        return Linear(force={0: 1.0})
 
     @classmethod
     def example(cls) -> Example:

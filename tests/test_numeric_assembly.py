@@ -273,18 +273,23 @@ def test_a_ladder_response_in_numbers_is_the_dense_response_of_its_derivation():
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.integers(1, 4), st.data())
-def test_a_mass_spring_damper_chain_in_numbers_is_its_derivation(n, data):
+@given(st.integers(1, 4), st.sampled_from(["translational", "rotational"]), st.data())
+def test_a_chain_of_masses_or_rotors_in_numbers_is_its_derivation(n, kind, data):
+    """Masses, springs, dampers and a force on one axis, or rotors, shafts, drag cups and a torque: the numeric
+    linearization is the derived one."""
+    mass, spring, damper, load, coordinate = (("mass", "spring", "damper", "force", "x") if kind == "translational"
+                                              else ("inertia", "torsion_spring", "rotary_damper", "torque", "theta"))
+    pname = {"mass": "m", "inertia": "J", "force": "F", "torque": "tau"}
     m = lg.Model("chain")
     prev = "ground"
     for i in range(n):
-        m.add("mass", f"m{i}", f"p{i}", m=data.draw(values) * 0.1)
-        m.add("spring", f"k{i}", (prev, f"p{i}"), k=data.draw(values) * 100)
+        m.add(mass, f"m{i}", f"p{i}", **{pname[mass]: data.draw(values) * 0.1})
+        m.add(spring, f"k{i}", (prev, f"p{i}"), k=data.draw(values) * 100)
         if data.draw(st.booleans()):
-            m.add("damper", f"c{i}", (prev, f"p{i}"), c=data.draw(values))
+            m.add(damper, f"c{i}", (prev, f"p{i}"), c=data.draw(values))
         prev = f"p{i}"
-    m.add("force", "F", f"p{n - 1}", F=data.draw(st.sampled_from([0.0, 2.5])))
-    outputs = [f"x_p{n - 1}", "x_p0'", "x_p0''"]
+    m.add(load, "F", f"p{n - 1}", **{pname[load]: data.draw(st.sampled_from([0.0, 2.5]))})
+    outputs = [f"{coordinate}_p{n - 1}", f"{coordinate}_p0'", f"{coordinate}_p0''"]
     assert numeric(m, ["F"], outputs, 0.0) is not None
     fast = linearize(m, inputs=["F"], outputs=outputs)
     with derived_only():

@@ -138,6 +138,13 @@ class DCMotor(_Transducer):
         self._charge_only(ctx, "λ_ab = K·θ")
         return Contribution(G=self.K * self.displacement(ctx) * ctx.view.current(self))
 
+    def linear(self, ctx):
+        """``G = K·θ·q̇`` in numbers (charge formulation): ``θ`` is branch 1, ``q`` branch 0."""
+        K = ctx.number(self, "K")
+        if K is None or ctx.options.get("formulation") != "charge":
+            return None
+        return Linear(G={(1, 0): K})
+
     @classmethod
     def example(cls) -> Example:
         return Example(
