@@ -312,6 +312,28 @@ def test_bdf_on_numpy_with_a_singular_mass_matrix_is_a_numerical_error():
     correct(lambda: model.simulate(0.0697, method="BDF", compiled=False, initial={"q_S": 552.0}))
 
 
+def test_a_signal_whose_callable_raises_is_a_model_error_naming_it():
+    """Seed 103, case 6110: a voltage source's callable that raises reached the SPICE deck's initial state as the
+    callable's own RuntimeError (so did a run); now every path tells it as a ModelError naming the signal and the
+    time, the user's exception chained."""
+    def broken(t):
+        raise RuntimeError("a user's signal failed")
+
+    m = lg.Model("rlc")
+    m.add("voltage_source", "Z", ("n1", "0"), E=broken)
+    m.add("resistor", "R", ("n1", "n2"), R=1)
+    m.add("inductor", "L", ("n2", "n3"), L=1)
+    m.add("capacitor", "C", ("n3", "0"), C=1)
+    spice = fuzz.lib("spice")
+    for run in (lambda: m.simulate(0.5, points=3), lambda: m.simulate(0.5, points=3, compiled=False),
+                lambda: spice.netlist(m, t_end=0.01)):
+        with pytest.raises(lg.ModelError, match=r"signal E_Z\(t\).*raised RuntimeError: a user's signal failed") as info:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                run()
+        assert isinstance(info.value.__cause__, RuntimeError)
+
+
 def test_a_long_node_name_does_not_crash_ngspice():
     script = (
         "import sys; sys.path.insert(0, 'benchmarks'); import fuzz, lagrangian as lg\n"

@@ -22,7 +22,7 @@ from .result import Result
 from ..base.component import StateCall, t
 from ..derivation.assembly import refuse_eliminated
 from ..derivation.equations import Equations
-from ..errors import ExpressionError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
+from ..errors import ExpressionError, LagrangianError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
 from ..errors import warn as _warn
 from ..base.switching import switching_times
 from ..base.text import as_expr, parse_expression
@@ -48,7 +48,7 @@ def _checked_signal(name: str, fn: Callable) -> Callable:
         return _checked_state(name, fn)
 
     def signal(time):
-        value = fn(time)
+        value = _called(fn, f"the signal {name}(t)", time)
         try:
             if value is None:
                 raise TypeError
@@ -67,12 +67,24 @@ def _checked_signal(name: str, fn: Callable) -> Callable:
     return signal
 
 
+def _called(fn: Callable, what: str, time, *args) -> Any:
+    """``fn(time, *args)``; an exception the user's callable raises is told as a :class:`ModelError` naming it and
+    the time (the original chained), so that a run, a deck or an export ends with the project's error."""
+    try:
+        return fn(time, *args)
+    except LagrangianError:
+        raise
+    except Exception as exc:
+        raise ModelError(f"{what}, a Python callable, raised {type(exc).__name__}: {str(exc)[:200]} at "
+                         f"t={time!r:.30}; make it return a finite number for every time of the run.") from exc
+
+
 def _checked_state(name: str, call: StateCall) -> Callable:
     """A load's callable ``f(t, q, v)``: called once per state (many states are taken one at a time), its value
     one finite number."""
 
     def one(time, args):
-        value = call(time, *args)
+        value = _called(call, f"the load {name}(t, q, v)", time, *args)
         try:
             out = float(value)  # None, text and arrays are refused here
         except (TypeError, ValueError):
