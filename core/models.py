@@ -83,16 +83,16 @@ def heavy_top(m: Any = 0.3, l: Any = 0.4, I1: Any = 0.3, I3: Any = 0.5, g: Any =
 
 
 def loudspeaker(Re: Any = 6.0, Le: Any = 0.5e-3, Bl: Any = 7.0, m: Any = 0.02, k: Any = 2000.0, c: Any = 1.5,
-                E: Any = 0) -> Model:
+                E: Any = 0, formulation: str = "charge") -> Model:
     """A moving-coil loudspeaker: a voltage source ``E`` driving the voice coil's resistance ``Re`` and inductance
     ``Le`` into a moving coil of force factor ``Bl`` on the cone (mass ``m`` on a suspension of stiffness ``k`` and
-    damping ``c``), in loop charges and the cone's position.
+    damping ``c``), in loop charges (``formulation``) and the cone's position.
 
     >>> model = loudspeaker()
     >>> model.coordinate_names
     ['q_Le', 'x_cone']
     """
-    model = Model("loudspeaker")
+    model = Model("loudspeaker", formulation=formulation)
     model.add("voltage_source", "E", ("n1", "0"), E=E)
     model.add("resistor", "Re", ("n1", "n2"), R=Re)
     model.add("inductor", "Le", ("n2", "n3"), L=Le)

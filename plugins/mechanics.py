@@ -130,24 +130,7 @@ class MechanicalDomain(Domain):
         numbers (a prescribed node's branches are prescribed)."""
         if options["dim"] != 1 or any(getattr(c, "multibody", False) for c in network.components):
             return None
-        prescribed = {c.nodes[0] for c in network.components if c.role == "across"}
-        names, index = [], {}
-        for node in network.nodes:
-            if node not in prescribed:
-                index[node] = len(names)
-                names.append(f"x_{node}")
-        branch, fixed = {}, set()
-        for _, _, key, data in network.graph.edges(keys=True, data=True):
-            a, b = data["a"], data["b"]
-            if a in prescribed or b in prescribed:
-                fixed.add(key)
-                continue
-            row: dict[int, float] = {}
-            for node, sign in ((a, 1.0), (b, -1.0)):
-                if node in index:
-                    row[index[node]] = row.get(index[node], 0.0) + sign
-            branch[key] = row
-        return Incidence(names, branch, fixed)
+        return Incidence.of_nodes(network, {c.nodes[0] for c in network.components if c.role == "across"}, "x")
 
 
 def _one_axis(ctx: LinearContext) -> bool:

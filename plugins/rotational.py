@@ -94,22 +94,7 @@ class RotationalDomain(Domain):
         """The coordinates ``theta_<node>`` and each branch's ``θ_a − θ_b``, in numbers (a prescribed node's branches
         are prescribed)."""
         prescribed = {c.nodes[0] for c in network.components if c.role == "across" and c.domain == self.name}
-        index = {}
-        for node in network.nodes:
-            if node not in prescribed:
-                index[node] = len(index)
-        branch, fixed = {}, set()
-        for _, _, key, data in network.graph.edges(keys=True, data=True):
-            a, b = data["a"], data["b"]
-            if a in prescribed or b in prescribed:
-                fixed.add(key)
-                continue
-            row: dict[int, float] = {}
-            for node, sign in ((a, 1.0), (b, -1.0)):
-                if node in index:
-                    row[index[node]] = row.get(index[node], 0.0) + sign
-            branch[key] = row
-        return Incidence([f"theta_{node}" for node in index], branch, fixed)
+        return Incidence.of_nodes(network, prescribed, "theta")
 
 
 class _Rotational(Component):

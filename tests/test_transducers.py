@@ -28,6 +28,7 @@ import sympy as sp
 from scipy.integrate import simpson, solve_ivp
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.plugins import rotational, transducers
 from lagrangian.plugins.transducers import GapClosedError, PullInError, electrostatic_equilibria, simulate_checked
 
@@ -146,15 +147,7 @@ def test_rotational_mistakes_are_clear_errors():
 
 def loudspeaker(Re, Le, Bl, m, k, c, E, formulation="charge") -> lg.Model:
     """E (n1, 0) — Re (n1, n2) — Le (n2, n3) — coil (n3, 0; cone); cone: mass, suspension spring and damper."""
-    model = lg.Model("loudspeaker", formulation=formulation)
-    model.add("voltage_source", "E", ("n1", "0"), E=E)
-    model.add("resistor", "Re", ("n1", "n2"), R=Re)
-    model.add("inductor", "Le", ("n2", "n3"), L=Le)
-    model.add("moving_coil", "coil", ("n3", "0", "cone"), Bl=Bl)
-    model.add("mass", "m", "cone", m=m)
-    model.add("spring", "k", ("ground", "cone"), k=k)
-    model.add("damper", "c", ("ground", "cone"), c=c)
-    return model
+    return models.loudspeaker(Re, Le, Bl, m, k, c, E, formulation=formulation)
 
 
 def test_moving_coil_lagrangian_and_equations_match_the_hand_derivation():

@@ -157,6 +157,38 @@ class Incidence:
     branch: dict[str, dict[int, float]]
     prescribed: set[str] = field(default_factory=set)
 
+    @classmethod
+    def of_nodes(cls, network: Network, prescribed: set[str], prefix: str) -> "Incidence":
+        """One coordinate ``<prefix>_<node>`` per node of ``network`` not in ``prescribed`` (in the network's
+        order), and each branch quantity the difference of its nodes' (``a`` minus ``b``; ground is 0): positions
+        on one axis, angles about one axis.  Branches that touch a prescribed node are prescribed.
+
+        >>> import networkx as nx
+        >>> g = nx.MultiGraph()
+        >>> _ = g.add_edge("p", "ground", key="m", a="p", b="ground")
+        >>> _ = g.add_edge("ground", "p", key="k", a="ground", b="p")
+        >>> inc = Incidence.of_nodes(Network(g, []), set(), "x")
+        >>> inc.coordinates, inc.branch
+        (['x_p'], {'m': {0: 1.0}, 'k': {0: -1.0}})
+        """
+        index: dict[str, int] = {}
+        for node in network.nodes:
+            if node not in prescribed:
+                index[node] = len(index)
+        branch: dict[str, dict[int, float]] = {}
+        fixed: set[str] = set()
+        for _, _, key, data in network.graph.edges(keys=True, data=True):
+            a, b = data["a"], data["b"]
+            if a in prescribed or b in prescribed:
+                fixed.add(key)
+                continue
+            row: dict[int, float] = {}
+            for node, sign in ((a, 1.0), (b, -1.0)):
+                if node in index:
+                    row[index[node]] = row.get(index[node], 0.0) + sign
+            branch[key] = row
+        return cls([f"{prefix}_{node}" for node in index], branch, fixed)
+
 
 class Domain:
     """Base class of a physical domain.
