@@ -308,11 +308,11 @@ def _checked_in_numbers(model: Model, target: Model, identities: list[tuple[str,
         return False
     A = np.array([mine.branch_row(el) for el, _, _ in identities]).reshape(len(identities), len(mine.names))
     B = np.array([sign * theirs.branch_row(src) for _, src, sign in identities]).reshape(len(identities), -1)
-    X = np.linalg.lstsq(A, B, rcond=None)[0]
+    X, _, rank, _ = np.linalg.lstsq(A, B, rcond=None)  # its rank: the one SVD, with matrix_rank's tolerance
     scale = max(np.abs(B).max(initial=0.0), np.abs(A).max(initial=0.0) * np.abs(X).max(initial=0.0), 1e-300)
     if np.abs(A @ X - B).max(initial=0.0) > 1e-9 * scale:
         raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has no consistent coordinate map.")
-    if np.linalg.matrix_rank(A) < len(mine.names):
+    if rank < len(mine.names):
         raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has coordinates no source branch determines.")
     return True
 

@@ -247,10 +247,9 @@ def _summed(rows: list, cols: list, vals: list, n: int) -> tuple[np.ndarray, np.
     if len(vals) <= 256:  # a small model: a dictionary costs less than NumPy's sorting
         sums: dict[tuple[int, int], float] = {}
         sizes: dict[tuple[int, int], float] = {}
-        for entry in zip(rows, cols, vals):
-            key2, value = entry[:2], entry[2]
-            sums[key2] = sums.get(key2, 0.0) + value
-            sizes[key2] = sizes.get(key2, 0.0) + abs(value)
+        for i, j, value in zip(rows, cols, vals):
+            sums[i, j] = sums.get((i, j), 0.0) + value
+            sizes[i, j] = sizes.get((i, j), 0.0) + abs(value)
         kept = [(i, j, x) for (i, j), x in sums.items() if abs(x) > _ROUNDOFF * sizes[i, j]]
         return (np.array([e[0] for e in kept], dtype=np.intp), np.array([e[1] for e in kept], dtype=np.intp),
                 np.array([e[2] for e in kept], dtype=float))
