@@ -8,6 +8,8 @@ must equal them term by term.
 import networkx as nx
 import pytest
 import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import lagrangian as lg
 from lagrangian.analogy import AnalogyError, map_model
@@ -251,3 +253,45 @@ def test_rotational_analogues_equal_the_shaft_equations(analogy):
     m.add("torque", "T", "b", tau=tau * sp.cos(lg.t))
     mapped = map_model(m, analogy)
     assert same_equations(equations_in_source_terms(mapped), residuals(m))
+
+
+def _divergence(signed: dict, ends) -> dict:
+    """Net signed count of edges at each node: zero everywhere for a cycle (a sum of closed loops)."""
+    out: dict = {}
+    for key, sign in signed.items():
+        a, b = ends(key)
+        out[a] = out.get(a, 0) + sign
+        out[b] = out.get(b, 0) - sign
+    return {n: v for n, v in out.items() if v}
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_the_dual_of_a_planar_multigraph_swaps_its_cycles_and_its_cuts(data):
+    """Random planar networks (a fan: nodes on a path, each joined to the path's neighbours or to ground, or to
+    both), each branch repeated up to three times, either way round: the dual has E − V + 2 nodes, the branches at
+    each node of the network form a loop of the dual, and the branches round each mesh form a loop of the network,
+    which is what makes a dual."""
+    from lagrangian.circuits.analogy import dual_branches
+
+    nodes = [f"p{i}" for i in range(data.draw(st.integers(1, 5)))]
+    pairs = [("ground", nodes[0])]
+    for prev, node in zip(nodes, nodes[1:]):  # connected: by the path, by ground, or both
+        both = [(prev, node), ("ground", node)]
+        pairs += [p for p in both if data.draw(st.booleans())] or [both[data.draw(st.integers(0, 1))]]
+    g = nx.MultiGraph()
+    for j, (u, v) in enumerate(pairs):
+        for r in range(data.draw(st.integers(1, 3))):
+            a, b = (u, v) if data.draw(st.booleans()) else (v, u)
+            g.add_edge(a, b, key=f"e{j}_{r}", a=a, b=b)
+    dual = dual_branches(g)
+    edges = {k: (d["a"], d["b"]) for _, _, k, d in g.edges(keys=True, data=True)}
+    meshes = {f for pair in dual.values() for f in pair}
+    assert "ground" in meshes
+    assert len(meshes) == len(edges) - g.number_of_nodes() + 2
+    for node in g.nodes:  # a node's star: a loop of the dual
+        star = {k: (1 if a == node else -1) for k, (a, b) in edges.items() if node in (a, b) and a != b}
+        assert not _divergence(star, dual.__getitem__)
+    for mesh in meshes:  # a mesh's boundary: a loop of the network
+        boundary = {k: (1 if r == mesh else -1) for k, (r, l) in dual.items() if mesh in (r, l) and r != l}
+        assert not _divergence(boundary, edges.__getitem__)

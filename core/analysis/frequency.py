@@ -119,6 +119,7 @@ def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
     out = np.empty((len(svals), len(lin.outputs), ni), dtype=complex)
     chunk = max(1, int(2e7 // max(N * N, 1)))
     m = lin.Phi.shape[0]
+    inverse = np.any(lin.Bi) or np.any(lin.Di)
     for lo in range(0, len(svals), chunk):
         sv = svals[lo:lo + chunk][:, None, None]
         P = np.zeros((len(sv), N, N), dtype=complex)
@@ -131,23 +132,44 @@ def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
             P[:, :n, n:] = -lin.Phi.T
             P[:, n:, :n] = lin.Phi
         rhs = np.zeros((len(sv), N, ni), dtype=complex)
-        rhs[:, :n, :] = sum(b * sv**k for k, b in enumerate(lin.B))
-        if np.any(lin.Bi):
-            with np.errstate(divide="ignore", invalid="ignore"):
+        _horner(lin.B, sv, rhs[:, :n, :])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if inverse:
                 rhs[:, :n, :] += lin.Bi / sv
-        try:
-            X = np.linalg.solve(P, rhs)
-        except np.linalg.LinAlgError:
-            X = _singular_solve(P, rhs)
-        Xq = X[:, :n, :]
-        # each Cq_k once, by one matrix product over every frequency (not a product per frequency)
-        H = sum(np.moveaxis(np.tensordot(c, Xq, axes=(1, 1)), 0, 1) * sv**k for k, c in enumerate(lin.Cq))
-        D = sum(d * sv**k for k, d in enumerate(lin.D))
-        if np.any(lin.Di):
-            with np.errstate(divide="ignore", invalid="ignore"):
-                D = D + lin.Di / sv
-        out[lo:lo + chunk] = H + D
+            try:
+                X = np.linalg.solve(P, rhs)
+            except np.linalg.LinAlgError:
+                X = _singular_solve(P, rhs)
+            # every output row at every frequency by one matrix product per power of s: (frequencies × inputs, n)
+            # times (n, outputs), then Σ s^k by Horner's rule, in place
+            Xq = X[:, :n, :].transpose(0, 2, 1).reshape(-1, n)
+            H = np.zeros((len(sv), ni, len(lin.outputs)), dtype=complex)
+            for c in reversed(lin.Cq):
+                H *= sv
+                H += (Xq @ c.T).reshape(len(sv), ni, -1)
+            H = H.transpose(0, 2, 1)
+            _horner(lin.D, sv, H, add=True)
+            if inverse:
+                H += lin.Di / sv
+        out[lo:lo + chunk] = H
     return out
+
+
+def _horner(coefficients: Sequence[np.ndarray], sv: np.ndarray, out: np.ndarray, add: bool = False) -> None:
+    """``Σ_k c_k s^k`` at every ``s`` of ``sv`` (frequencies first) written into ``out``, or added to it: Horner's
+    rule, in place."""
+    if not any(np.any(c) for c in coefficients):
+        if not add:
+            out[...] = 0
+        return
+    acc = np.zeros_like(out)
+    for c in reversed(coefficients):
+        acc *= sv
+        acc += c
+    if add:
+        out += acc
+    else:
+        out[...] = acc
 
 
 def _full(lin: LinearModel, which: str) -> np.ndarray:

@@ -152,7 +152,10 @@ def _numeric(model: Model) -> tuple | None:
 
 def _from_rows(model: Model, ic, names, row, inertial):
     """:func:`_initial_state` from numeric rows: a branch's quantity and its rate are the same row of the
-    coordinates and of their rates."""
+    coordinates and of their rates.  Every element at rest (an AC deck, a run from zero) is the state at rest: its
+    conditions are homogeneous, so their least-norm solution is zero and nothing moves."""
+    if not any(ic.values()):
+        return {n: 0.0 for n in names}, {names[i]: 0.0 for i in inertial}, {}
     unknowns = list(range(len(names)))
     initial, v0, moved = _conditions(model, ic, model.options["formulation"], row, row, unknowns, unknowns)
     return {n: x for n, x in zip(names, initial)}, {names[i]: float(v0[i]) + 0.0 for i in inertial}, moved
