@@ -107,15 +107,24 @@ def sweep(kind: str, points: int, start: float, stop: float) -> np.ndarray:
 #: 0.02 s instead of 0.9 s.
 BANDED_MIN = 40
 
+#: Up to this many unknowns the system is solved for every frequency at once, frequencies the last axis, by
+#: Gaussian elimination without pivoting that each frequency checks by its backward error (as the banded solve):
+#: LAPACK's batched solves pay a call per frequency.  Measured at 1,001 frequencies (random complex systems): 1
+#: unknown 0.03 ms against 0.18 ms, 4 unknowns 0.22 ms against 0.51 ms, 8 unknowns 0.96 ms against 1.43 ms, 12
+#: unknowns 2.7 ms against 1.7 ms.
+SMALL_MAX = 8
+
 
 def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
-    """``H(s)`` (len(s) × outputs × inputs) by solves of the Laplace-form system: banded when that pays, else dense
-    and batched."""
+    """``H(s)`` (len(s) × outputs × inputs) by solves of the Laplace-form system: banded when that pays, all
+    frequencies at once when small, else dense and batched."""
     _numeric(lin, "a numeric response")
     n, N, ni = len(lin.coordinates), lin.size, len(lin.inputs)
     band = _band(lin) if N >= BANDED_MIN else None
     if band is not None:
         return _solve_banded(lin, svals, *band)
+    if N <= SMALL_MAX:
+        return _solve_small(lin, svals)
     out = np.empty((len(svals), len(lin.outputs), ni), dtype=complex)
     chunk = max(1, int(2e7 // max(N * N, 1)))
     m = lin.Phi.shape[0]
@@ -153,6 +162,77 @@ def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
                 H += lin.Di / sv
         out[lo:lo + chunk] = H
     return out
+
+
+def _solve_small(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
+    """:func:`_solve` for a system of at most :data:`SMALL_MAX` unknowns: ``(M s + C) s + K`` (with the constraint
+    blocks) for every frequency at once, frequencies last and contiguous, solved by :func:`_eliminate_small`; a
+    frequency whose backward error exceeds :data:`BACKWARD` (a small pivot) is solved again by LAPACK, with
+    partial pivoting."""
+    n, N, ni = len(lin.coordinates), lin.size, len(lin.inputs)
+    m = lin.Phi.shape[0]
+    inverse = np.any(lin.Bi) or np.any(lin.Di)
+    out = np.empty((len(svals), len(lin.outputs), ni), dtype=complex)
+    chunk = max(1, int(4e6 // (N * (N + ni))))
+    for lo in range(0, len(svals), chunk):
+        sv = svals[lo:lo + chunk]
+        P = np.zeros((N, N, len(sv)), dtype=complex)
+        block = P[:n, :n]
+        np.multiply(lin.M[:, :, None], sv, out=block)
+        block += lin.C[:, :, None]
+        block *= sv
+        block += lin.K[:, :, None]
+        if m:
+            P[:n, n:] = -lin.Phi.T[:, :, None]
+            P[n:, :n] = lin.Phi[:, :, None]
+        rhs = np.zeros((N, ni, len(sv)), dtype=complex)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            _horner([b[:, :, None] for b in lin.B], sv, rhs[:n])
+            if inverse:
+                rhs[:n] += lin.Bi[:, :, None] / sv
+            Y = _eliminate_small(P.copy(), rhs.copy())
+            bad = np.flatnonzero(~(_small_backward_error(P, Y, rhs) <= BACKWARD))
+            if len(bad):
+                P_bad, rhs_bad = np.moveaxis(P[:, :, bad], -1, 0), np.moveaxis(rhs[:, :, bad], -1, 0)
+                try:
+                    fixed = np.linalg.solve(P_bad, rhs_bad)
+                except np.linalg.LinAlgError:
+                    fixed = _singular_solve(P_bad, rhs_bad)
+                Y[:, :, bad] = np.moveaxis(fixed, 0, -1)
+            H = np.zeros((len(lin.outputs), ni, len(sv)), dtype=complex)
+            for c in reversed(lin.Cq):  # Σ s^k Cq_k y, by Horner's rule
+                H *= sv
+                H += np.tensordot(c, Y[:n], axes=(1, 0))
+            _horner([d[:, :, None] for d in lin.D], sv, H, add=True)
+            if inverse:
+                H += lin.Di[:, :, None] / sv
+        out[lo:lo + chunk] = np.moveaxis(H, -1, 0)
+    return out
+
+
+def _eliminate_small(A: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Solve ``A y = b`` (``A[i, j, f]``, ``y[i, r, f]`` holding ``b``) in place by Gaussian elimination without
+    pivoting, every frequency ``f`` at once; a zero pivot leaves ``inf`` or ``nan``, which the caller's check
+    catches."""
+    N = A.shape[0]
+    for k in range(N - 1):
+        factor = A[k + 1:, k] / A[k, k]
+        A[k + 1:, k + 1:] -= factor[:, None] * A[k, k + 1:][None]
+        y[k + 1:] -= factor[:, None] * y[k][None]
+    for k in range(N - 1, -1, -1):
+        if k < N - 1:
+            y[k] -= np.einsum("jf,jrf->rf", A[k, k + 1:], y[k + 1:])
+        y[k] /= A[k, k]
+    return y
+
+
+def _small_backward_error(A: np.ndarray, y: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per frequency, ``max_i |A y − b|_i / (|A| |y| + |b|)_i`` (``nan`` where the solve broke down)."""
+    r = np.abs(np.einsum("ijf,jrf->irf", A, y) - b)
+    scale = np.einsum("ijf,jrf->irf", np.abs(A), np.abs(y)) + np.abs(b)
+    ratio = r / scale
+    ratio[(scale == 0) & (r == 0)] = 0.0
+    return ratio.reshape(-1, A.shape[-1]).max(axis=0)
 
 
 def _horner(coefficients: Sequence[np.ndarray], sv: np.ndarray, out: np.ndarray, add: bool = False) -> None:
