@@ -99,16 +99,13 @@ def _sound(graph: nx.MultiGraph, ground: str, role: Callable[[str], str | None])
                 parent[a] = b
         return {n: find(n) for n in nodes}
 
-    for kept in (_any, _across, _not_through):
+    # (every node joined to ground without through-sources is joined to it at all: no pass over every edge)
+    for kept in (_across, _not_through):
         roots = joined(kept)
         if not roots:
             return False  # a loop of across-sources
-        if kept is not _across and len({roots[n] for n in nodes} | {roots[ground]}) != 1:
+        if kept is _not_through and len({roots[n] for n in nodes} | {roots[ground]}) != 1:
             return False
-    return True
-
-
-def _any(r) -> bool:
     return True
 
 

@@ -31,7 +31,7 @@ import sympy as sp
 from ..base.arguments import check_mapping
 from ..base.component import GROUND, Component, _CallableSignal, t
 from ..base.text import as_expr
-from ..derivation.numeric import assemble_numeric
+from ..derivation.numeric import numeric_branches
 from ..derivation.stamps import NotStampable
 from ..plugin.contracts import AnalogueBuilder, Analogy, Element, Ports
 from ..errors import ModelError, UnknownNameError
@@ -282,8 +282,9 @@ def map_model(model: Model, analogy: str, *, name: str | None = None) -> Mapped:
         ports = dual_branches(graph, anchored)
     else:
         ports = {k: (d["a"], d["b"]) for _, _, k, d in graph.edges(keys=True, data=True)}
-    for _, _, k, d in model.graph().edges(keys=True, data=True):
-        ports.setdefault(k, (d["a"], d["b"]))  # branches of the part kept as it is
+    for comp in model.components.values():  # branches of the part kept as it is
+        for i, (a, b) in enumerate(comp.branches()):
+            ports.setdefault(_key(comp.name, i), (a, b))
 
     target_model = Model(name or f"{model.name} ({analogy} analogue)", registry=registry, **options)
     origin: dict[str, str] = {}
@@ -319,16 +320,20 @@ def _checked_in_numbers(model: Model, target: Model, identities: list[tuple[str,
     model's (:mod:`lagrangian.derivation.numeric`), raising what :func:`_coordinate_map` would; ``False`` when
     either model is not assembled in numbers (the symbolic map then checks)."""
     try:
-        mine, theirs = assemble_numeric(target), assemble_numeric(model)
+        (mine, mine_rows), (theirs, theirs_rows) = numeric_branches(target), numeric_branches(model)
     except NotStampable:  # (a model without coordinates among them: the symbolic map says so)
         return False
-    A = np.array([mine.branch_row(el) for el, _, _ in identities]).reshape(len(identities), len(mine.names))
-    B = np.array([sign * theirs.branch_row(src) for _, src, sign in identities]).reshape(len(identities), -1)
+    A, B = np.zeros((len(identities), len(mine))), np.zeros((len(identities), len(theirs)))
+    for r, (el, src, sign) in enumerate(identities):
+        for j, c in mine_rows[el].items():
+            A[r, j] = c
+        for j, c in theirs_rows[src].items():
+            B[r, j] = sign * c
     X, _, rank, _ = np.linalg.lstsq(A, B, rcond=None)  # its rank: the one SVD, with matrix_rank's tolerance
     scale = max(np.abs(B).max(initial=0.0), np.abs(A).max(initial=0.0) * np.abs(X).max(initial=0.0), 1e-300)
     if np.abs(A @ X - B).max(initial=0.0) > 1e-9 * scale:
         raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has no consistent coordinate map.")
-    if rank < len(mine.names):
+    if rank < len(mine):
         raise AnalogyError(f"the {analogy} analogue of model {model.name!r} has coordinates no source branch determines.")
     return True
 

@@ -47,7 +47,7 @@ from ..base.linear import Linear, LinearContext, Quantity
 from ..base.network import check_topology
 from .stamps import NotStampable, Quadratic, Stamps
 
-__all__ = ["NumericAssembly", "assemble_numeric", "numeric_stamps"]
+__all__ = ["NumericAssembly", "assemble_numeric", "numeric_branches", "numeric_stamps"]
 
 
 @dataclass
@@ -161,7 +161,23 @@ def assemble_numeric(model: Any) -> NumericAssembly:
     return got
 
 
-def _assemble(model: Any) -> NumericAssembly:
+def numeric_branches(model: Any) -> tuple[list[str], dict[str, dict[int, float]]]:
+    """``(coordinate names, every branch quantity by edge key as {coordinate index: coefficient})`` of ``model``
+    from its domains' incidences alone (no component's numbers are read: what :func:`assemble_numeric` starts
+    from, and all a map between two models' branches needs), or :class:`NotStampable`.  Kept with the model."""
+    got = model._cache.get("numeric_branches")
+    if got is None:
+        try:
+            got = _branches(model)
+        except NotStampable as exc:
+            got = exc
+        model._cache["numeric_branches"] = got
+    if isinstance(got, NotStampable):
+        raise NotStampable(*got.args)
+    return got
+
+
+def _branches(model: Any) -> tuple[list[str], dict[str, dict[int, float]]]:
     model._check_node_names()  # the symbolic assembly's warnings, said here too
     graph, registry, options = model._graph, model.registry, model.options
     components = list(graph.components.values())
@@ -193,9 +209,17 @@ def _assemble(model: Any) -> NumericAssembly:
     n = len(names)
     if not n or len(set(names)) != n:
         raise NotStampable("no coordinates, or one named twice")
+    return names, branch
+
+
+def _assemble(model: Any) -> NumericAssembly:
+    names, branch = numeric_branches(model)
+    graph, options = model._graph, model.options
+    components = list(graph.components.values())
+    n = len(names)
     ctx = LinearContext(options, graph.components)
     M, C, K, Cd = ([], [], []), ([], [], []), ([], [], []), ([], [], [])
-    out = NumericAssembly(names, {}, branch=branch)
+    out = NumericAssembly(list(names), {}, branch=branch)
     for comp in components:
         lin = comp.linear(ctx)
         if lin is None:
