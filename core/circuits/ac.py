@@ -76,6 +76,8 @@ class ACComparison:
     notes: list[str] = field(default_factory=list)
     #: seconds ngspice took to load the deck, before its analysis (``ngspice_s``)
     ngspice_load_s: float = 0.0
+    #: seconds reading ngspice's output vectors into arrays, after its analysis
+    ngspice_read_s: float = 0.0
 
     @property
     def worst_rel(self) -> float:
@@ -89,7 +91,8 @@ class ACComparison:
         for r in self.rows:
             lines.append(f"  {r.label:16} {r.max_rel:13.3e} {r.max_db:14.3e} {r.max_deg:19.3e}")
         lines.append(f"  wall time: ngspice {self.ngspice_s * 1e3:.1f} ms (+{self.ngspice_load_s * 1e3:.1f} ms loading "
-                     f"the deck); ours {self.ours_s * 1e3:.1f} ms (derived, linearized and solved)")
+                     f"the deck, +{self.ngspice_read_s * 1e3:.1f} ms reading its vectors); ours "
+                     f"{self.ours_s * 1e3:.1f} ms (derived, linearized and solved)")
         return "\n".join(lines)
 
     def chart(self, path: str | Path) -> Path:
@@ -247,7 +250,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
         rows.append(OutputError(label, float(np.nanmax(rel, initial=0.0)), float(np.nanmax(db, initial=0.0)),
                                 float(np.nanmax(deg, initial=0.0))))
     return ACComparison(model.name, source, "\n".join(lines), run.time, ours, run.quantities, rows, ours_s, run.wall,
-                        list(resp.notes), run.load)
+                        list(resp.notes), run.load, run.read)
 
 
 def _probe(model: Model, net, label: str) -> tuple[str, ...]:

@@ -155,6 +155,8 @@ class SpiceRun:
     messages: list[str] = field(default_factory=list)
     #: seconds ngspice took to load (parse and set up) the netlist, before ``wall``
     load: float = 0.0
+    #: seconds reading ngspice's output vectors into arrays, after ``wall``
+    read: float = 0.0
 
 
 # -- expressions and waveforms -------------------------------------------------------------------
@@ -577,7 +579,9 @@ def _run(text: str, probes: Mapping[str, tuple[str, ...]], dtype, axis: str) -> 
             msgs = _errors(ng._stderr)
             if msgs:
                 raise NgspiceError("ngspice failed: " + " | ".join(msgs))
+            reading = _time.perf_counter()
             vectors = {name.lower(): np.asarray(vec._data, dtype=dtype) for name, vec in ng.plot(None, ng.last_plot).items()}
+            took_to_read = _time.perf_counter() - reading
         except Exception as exc:
             if isinstance(exc, LagrangianError):
                 raise
@@ -601,4 +605,4 @@ def _run(text: str, probes: Mapping[str, tuple[str, ...]], dtype, axis: str) -> 
         out = {label: read(probe) for label, probe in probes.items()}
     except KeyError as exc:
         raise NgspiceError(f"ngspice's output has no vector {exc.args[0]!r} (it has {', '.join(sorted(vectors))}).") from None
-    return SpiceRun(time, out, wall, load=load)
+    return SpiceRun(time, out, wall, load=load, read=took_to_read)
