@@ -540,3 +540,19 @@ def test_a_circuits_stamps_in_numbers_are_its_stamps_from_its_energies(case, sig
     for part in "TVD":
         _close(fast.energies[part].H.toarray(), slow.energies[part].H.toarray(), part)
     assert fast.inertial == slow.inertial and fast.first_order == slow.first_order
+
+
+def test_a_parameters_number_is_the_value_given_and_no_number_in_its_symbolic_view():
+    """A component keeps the plain numbers it was given for the numeric assembly; its symbolic view and its input
+    twin, whose parameters are symbols or expressions, have none of them."""
+    from lagrangian.base.linear import LinearContext
+
+    m = lg.Model("rc")
+    source = m.add("voltage_source", "V1", ("in", "0"), E=1.5)
+    resistor = m.add("resistor", "R1", ("in", "a"), R=4.7e3)
+    m.add("capacitor", "C1", ("a", "0"), C=2.2e-6)
+    ctx = LinearContext(m.options, m.components)
+    assert ctx.number(resistor, "R") == 4.7e3 and ctx.number(source, "E") == 1.5
+    assert ctx.number(resistor.symbolic_view(), "R") is None
+    twin, _ = source.with_input("E", "w_V1")
+    assert ctx.number(twin, "E") is None

@@ -236,10 +236,13 @@ def _voltage_path(model: Model, node: str, graph: nx.Graph | None = None) -> lis
     of the direction walked (+1 from its ``a`` to its ``b``); ``graph``: :func:`_voltage_graph`, when made
     already."""
     graph = _voltage_graph(model) if graph is None else graph
-    if node not in graph or GROUND not in graph or not nx.has_path(graph, node, GROUND):
+    try:
+        path = nx.shortest_path(graph, node, GROUND) if node in graph and GROUND in graph else None
+    except nx.NetworkXNoPath:
+        path = None
+    if path is None:
         raise ModelError(f"node {node!r} has no path of circuit elements to ground, so it has no voltage to report; "
                          f"give a voltage across an element, 'v(<element>)'.")
-    path = nx.shortest_path(graph, node, GROUND)
     out = []
     for a, b in zip(path, path[1:]):
         comp = graph.edges[a, b]["component"]

@@ -344,7 +344,28 @@ def _band_solve(A: np.ndarray, b: np.ndarray, lower: int, upper: int) -> np.ndar
     rows, NumPy over contiguous frequencies.  A zero pivot leaves ``inf`` or ``nan``, which the caller's residual
     check catches."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        if lower == upper == 1:
+            return _tridiagonal(A, b.copy())
         return _eliminate(A.copy(), b.copy(), lower, upper)
+
+
+def _tridiagonal(A: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """:func:`_eliminate` of a tridiagonal system (a ladder, a chain), ``A`` left as it is: only the pivots are
+    new (``d``), the sub-diagonal is read once for its factor and the super-diagonal is the eliminated rows' own."""
+    N, F = A.shape[0], A.shape[-1]
+    d = np.empty((N, F), dtype=complex)
+    d[0] = A[0, 1]
+    factor = np.empty(F, dtype=complex)
+    for i in range(1, N):
+        np.divide(A[i, 0], d[i - 1], out=factor)
+        np.multiply(factor, A[i - 1, 2], out=d[i])
+        np.subtract(A[i, 1], d[i], out=d[i])
+        y[i] -= factor * y[i - 1]
+    y[N - 1] /= d[N - 1]
+    for i in range(N - 2, -1, -1):
+        y[i] -= A[i, 2] * y[i + 1]
+        y[i] /= d[i]
+    return y
 
 
 def _eliminate(A: np.ndarray, y: np.ndarray, lower: int, upper: int) -> np.ndarray:

@@ -494,15 +494,19 @@ class Component:
                 f"Its parameters: {', '.join(self.parameters) or '(none)'}.",
             )
         values = {}
+        floats = {}  # the parameters given as plain numbers, as floats (what numeric assembly reads)
         for pname, spec in self.parameters.items():
             if pname in params:
                 values[pname] = spec.coerce(params[pname], name, pname)
+                if type(params[pname]) in (float, int) and isinstance(values[pname], (sp.Float, sp.Integer)):
+                    floats[pname] = float(params[pname])
             elif spec.required:
                 raise ParameterError(name, pname, f"required ({spec.doc}{', ' + spec.unit if spec.unit else ''}).")
             else:
                 values[pname] = spec.coerce(spec.default, name, pname) if spec.default is not None else None
         self.params = values
         self._given = frozenset(params)
+        self._floats = floats
 
     def _stand(self) -> None:
         """Make the symbols standing for the parameters given as numbers (:attr:`values`), on first use: a model
@@ -566,6 +570,7 @@ class Component:
         view = object.__new__(type(self))
         view.__dict__.update(self.__dict__)
         view.params = {**self.params, **self._symbols}
+        view._floats = {k: v for k, v in getattr(self, "_floats", {}).items() if k not in self._symbols}
         return view
 
     def with_input(self, pname: str, label: str, index: int | None = None) -> tuple["Component", sp.Function]:
@@ -610,6 +615,7 @@ class Component:
         twin = object.__new__(type(self))
         twin.__dict__.update(self.__dict__)
         twin.params = {**self.params, pname: base}
+        twin._floats = {k: v for k, v in getattr(self, "_floats", {}).items() if k != pname}
         twin._symbols = {k: v for k, v in self._symbols.items() if k != pname}
         twin._inputs = {*self.inputs(), w}
         return twin, w

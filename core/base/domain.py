@@ -35,6 +35,8 @@ def check_name(name: str, what: str) -> None:
     ...
     lagrangian.errors.ModelError: node name 'a\x00b' contains the control character '\x00': names are printable text; remove it.
     """
+    if name.isprintable():  # (no character of the classes Other or Separator but the space: none of these)
+        return
     bad = [c for c in name if c not in "\t\n\r" and unicodedata.category(c) in ("Cc", "Cs")]
     if bad:
         raise ModelError(f"{what} {name!r} contains the control character {bad[0]!r}: names are printable text; "

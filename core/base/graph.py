@@ -101,10 +101,15 @@ class ComponentGraph:
         g = nx.MultiGraph()
         g.add_node(GROUND)
         for comp in self.components.values() if components is None else components:
+            if domain is None:  # every node and branch
+                g.add_nodes_from(comp.nodes)
+                for i, (a, b) in enumerate(comp.branches()):
+                    g.add_edge(a, b, key=comp.name if i == 0 else f"{comp.name}#{i}", a=a, b=b, component=comp)
+                continue
             node_domain = {n: comp.node_domain(i) for i, n in enumerate(comp.nodes) if n != GROUND}
-            g.add_nodes_from(n for n in comp.nodes if domain is None or node_domain.get(n, domain) == domain)
+            g.add_nodes_from(n for n in comp.nodes if node_domain.get(n, domain) == domain)
             for i, (a, b) in enumerate(comp.branches()):
-                if domain is not None and any(node_domain.get(n, domain) != domain for n in (a, b)):
+                if any(node_domain.get(n, domain) != domain for n in (a, b)):
                     continue
                 key = comp.name if i == 0 else f"{comp.name}#{i}"
                 g.add_edge(a, b, key=key, a=a, b=b, component=comp)

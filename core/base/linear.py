@@ -90,6 +90,9 @@ class LinearContext:
     def number(self, component: Any, pname: str) -> float | None:
         """Parameter ``pname`` of ``component`` as a float, or ``None`` when it has no numeric value (a symbol, an
         expression of time)."""
+        given = getattr(component, "_floats", {}).get(pname)
+        if given is not None:
+            return given
         value = component.params.get(pname)
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return float(value)

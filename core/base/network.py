@@ -132,16 +132,24 @@ def normal_tree(graph: nx.MultiGraph, ground: str, priority: Callable[[Hashable]
     ['C']
     """
     order = sorted(
-        ((priority(k), 0 if ground in (u, v) else 1, i, u, v, k) for i, (u, v, k, _) in enumerate(_edges(graph))),
+        ((priority(k), 0 if ground in (u, v) else 1, i, u, v, k) for i, (u, v, k) in enumerate(graph.edges(keys=True))),
         key=lambda item: item[:3],
     )
-    uf = nx.utils.UnionFind(graph.nodes)
+    parent = {n: n for n in graph.nodes}  # union–find with path halving (networkx's UnionFind: twice the time)
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
     tree = set()
     for prio, _, _, u, v, k in order:
         if prio == float("inf"):
             continue
-        if uf[u] != uf[v]:
-            uf.union(u, v)
+        a, b = find(u), find(v)
+        if a != b:
+            parent[a] = b
             tree.add(k)
     return tree
 
