@@ -23,7 +23,7 @@ largest relative difference of the complex responses (relative to the response, 
 ngspice's time over ours for the case where ours is slowest against it (the minimum), with and without ngspice's
 read of its vectors.
 
-Run: .venv/bin/python benchmarks/ac.py [--repeat 3]
+Run: .venv/bin/python benchmarks/ac.py [--repeat 9]
 """
 
 from __future__ import annotations
@@ -115,7 +115,7 @@ def run_case(name: str, repeat: int) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=3, help="runs per case; the best time is kept (default 3)")
+    parser.add_argument("--repeat", type=int, default=9, help="runs per case; the best time is kept (default 9)")
     args = parser.parse_args()
     rows = [run_case(name, args.repeat) for name in CASES]
     print(f"{'case':15} {'coords':>6} {'freqs':>6} {'ngspice cold ms':>16} {'(read ms)':>10} {'ours cold ms':>13} "

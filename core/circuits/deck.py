@@ -80,9 +80,9 @@ def parse_number(text: str) -> float:
         raise ValueError(f"{text!r} is not a SPICE number")
     mantissa, letters = match.groups()
     letters = letters.lower()
-    scale = next((factor for suffix, factor in _SCALES if letters.startswith(suffix)), "1")
+    scale = next((factor for suffix, factor in _SCALES if letters.startswith(suffix)), "1") if letters else "1"
     try:
-        value = float(Decimal(mantissa) * Decimal(scale))
+        value = float(mantissa) if scale == "1" else float(Decimal(mantissa) * Decimal(scale))
     except InvalidOperation:  # pragma: no cover - the pattern admits only decimals
         raise ValueError(f"{text!r} is not a SPICE number") from None
     if not math.isfinite(value):  # 1e999: Decimal holds it, a float does not
