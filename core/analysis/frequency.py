@@ -200,9 +200,10 @@ def _solve_small(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
                     fixed = _singular_solve(P_bad, rhs_bad)
                 Y[:, :, bad] = np.moveaxis(fixed, 0, -1)
             H = np.zeros((len(lin.outputs), ni, len(sv)), dtype=complex)
+            Yq = Y[:n].reshape(n, -1)  # (coordinate, input × frequency): each Cq_k by one matrix product
             for c in reversed(lin.Cq):  # Σ s^k Cq_k y, by Horner's rule
                 H *= sv
-                H += np.tensordot(c, Y[:n], axes=(1, 0))
+                H += (c @ Yq).reshape(H.shape)
             _horner([d[:, :, None] for d in lin.D], sv, H, add=True)
             if inverse:
                 H += lin.Di[:, :, None] / sv
