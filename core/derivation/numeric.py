@@ -145,17 +145,19 @@ def assemble_numeric(model: Any) -> NumericAssembly:
     arrays read-only: a netlist's initial state, a linearization and an
     analogy's check share one assembly.
     """
-    cache = model._cache
-    got = cache.get("numeric")
+    return _kept(model, "numeric", _assemble)
+
+
+def _kept(model: Any, key: str, build) -> Any:
+    """``build(model)``, kept with the model under ``key`` until it changes; a refusal (:class:`NotStampable`) is
+    kept too, and raised again."""
+    got = model._cache.get(key)
     if got is None:
         try:
-            got = _assemble(model)
+            got = build(model)
         except NotStampable as exc:
             got = exc
-        else:
-            for array in got.forces.values():
-                array.setflags(write=False)
-        cache["numeric"] = got
+        model._cache[key] = got
     if isinstance(got, NotStampable):
         raise NotStampable(*got.args)
     return got
@@ -165,16 +167,7 @@ def numeric_branches(model: Any) -> tuple[list[str], dict[str, dict[int, float]]
     """``(coordinate names, every branch quantity by edge key as {coordinate index: coefficient})`` of ``model``
     from its domains' incidences alone (no component's numbers are read: what :func:`assemble_numeric` starts
     from, and all a map between two models' branches needs), or :class:`NotStampable`.  Kept with the model."""
-    got = model._cache.get("numeric_branches")
-    if got is None:
-        try:
-            got = _branches(model)
-        except NotStampable as exc:
-            got = exc
-        model._cache["numeric_branches"] = got
-    if isinstance(got, NotStampable):
-        raise NotStampable(*got.args)
-    return got
+    return _kept(model, "numeric_branches", _branches)
 
 
 def _branches(model: Any) -> tuple[list[str], dict[str, dict[int, float]]]:
@@ -246,6 +239,8 @@ def _assemble(model: Any) -> NumericAssembly:
         out.linears[comp.name] = lin
         out.rows[comp.name] = sparse
     out.entries = {which: _summed(*triplets, n) for which, triplets in (("M", M), ("C", C), ("K", K), ("Cd", Cd))}
+    for array in out.forces.values():
+        array.setflags(write=False)
     return out
 
 
@@ -311,16 +306,7 @@ def numeric_stamps(model: Any) -> Stamps:
     >>> st.inputs, st.B.toarray()        # R q̇ + q/C = 1 + 2 sin 3t
     ([1, sin(3*t)], array([[1., 2.]]))
     """
-    got = model._cache.get("numeric_stamps")
-    if got is None:
-        try:
-            got = _stamps(model, assemble_numeric(model))
-        except NotStampable as exc:
-            got = exc
-        model._cache["numeric_stamps"] = got
-    if isinstance(got, NotStampable):
-        raise NotStampable(*got.args)
-    return got
+    return _kept(model, "numeric_stamps", lambda m: _stamps(m, assemble_numeric(m)))
 
 
 def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
