@@ -360,10 +360,10 @@ def _add(model: Model, deck: _Parsed, element: _Element, formulation: str) -> No
         raise ModelError(f"{where}: {exc}") from None
 
 
-def _waveform(wave: str, args: list[float], tran: Transient | None, where: str) -> sp.Expr:
-    """The SymPy expression of ``t`` for a source specification (ngspice 39 semantics)."""
+def _waveform(wave: str, args: list[float], tran: Transient | None, where: str) -> sp.Expr | float:
+    """The SymPy expression of ``t`` for a source specification (ngspice 39 semantics); a DC value as its number."""
     if wave == "dc":
-        return sp.Float(args[0])
+        return args[0]  # a plain number, read as every element's value is
 
     def default(value: float, fallback: str) -> float:
         if value:
