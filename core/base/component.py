@@ -498,8 +498,9 @@ class Component:
         for pname, spec in self.parameters.items():
             if pname in params:
                 values[pname] = spec.coerce(params[pname], name, pname)
-                if type(params[pname]) in (float, int) and isinstance(values[pname], (sp.Float, sp.Integer)):
-                    floats[pname] = float(params[pname])
+                raw = params[pname]
+                if type(raw) in (float, int) and abs(raw) <= LARGEST and isinstance(values[pname], (sp.Float, sp.Integer)):
+                    floats[pname] = float(raw)
             elif spec.required:
                 raise ParameterError(name, pname, f"required ({spec.doc}{', ' + spec.unit if spec.unit else ''}).")
             else:
