@@ -54,12 +54,17 @@ def closest(word: str, choices: Iterable[str]) -> str:
     return f" Did you mean {match[0]!r}?" if match else ""
 
 
+#: The packages whose frames a warning passes over on its way to the user's line.
+_PASSED_OVER = ("lagrangian", "scipy", "numpy")
+
+
 def warn(message: str, category: type[Warning]) -> None:
     """``warnings.warn`` attributed to the caller's own line: the first frame outside this package (its
-    plugins included), however deep in the library the warning arises, so that the warning names the
-    user's ``simulate(...)``, not a line of lagrangian."""
+    plugins included) and the numerical libraries that call back into it (SciPy's integrators stepping a
+    right-hand side), however deep the warning arises, so that the warning names the user's
+    ``simulate(...)``, not a line of lagrangian or SciPy."""
     frame, level = sys._getframe(1), 2  # stacklevel 1 is this line; 2 the caller
-    while frame is not None and str(frame.f_globals.get("__name__", "")).split(".")[0] == "lagrangian":
+    while frame is not None and str(frame.f_globals.get("__name__", "")).split(".")[0] in _PASSED_OVER:
         frame, level = frame.f_back, level + 1
     warnings.warn(message, category, stacklevel=level)
 

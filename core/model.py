@@ -579,7 +579,10 @@ class Model:
         ``max_evaluations`` is the run's budget of evaluations (default 1e9):
         a run that at its pace would need more stops with an
         :class:`IntegrationError` saying where it got to — lower it to bound
-        the work of models from untrusted input.
+        the work of models from untrusted input.  A run within it that, a few
+        seconds in, would take more than a minute in all says so once
+        (:class:`~lagrangian.SlowRunWarning`, with the time it projects),
+        unless it reports its ``progress``.
 
         ``events`` are :class:`~lagrangian.Event` objects: zero-crossings of a
         function of time and state, located to 1e-14 relative, that end the

@@ -234,3 +234,29 @@ def test_equations_holding_an_undefined_constant_are_refused_before_they_run():
     x = sp.Symbol("x")
     with pytest.raises(lg.ModelError, match="undefined constant"):
         _lambdify([x], sp.Matrix([x, sp.zoo * x]), {})
+
+
+def test_a_run_that_will_take_long_says_how_long_once_and_runs_on(monkeypatch):
+    """A run stepped in Python, judged often here (every 256 evaluations, from 0.02 s on), that would take longer in
+    all than a (lowered) limit says so once with its projected time, and still ends with the answer; with progress
+    reported it says nothing, since its progress shows."""
+    import lagrangian.numerics.problem as problem
+
+    monkeypatch.setattr(problem, "PACE_EVERY", 0xFF)
+    monkeypatch.setattr(problem, "LONG_RUN_AFTER", 0.02)
+    monkeypatch.setattr(problem, "LONG_RUN", 0.1)
+    m = lg.Model("fast spring")
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("ground", "p"), k=3e4)
+    with pytest.warns(lg.SlowRunWarning, match=r"'fast spring' has come to t=.* at this pace it will take some .* s in "
+                                               r"all\. It is not stuck\. progress=True") as seen:
+        res = m.simulate(0.5, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, points=5, method="RK45", rtol=1e-10,
+                         compiled=False)
+    slow = [w for w in seen if issubclass(w.category, lg.SlowRunWarning)]
+    assert len(slow) == 1 and slow[0].filename == __file__  # the caller's line, not the library's
+    omega = math.sqrt(3e4 / 0.3)
+    assert res["x_p"] == pytest.approx(1e-3 * np.cos(omega * res.t), rel=0, abs=1e-3 * 1e-4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", lg.SlowRunWarning)
+        m.simulate(0.2, initial={"x_p": 1e-3}, velocity={"x_p": 0.0}, points=5, method="RK45", rtol=1e-10,
+                   compiled=False, progress=lambda t, end: None)

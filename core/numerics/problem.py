@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import functools
 import math
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -16,7 +17,7 @@ import sympy as sp
 
 from ..base.component import t as time_symbol
 from ..base.identity import depends_on, is_zero
-from ..errors import IntegrationError, ModelError, SingularMassMatrixError
+from ..errors import IntegrationError, ModelError, SingularMassMatrixError, warn
 from .simulation import NumericModel, _lambdify
 
 
@@ -147,6 +148,14 @@ PACE_EVERY = 0x3FFF
 PACE_MIN = 1 << 17
 #: ... and refused when it would need more than this many evaluations in all (hours of Python).
 MAX_EVALUATIONS = 1e9
+#: A run not reporting its progress that, after LONG_RUN_AFTER seconds, would at its pace take more than LONG_RUN
+#: seconds in all says so once (:class:`SlowRunWarning`): it is not stuck, and the warning says how long it will be.
+LONG_RUN = 60.0
+LONG_RUN_AFTER = 2.0
+
+
+class SlowRunWarning(UserWarning):
+    """A run will take long at its pace (it is not stuck): how long, and how to follow or shorten it."""
 
 
 def inside(s: float, a: float, b: float) -> float:
@@ -199,6 +208,7 @@ class Problem:
         self.nfev = 0
         self._report: Callable[[float], None] | None = None
         self._pace: tuple[float, float, int, str] | None = None  # (t0, t1, nfev at the start, model) of a run
+        self._began, self._told = 0.0, False  # when the run began; whether it has said it is slow
         #: ``(a, b)`` while an adaptive run restarted at switching times integrates the piece between them: times
         #: are read inside it (:func:`inside`)
         self.window: tuple[float, float] | None = None
@@ -220,17 +230,38 @@ class Problem:
         (default :data:`MAX_EVALUATIONS`; ``t_span=None``: stop watching)."""
         limit = MAX_EVALUATIONS if limit is None else float(limit)
         self._pace = None if t_span is None else (float(t_span[0]), float(t_span[1]), self.nfev, model, limit)
+        self._began, self._told = time.perf_counter(), False
 
     def _check_pace(self, t: float) -> None:
         t0, t1, start, model, limit = self._pace
         used = self.nfev - start
-        if used < min(PACE_MIN, limit) or not t1 > t0:
+        if not t1 > t0:
             return
         done = (float(t) - t0) / (t1 - t0)
+        if not self._told and self._report is None:
+            self._tell_if_slow(t, done, used)
+        if used < min(PACE_MIN, limit):
+            return
         projected = used / done if done > 0 else np.inf
         if projected > limit:
             self._pace = None
             raise self.pace_error(t, used, projected, (t0, t1, start, model, limit))
+
+    def _tell_if_slow(self, t: float, done: float, used: int) -> None:
+        """Warn once (:class:`SlowRunWarning`) when the run, some seconds in, would take more than :data:`LONG_RUN`."""
+        elapsed = time.perf_counter() - self._began
+        if elapsed < LONG_RUN_AFTER or not done > 0 or elapsed / done <= LONG_RUN:
+            return
+        self._told = True
+        t0, t1, _, model, _ = self._pace
+        warn(
+            f"the run of model {model!r} has come to t={t:.6g} of [{t0:.6g}, {t1:.6g}] in {elapsed:.1f} s and "
+            f"{used} evaluations: at this pace it will take some {elapsed / done:.3g} s in all. It is not stuck. "
+            f"progress=True reports how far it has come; a method stepped in C (method='DOP853', the default, or "
+            f"'dop853_c') steps much faster than one stepped in Python; a shorter run or fewer points of a fast "
+            f"part ends sooner; max_evaluations bounds it.",
+            SlowRunWarning,
+        )
 
     def pace_error(self, t: float, used: int, projected: float, pace: tuple | None = None) -> IntegrationError:
         """The refusal of a run that at its pace would need ``projected`` evaluations (also raised for compiled loops
