@@ -24,7 +24,8 @@ from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
 from .plugin.hookspecs import hookimpl
 from .numerics.events import Event, Occurrence
-from .numerics.integrate import EnergyDriftWarning, SlowRunWarning, StiffnessWarning
+from .numerics.integrate import EnergyDriftWarning, StiffnessWarning
+from .numerics.problem import SlowRunWarning
 from .model import Model, NodeNameWarning
 from .plugin.registry import Registry, default_registry
 from .numerics.simulation import InitialConditionWarning, Result

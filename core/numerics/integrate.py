@@ -50,7 +50,7 @@ from ..plugin.contracts import KINDS, RESERVED, Integrator, Solution, integrator
 from .auto import STIFFNESS_RATIO, Choice, choose
 from .events import solve as solve_with_events
 from .fixed_step import FixedStepIntegrator, Stepper, _missing_step
-from .problem import Problem, SlowRunWarning, Spectrum, Structure
+from .problem import Problem, Spectrum, Structure
 from .simulation import Result
 
 __all__ = [
@@ -63,7 +63,6 @@ __all__ = [
     "Solution",
     "Choice",
     "EnergyDriftWarning",
-    "SlowRunWarning",
     "integrate",
     "choose",
     "resolve",
