@@ -3,7 +3,7 @@
 The reference for every linearization here is the model's symbolic derivation (its Lagrangian differentiated, the
 path every model can take); the numeric assembly must give the same coordinates, matrices, output rows and operating
 values, on circuits drawn at random with values over decades.  The banded solver of frequency responses is checked
-against dense LAPACK solves.
+against dense LAPACK solves (``lagrangian.analysis.laplace``).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ from hypothesis import given, settings, strategies as st
 
 import lagrangian as lg
 from lagrangian import models
-import lagrangian.analysis.frequency as frequency
+import lagrangian.analysis.laplace as laplace
 import lagrangian.analysis.linearize as linearize_module
 from lagrangian.analysis.lti import numeric
 from lagrangian.derivation.numeric import assemble_numeric
@@ -238,12 +238,12 @@ def test_the_banded_solve_is_a_dense_solve_where_its_residual_says_so(N, lower, 
     A = rng.normal(size=(N, lower + upper + 1, 5)) + 1j * rng.normal(size=(N, lower + upper + 1, 5))
     A *= 10.0 ** rng.uniform(-3, 3, size=5)
     b = rng.normal(size=(N, 2, 5)) + 0j
-    y = frequency._band_solve(A, b, lower, upper)
-    ok = frequency._backward_error(A, y, b, lower) <= frequency.BACKWARD
+    y = laplace._band_solve(A, b, lower, upper)
+    ok = laplace._backward_error(A, y, b, lower) <= laplace.BACKWARD
     dense = np.linalg.solve(_dense(A, lower), np.moveaxis(b, -1, 0))
     for f in range(5):
         expected = dense[f]
-        got = y[:, :, f] if ok[f] else frequency._gbsv(A[:, :, f], b[:, :, f], lower, upper)
+        got = y[:, :, f] if ok[f] else laplace._gbsv(A[:, :, f], b[:, :, f], lower, upper)
         assert np.allclose(got, expected, rtol=1e-6, atol=1e-9 * np.abs(expected).max())
 
 
@@ -253,14 +253,14 @@ def test_a_zero_pivot_is_caught_by_the_residual_and_solved_with_pivoting():
     A[:-1, 2, 0] = 1
     A[1:, 0, 0] = 1
     b = np.array([[1.0], [2.0], [3.0]], dtype=complex)[:, :, None]
-    y = frequency._band_solve(A, b, 1, 1)
-    assert not frequency._backward_error(A, y, b, 1)[0] <= frequency.BACKWARD
-    fixed = frequency._gbsv(A[:, :, 0], b[:, :, 0], 1, 1)
+    y = laplace._band_solve(A, b, 1, 1)
+    assert not laplace._backward_error(A, y, b, 1)[0] <= laplace.BACKWARD
+    fixed = laplace._gbsv(A[:, :, 0], b[:, :, 0], 1, 1)
     assert np.allclose(_dense(A, 1)[0] @ fixed, b[:, :, 0], rtol=1e-14, atol=1e-14)
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.integers(1, frequency.SMALL_MAX), st.floats(0.2, 1.0), st.booleans(), st.booleans(), st.integers(0, 2**32 - 1))
+@given(st.integers(1, laplace.SMALL_MAX), st.floats(0.2, 1.0), st.booleans(), st.booleans(), st.integers(0, 2**32 - 1))
 def test_the_small_solve_is_a_dense_solve_where_its_residual_says_so(N, density, by_entries, dominant, seed):
     """Random complex systems with a random symmetric pattern of nonzeros (the diagonal kept), solved by blocks or
     entry by entry along the pattern: where the backward error passes, LAPACK's answer; and it passes everywhere
@@ -273,9 +273,9 @@ def test_the_small_solve_is_a_dense_solve_where_its_residual_says_so(N, density,
         A += 4 * N * np.eye(N)[:, :, None]
     A *= 10.0 ** rng.uniform(-3, 3, size=5)
     b = rng.normal(size=(N, 2, 5)) + 0j
-    plan = frequency._elimination_plan(pattern) if by_entries else None
-    y = frequency._eliminate_small(A.copy(), b.copy(), plan)
-    ok = frequency._small_backward_error(A, y, b) <= frequency.BACKWARD
+    plan = laplace._elimination_plan(pattern) if by_entries else None
+    y = laplace._eliminate_small(A.copy(), b.copy(), plan)
+    ok = laplace._small_backward_error(A, y, b) <= laplace.BACKWARD
     assert ok.all() or not dominant
     dense = np.linalg.solve(np.moveaxis(A, -1, 0), np.moveaxis(b, -1, 0))
     for f in np.flatnonzero(ok):
@@ -295,7 +295,7 @@ def test_a_small_circuits_response_is_within_the_error_bound_of_its_exact_respon
     source = "V1" if "V1" in m.components else "I1"
     lin = linearize(m, inputs=[source], outputs=outputs)
     N = lin.size
-    assert N <= frequency.SMALL_MAX and N == len(lin.coordinates)
+    assert N <= laplace.SMALL_MAX and N == len(lin.coordinates)
     f = np.geomspace(10.0 ** (decade - 3), 10.0 ** (decade + 3), 12)
     got = frequency_response(lin, f).H
     eps = np.finfo(float).eps
@@ -345,7 +345,7 @@ def test_a_ladder_response_in_numbers_is_the_dense_response_of_its_derivation():
     fast = frequency_response(m, f, inputs=["V1"], outputs=outputs).H
     with derived_only():
         lin = linearize(m, inputs=["V1"], outputs=outputs)
-    with mock.patch.object(frequency, "BANDED_MIN", 10**9):
+    with mock.patch.object(laplace, "BANDED_MIN", 10**9):
         dense = frequency_response(lin, f).H
     floor = 1e-12 * np.abs(dense).max(axis=-1, keepdims=True)
     assert np.max(np.abs(fast - dense) / np.maximum(np.abs(dense), floor)) < 1e-10
