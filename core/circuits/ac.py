@@ -39,7 +39,7 @@ from ..base import display
 from ..base.component import t
 from ..errors import ModelError
 from ..model import Model
-from .analogy import map_model
+from .analogy import Mapped, map_model
 from .netlist import ImportedNetlist
 from .spice import _fmt, netlist, run_ac
 
@@ -142,7 +142,12 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
     driven by the element its ``input`` (a force, a prescribed motion) maps
     to, and compares each of the analogue's state quantities with what it
     means in the mechanism (a current with a velocity, for force–voltage),
-    from the mechanism's own linearization.
+    from the mechanism's own linearization.  The circuit of an
+    electromechanical model (a loudspeaker's voice coil) is kept as it is in
+    the analogue, so a source of it drives both sides alike.  A prescribed
+    motion becomes a source of its rate, so ``AC 1`` there is a motion of
+    ``1/(jω)``, and only the quantities that stand for rates (the
+    velocities) compare: the others depend on the motion itself.
     """
     model = system.model if isinstance(system, ImportedNetlist) else system
     mapped = None
@@ -150,6 +155,9 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
         if isinstance(system, ImportedNetlist):
             raise ModelError("an imported netlist is a circuit already: compare it without analogy=.")
         mapped = map_model(model, analogy)
+        if mapped.direction == "inverse":
+            raise ModelError(f"model {model.name!r} is a circuit already (its {analogy} analogue is a "
+                             f"{mapped.analogy.source} model, which ngspice does not run): compare it without analogy=.")
     if isinstance(system, ImportedNetlist):
         if input is None:
             if len(system.ac_sources) != 1:
@@ -178,10 +186,13 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
         circuit, input = mapped.model, analogues[0]
     else:
         circuit = model
+    moved = mapped is not None and _prescribed_motion(mapped, model.component(source))
     comp = circuit.component(input)
     if comp.kind not in ("voltage_source", "current_source"):
+        what = (f"{source!r} is a {comp.kind}" if input == source else
+                f"{model.component(source).kind} {source!r} maps to {comp.kind} {input!r}")
         raise ModelError(f"the input of an AC comparison is a voltage or current source (or, with analogy=, a force or "
-                         f"prescribed motion that maps to one); {source!r} is a {comp.kind}.")
+                         f"prescribed motion that maps to one); {what}.")
     for name, value in (("start", start), ("stop", stop)):
         if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
             raise ModelError(f"{name} must be a positive frequency in Hz, got {value!r}.")
@@ -213,7 +224,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
             raise ModelError(f"with analogy=, compare the analogue's state quantities ({', '.join(net.quantities)}); "
                              f"{unknown[0]!r} is not one.")
         meaning = [mapped.to_source(net.quantities[label]) for label in labels]
-        if model.component(source).role == "across":
+        if moved:
             # the analogue was built with the motion at its value; what a spring's force owes to the motion itself
             # is not in its meaning, so only rates (velocities) compare
             coordinates = {c.function for c in model.coordinates}
@@ -233,7 +244,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
                               at=at)
     ours_s = _time.perf_counter() - began
     ours = {label: resp[out] for label, out in zip(labels, resp.outputs)}
-    if mapped is not None and model.component(source).role == "across":
+    if moved:
         # a prescribed motion becomes a source of its rate (velocity ↔ current or voltage): AC 1 there is a motion 1/s
         ours = {label: h / (2j * np.pi * run.time) for label, h in ours.items()}
     rows = []
@@ -251,6 +262,13 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
                                 float(np.nanmax(deg, initial=0.0))))
     return ACComparison(model.name, source, "\n".join(lines), run.time, ours, run.quantities, rows, ours_s, run.wall,
                         list(resp.notes), run.load, run.read)
+
+
+def _prescribed_motion(mapped: Mapped, comp) -> bool:
+    """Whether source ``comp`` of the mapped model is a prescribed motion: an across source mapped through the analogy
+    (its analogue a source of the motion's rate), not a source of the domain the analogy maps to, which the analogue
+    keeps as it is (the voltage source of a loudspeaker's coil under the force–voltage analogy)."""
+    return comp.role == "across" and set(comp.domains) != {mapped.analogy.target}
 
 
 def _probe(model: Model, net, label: str) -> tuple[str, ...]:
