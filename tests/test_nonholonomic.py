@@ -98,7 +98,7 @@ def test_a_free_sled_turns_on_a_circle_and_keeps_its_energy():
 
 
 def test_the_start_must_satisfy_the_constraint_and_the_analyses_that_do_not_cover_it_say_so():
-    from lagrangian import frequency, routh
+    from lagrangian import routh
     from lagrangian.operating import equilibria
     from lagrangian.scene import Scene
     from lagrangian.sweep import sweep
@@ -106,7 +106,7 @@ def test_the_start_must_satisfy_the_constraint_and_the_analyses_that_do_not_cove
     model = sled(2.0, 0.1)
     with pytest.raises(lg.ModelError, match=r"violate the constraints on velocities of 'edge'.*give rates that satisfy"):
         model.simulate(1.0, initial={"x_j": 0, "y_j": 0, "theta_j": 0.3}, velocity={"x_j": 1, "y_j": 1, "theta_j": 0})
-    for call in (lambda: frequency.linearize(model, inputs=[]), lambda: equilibria(model),
+    for call in (lambda: equilibria(model),
                  lambda: Scene(model, ["x_j"], 1.0), lambda: model.simulate(1.0, method="exact"),
                  lambda: sweep(model, {"m_b": [1.0, 2.0]}, client="serial", t_end=1.0, progress=False)):
         with pytest.raises(lg.ModelError, match="nonholonomic"):

@@ -324,7 +324,7 @@ def _rational(lin: LinearModel) -> LinearModel:
         return sp.Matrix(a.shape[0], a.shape[1], [sp.Rational(float(x)) for x in np.ravel(a)])
 
     return LinearModel(**{**lin.__dict__, "symbolic": True, "M": exact(lin.M), "C": exact(lin.C), "K": exact(lin.K),
-                          "Phi": exact(lin.Phi), "B": [exact(b) for b in lin.B], "Bi": exact(lin.Bi),
+                          "Phi": exact(lin.Phi), "Phi_v": None if lin.Phi_v is None else exact(lin.Phi_v), "B": [exact(b) for b in lin.B], "Bi": exact(lin.Bi),
                           "Cq": [exact(c) for c in lin.Cq], "D": [exact(d) for d in lin.D], "Di": exact(lin.Di)})
 
 

@@ -62,8 +62,10 @@ def _solve(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
         block *= sv
         block += lin.K
         if m:
-            P[:, :n, n:] = -lin.Phi.T
+            P[:, :n, n:] = -lin.force_rows().T
             P[:, n:, :n] = lin.Phi
+            if lin.velocity_rows:
+                P[:, n:, :n] += lin.rate_rows() * sv
         rhs = np.zeros((len(sv), N, ni), dtype=complex)
         _horner(lin.B, sv, rhs[:, :n, :])
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -108,8 +110,10 @@ def _solve_small(lin: LinearModel, svals: np.ndarray) -> np.ndarray:
         block *= sv
         block += lin.K[:, :, None]
         if m:
-            P[:n, n:] = -lin.Phi.T[:, :, None]
+            P[:n, n:] = -lin.force_rows().T[:, :, None]
             P[n:, :n] = lin.Phi[:, :, None]
+            if lin.velocity_rows:
+                P[n:, :n] += lin.rate_rows()[:, :, None] * sv
         rhs = np.zeros((N, ni, len(sv)), dtype=complex)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             _horner([b[:, :, None] for b in lin.B], sv, rhs[:n])
@@ -218,13 +222,16 @@ def _horner(coefficients: Sequence[np.ndarray], sv: np.ndarray, out: np.ndarray,
 
 def _full(lin: LinearModel, which: str) -> np.ndarray:
     """One of the Laplace-form system's coefficient matrices over all unknowns (coordinates, then multipliers):
-    ``"M"``, ``"C"``, ``"K"`` (the constraint blocks with ``K``)."""
+    ``"M"``, ``"C"``, ``"K"`` (the constraint blocks with ``K``, the rates' rows of constraints on velocities with
+    ``C``)."""
     n, N = len(lin.coordinates), lin.size
     out = np.zeros((N, N))
     out[:n, :n] = getattr(lin, which)
     if which == "K" and N > n:
-        out[:n, n:] = -lin.Phi.T
+        out[:n, n:] = -lin.force_rows().T
         out[n:, :n] = lin.Phi
+    if which == "C" and lin.velocity_rows:
+        out[n:, :n] = lin.rate_rows()
     return out
 
 

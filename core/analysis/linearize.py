@@ -53,6 +53,7 @@ from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..derivation.calculus import symbols_of
 from .lti import _number, numeric, stamped
+from .motion import kane_state_space, rates, steady_check
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
 
 __all__ = ["LinearModel", "linearize", "s"]
@@ -97,11 +98,42 @@ class LinearModel:
     parameters: list[sp.Symbol] = field(default_factory=list)
     #: units of the inputs and outputs by label (``""`` where unknown), for charts
     units: dict[str, str] = field(default_factory=dict)
+    #: the rates ``q̇₀`` of a steady motion linearized about (:func:`linearize`'s ``velocity=``), by coordinate
+    velocity: dict[str, Any] = field(default_factory=dict)
+    #: constraints on velocities ``A(q) q̇ + b(q, t) = 0`` (nonholonomic): ``A`` at the point, one row each.  They are
+    #: the last rows of the constraints, whose rows in ``Phi`` are then ``∂(A q̇ + b)/∂q``: the row reads
+    #: ``(Phi + Phi_v s) δq = 0``, and the multiplier acts along ``Phi_v`` (Lagrange–d'Alembert).  ``None``: none.
+    Phi_v: Any = None
 
     def __repr__(self) -> str:
         kind = "symbolic" if self.symbolic else "numeric"
-        return (f"<LinearModel of {self.model!r}: {len(self.coordinates)} coordinates, {self.Phi.shape[0]} constraints, "
-                f"inputs {self.inputs}, outputs {self.outputs}, {kind}>")
+        on_rates = f" ({self.velocity_rows} on velocities)" if self.velocity_rows else ""
+        return (f"<LinearModel of {self.model!r}: {len(self.coordinates)} coordinates, {self.Phi.shape[0]} constraints"
+                f"{on_rates}, inputs {self.inputs}, outputs {self.outputs}, {kind}>")
+
+    @property
+    def velocity_rows(self) -> int:
+        """How many of the constraints are on velocities (nonholonomic): the last rows of ``Phi``."""
+        return 0 if self.Phi_v is None else self.Phi_v.shape[0]
+
+    def rate_rows(self) -> Any:
+        """The coefficient of ``s`` in the constraint rows (constraints × coordinates): ``Phi_v`` in the rows of the
+        constraints on velocities, zero in the others."""
+        m, n, k = self.Phi.shape[0], len(self.coordinates), self.velocity_rows
+        if self.symbolic:
+            return sp.zeros(m - k, n).col_join(sp.Matrix(self.Phi_v)) if k else sp.zeros(m, n)
+        return np.vstack([np.zeros((m - k, n)), self.Phi_v]) if k else np.zeros((m, n))
+
+    def force_rows(self) -> Any:
+        """The directions the constraints' multipliers act along (constraints × coordinates): ``Φ_q`` for a
+        constraint on positions, ``A`` for one on velocities."""
+        k = self.velocity_rows
+        if not k:
+            return self.Phi
+        h = self.Phi.shape[0] - k
+        if self.symbolic:
+            return sp.Matrix(self.Phi)[:h, :].col_join(sp.Matrix(self.Phi_v))
+        return np.vstack([self.Phi[:h], self.Phi_v])
 
     @property
     def size(self) -> int:
@@ -118,12 +150,13 @@ class LinearModel:
         m = self.Phi.shape[0]
         if not m:
             return P, rhs
+        rows = self.Phi + self.rate_rows() * s_value if self.velocity_rows else self.Phi
         if self.symbolic or isinstance(s_value, sp.Basic):
-            Phi = sp.Matrix(self.Phi)
-            top = sp.Matrix(P).row_join(-Phi.T)
-            return top.col_join(Phi.row_join(sp.zeros(m, m))), sp.Matrix(rhs).col_join(sp.zeros(m, len(self.inputs)))
-        top = np.hstack([P, -self.Phi.T])
-        bottom = np.hstack([self.Phi, np.zeros((m, m))])
+            rows, force = sp.Matrix(rows), sp.Matrix(self.force_rows())
+            top = sp.Matrix(P).row_join(-force.T)
+            return top.col_join(rows.row_join(sp.zeros(m, m))), sp.Matrix(rhs).col_join(sp.zeros(m, len(self.inputs)))
+        top = np.hstack([P, -self.force_rows().T])
+        bottom = np.hstack([rows, np.zeros((m, m))])
         return np.vstack([top, bottom]), np.vstack([rhs, np.zeros((m, len(self.inputs)))])
 
     def output_rows(self, s_value) -> tuple[Any, Any]:
@@ -138,7 +171,12 @@ class LinearModel:
         """The same linearization in independent coordinates: the loop constraints ``Φ_q δq = 0`` solved for as
         many coordinates as they fix (those whose columns of ``Φ_q`` are best conditioned, by QR with column
         pivoting), the others kept; ``M``, ``C``, ``K`` projected as ``Nᵀ M N`` with ``δq = N δq_independent``,
-        outputs as ``Cq N``.  Numeric linearizations only."""
+        outputs as ``Cq N``.  Numeric linearizations only; with constraints on velocities there is no such
+        second-order form (fewer speeds than coordinates): :meth:`state_space` takes independent speeds."""
+        if self.velocity_rows:
+            raise ModelError(f"model {self.model!r} has constraints on velocities: its independent speeds are fewer "
+                             f"than its coordinates, so it has no second-order form in independent coordinates; use "
+                             f"state_space() (independent coordinates and speeds) or the Laplace form.")
         return _independent(self) if self.Phi.shape[0] else self
 
     def state_space(self) -> tuple[Any, Any, Any, Any, list[str]]:
@@ -146,12 +184,19 @@ class LinearModel:
         coordinates)``.
 
         With loop constraints the state is that of independent coordinates
-        (:meth:`independent`).  Raises :class:`~lagrangian.errors.ModelError`
+        (:meth:`independent`).  With constraints on velocities (nonholonomic)
+        it is Kane's: independent coordinates ``δq_i`` and independent speeds
+        ``δu`` (the rates of the coordinates whose columns of the constraints'
+        Jacobian are the worst conditioned; the others, dependent, follow from
+        them), named ``"x_p"`` and ``"x_p'"`` (:func:`~lagrangian.analysis.
+        motion.kane_state_space`).  Raises :class:`~lagrangian.errors.ModelError`
         when the model has no such form here: inputs that enter through
         their derivatives (a prescribed motion: use the transfer function,
         which takes ``s`` exactly), or outputs that need the acceleration of
         a first-order coordinate.
         """
+        if self.velocity_rows:
+            return kane_state_space(self)
         if self.Phi.shape[0]:
             return self.independent().state_space()
         if not (_zero_matrix(self.Bi) and _zero_matrix(self.Di)):
@@ -254,9 +299,10 @@ def _check_regular(W: np.ndarray, model: str) -> None:
 # ---------------------------------------------------------------------------
 
 
-def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequence[str] | None = None,
-              outputs: Sequence[Any] | None = None, params: Mapping[str, Any] | None = None, time: float = 0.0,
-              symbolic: bool | None = None, tol: float = 1e-8) -> LinearModel:
+def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Mapping[str, Any] | None = None,
+              inputs: Sequence[str] | None = None, outputs: Sequence[Any] | None = None,
+              params: Mapping[str, Any] | None = None, time: float = 0.0, symbolic: bool | None = None,
+              tol: float = 1e-8) -> LinearModel:
     """Linearize ``model`` about the operating point ``at`` (coordinate values; zeros by default), at rest.
 
     ``inputs``: names of components with a signal parameter (sources,
@@ -271,7 +317,18 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     such); otherwise every parameter must have a value.  ``time``: the
     instant ``t₀`` of a model whose equations depend on time.
 
-    The point must be an equilibrium: a :class:`~lagrangian.errors.ModelError`
+    ``velocity``: the rates of a steady motion to linearize about instead
+    of rest (coordinate names to rates; zeros by default): every rate stays
+    constant there, and a coordinate that moves must be ignorable (absent
+    from the equations: a position, a heading, a wheel's angle) —
+    :mod:`lagrangian.analysis.motion`.  A model with constraints on
+    velocities (rolling without slipping, knife edges) is linearized on
+    them, Lagrange–d'Alembert's way: ``LinearModel.Phi_v`` holds them, the
+    Laplace form, :func:`~lagrangian.frequency.modes` and transfer functions
+    take them, and :meth:`LinearModel.state_space` gives Kane's independent
+    coordinates and speeds.
+
+    The point must be an equilibrium (a steady motion, given rates): a :class:`~lagrangian.errors.ModelError`
     names the coordinates that would accelerate there (beyond ``tol`` of the
     forces' scale) and by how much.  With no ``at``, the point is where
     Newton's method from the origin comes to rest, as SPICE finds its
@@ -295,7 +352,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     if not np.isfinite(float(time)):
         raise ModelError(f"time must be a finite number, got {time!r}.")
     time = float(time)
-    if at is None and not params and symbolic is not True:
+    if at is None and velocity is None and not params and symbolic is not True:
         fast = numeric(model, inputs, outputs, time)
         if fast is not None:  # linear time-invariant, said in numbers: nothing symbolic is built
             Jq = np.zeros((0, len(fast["names"])))
@@ -303,7 +360,6 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
                                  fast["point"], time, False, (fast["M"], fast["C"], fast["K"], Jq, fast["Bw"]),
                                  fast["rows"])
     twin, channels = _with_inputs(model, inputs)  # the same components, inputs driven: its checks are the model's
-    twin._holonomic_only("linearization")
     twin._no_state_callables("linearization")
     values = _parameter_values(twin, params, symbolic)
     is_symbolic = any(not isinstance(x, (int, float)) for x in values.values()) or bool(_unvalued(twin, values))
@@ -312,7 +368,9 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         raise ModelError(f"model {model.name!r} has symbolic parameters without values: {', '.join(missing)}. "
                          f"Give them in params=, or linearize symbolically (symbolic=True).")
     point = _operating_point(twin, twin.coordinate_names, at, is_symbolic)
-    fast = None if is_symbolic else stamped(twin, channels, values, None if at is None else point, time, outputs)
+    moving = rates(twin, twin.coordinate_names, velocity)
+    fast = None if (is_symbolic or moving) else stamped(twin, channels, values, None if at is None else point, time,
+                                                        outputs)
     if fast is not None:  # linear time-invariant: read off the stamps, nothing derived
         Jq = np.zeros((0, len(fast["names"])))
         return _linear_model(model, twin, channels, values, outputs, fast["names"], fast["first_order"],
@@ -323,7 +381,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     q, v = list(eq.sym.q), list(eq.sym.v)
     n = len(q)
     g = eq._generic
-    M_g, f_g, Phi_g = g["M"], g["f"], g["constraints"]
+    M_g, f_g, Phi_g, c_g = g["M"], g["f"], g["constraints"], g["velocity_constraints"]
     # inputs: u(t) and its derivatives as plain symbols
     u_syms: dict[Any, tuple[int, int]] = {}  # the symbol standing for the k-th derivative of input col → (col, k)
     symbol_of: dict[tuple[int, int], sp.Symbol] = {}
@@ -336,7 +394,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
 
     replace: dict[Any, Any] = {}
     order = 0
-    for expr in _atoms(list(f_g) + list(M_g) + list(g["constraints"]), channels):
+    for expr in _atoms(list(f_g) + list(M_g) + list(g["constraints"]) + list(c_g), channels):
         if isinstance(expr, AppliedUndef) and expr.args != (t,):
             replace[expr] = sp.Integer(0)  # w(0), from integrating a source over [0, t]: w is 0 at the point
             continue
@@ -346,7 +404,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     calc = eq._derivation.calc
     f_u = f_g.xreplace(replace) if replace else f_g
     M_u = M_g.xreplace(replace) if replace else M_g
-    subs = {**{qs: point[nm] for qs, nm in zip(q, names)}, **{vs: sp.Integer(0) for vs in v},
+    subs = {**{qs: point[nm] for qs, nm in zip(q, names)}, **{vs: moving.get(nm, sp.Integer(0)) for vs, nm in zip(v, names)},
             **{us: sp.Integer(0) for us in u_syms}, t: sp.Float(time) if time else sp.Integer(0)}
     subs.update({sym: (sp.Float(val) if isinstance(val, float) else val) for sym, val in values.items()})
 
@@ -374,7 +432,13 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
     index_v, index_q = {x: j for j, x in enumerate(v)}, {x: j for j, x in enumerate(q)}
     dC = {(i, index_v[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_v}
     dK = {(i, index_q[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_q}
-    if at is None and not is_symbolic and not len(Phi_g):
+    mv = len(c_g)
+    c_u = c_g.xreplace(replace) if (mv and replace) else c_g
+    at_rest_inputs = {us: sp.Integer(0) for us in u_syms}  # the inputs at their operating values
+    steady_check(model.name, names, q, moving,
+                 [e.xreplace(at_rest_inputs) for e in [*M_u.todok().values(), *f_u, *Phi_g, *c_u]],
+                 {k: x for k, x in values.items() if isinstance(x, (int, float))}, calc.diff)
+    if at is None and not is_symbolic and not len(Phi_g) and not mv and not moving:
         _settle(f_u, dK, q, names, point, subs, at_point, n)  # a nonlinear model's rest point nearest the origin
     f0 = sp.Matrix([at_point(e) for e in f_u])
     M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
@@ -399,22 +463,39 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, inputs: Sequ
         raise ModelError(f"model {model.name!r}: inputs {', '.join(driven)} move a closed kinematic loop (they enter its "
                          f"closure constraints); linearizing about them is not supported. Drive the loop with a force "
                          f"or torque instead.")
+    driven = sorted({channels_by_col[u_syms[x][0]] for c in c_u for x in sp.sympify(c, strict=True).free_symbols if x in u_syms})
+    if driven and inputs is None:  # a rolling contact's turntable: no input unless asked for
+        return linearize(model, at, velocity=velocity, inputs=[c[0] for c in channels.values() if c[0] not in driven],
+                         outputs=outputs, params=params, time=time, symbolic=symbolic, tol=tol)
+    if driven:
+        raise ModelError(f"model {model.name!r}: inputs {', '.join(driven)} enter its constraints on velocities; "
+                         f"linearizing about them is not supported. Drive the model with a force or torque instead.")
     Jq = matrix(m, n, {(k, j): at_point(calc.diff(Phi_u[k], q[j])) for k in range(m) for j in range(n)})
-    if m:
-        residual = [at_point(c) for c in Phi_u]
-        _check_closure(model.name, residual, is_symbolic, tol)
-        lam0 = _multipliers(model.name, f0, Jq, is_symbolic, names, tol, K0, point, check=not linear)
-        for k in range(m):
+    # constraints on velocities c = A(q, t) q̇ + b: rows (∂c/∂q + A s) δq = 0, multipliers along A
+    Gq = matrix(mv, n, {(k, j): at_point(calc.diff(c_u[k], q[j])) for k in range(mv) for j in range(n)})
+    Av = matrix(mv, n, {(k, j): at_point(calc.diff(c_u[k], v[j])) for k in range(mv) for j in range(n)})
+    W = Jq.col_join(Av) if is_symbolic else np.vstack([Jq, Av])
+    if m + mv:
+        _check_closure(model.name, [at_point(c) for c in Phi_u], is_symbolic, tol)
+        if mv:
+            _check_rolling(model.name, [at_point(c) for c in c_u], eq.velocity_owners, Av, moving, is_symbolic, tol)
+        lam0 = _multipliers(model.name, f0, W, is_symbolic, names, tol, K0, point, check=not linear, moving=moving)
+        for k in range(m + mv):
             if is_zero(lam0[k]) if is_symbolic else lam0[k] == 0:
                 continue
+            row, by = (Phi_u[k], q) if k < m else (c_u[k - m], v)
             for i in range(n):
                 for j in range(n):
-                    K0[i, j] -= lam0[k] * at_point(calc.diff(calc.diff(Phi_u[k], q[i]), q[j]))
+                    K0[i, j] -= lam0[k] * at_point(calc.diff(calc.diff(row, by[i]), q[j]))
     elif not linear:
-        _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point)
+        _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point, moving=moving)
+    Phi = Jq.col_join(Gq) if is_symbolic else np.vstack([Jq, Gq])
     Cq, Dw, y0 = _outputs(twin, eq, outputs, usym, channels, at_point)
-    return _linear_model(model, twin, channels, values, outputs, names, [names[i] for i in eq.first_order], point,
-                         time, is_symbolic, (M0, C0, K0, Jq, Bw), (Cq, Dw, y0))
+    lin = _linear_model(model, twin, channels, values, outputs, names, [names[i] for i in eq.first_order], point,
+                        time, is_symbolic, (M0, C0, K0, Phi, Bw), (Cq, Dw, y0))
+    lin.velocity = dict(moving)
+    lin.Phi_v = (sp.Matrix(Av) if is_symbolic else np.array(Av, dtype=float)) if mv else None
+    return lin
 
 
 def _linear_model(model: Model, twin: Model, channels, values, outputs, names, first, point, time, is_symbolic,
@@ -543,22 +624,34 @@ def _scale(K0, M0, point, names) -> float:
     return float(K.max() * x) if K.size else 1.0
 
 
-def _check_rest(model: str, f0, names, symbolic: bool, tol: float, K0, M0, point) -> None:
+def _not_steady(model: str, moving) -> str:
+    """The start of the message refusing a point that is not an equilibrium (a steady motion, given rates)."""
+    if moving:
+        return f"model {model!r} is not in steady motion at this point and these rates"
+    return f"model {model!r} is not at rest at this operating point"
+
+
+def _give(moving) -> str:
+    return ("Give at= and velocity= a steady motion (a point and rates where every rate stays constant)" if moving
+            else "Give at= an equilibrium")
+
+
+def _check_rest(model: str, f0, names, symbolic: bool, tol: float, K0, M0, point, moving=None) -> None:
     if symbolic:
-        moving = [nm for nm, e in zip(names, f0) if not is_zero(e)]
-        if moving:
-            i = names.index(moving[0])
-            raise ModelError(f"model {model!r} is not at rest at this operating point: the equation of {moving[0]!r} "
-                             f"has a net force {f0[i]} there. Give at= an equilibrium.")
+        accelerating = [nm for nm, e in zip(names, f0) if not is_zero(e)]
+        if accelerating:
+            i = names.index(accelerating[0])
+            raise ModelError(f"{_not_steady(model, moving)}: the equation of {accelerating[0]!r} has a net force "
+                             f"{f0[i]} there. {_give(moving)}.")
         return
     residual = np.abs(np.array([float(e) for e in f0]))
     scale = _scale(K0, M0, point, names)
     bad = [nm for nm, r in zip(names, residual) if r > tol * max(scale, 1e-300)]
     if bad:
         worst = int(np.argmax(residual))
-        raise ModelError(f"model {model!r} is not at rest at this operating point: the net force on {', '.join(bad)} "
-                         f"is {residual[worst]:.3g} (against a stiffness scale of {scale:.3g}). Give at= an "
-                         f"equilibrium (the coordinates' values where the forces balance).")
+        raise ModelError(f"{_not_steady(model, moving)}: the net force on {', '.join(bad)} is {residual[worst]:.3g} "
+                         f"(against a stiffness scale of {scale:.3g}). {_give(moving)} (the coordinates' values where "
+                         f"the forces balance).")
 
 
 def _check_closure(model: str, residual, symbolic: bool, tol: float) -> None:
@@ -573,15 +666,32 @@ def _check_closure(model: str, residual, symbolic: bool, tol: float) -> None:
                          f"(|Φ| = {worst:.3g}). Give at= a point that satisfies them.")
 
 
-def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, point, check: bool = True):
-    """The multipliers ``λ₀`` with ``f₀ + Φ_qᵀ λ₀ = 0``, or an error when none holds the point at rest."""
+def _check_rolling(model: str, residual, owners, Av, moving, symbolic: bool, tol: float) -> None:
+    """Refuse rates that violate the constraints on velocities, naming their components."""
+    if symbolic:
+        held = sorted({o for o, r in zip(owners, residual) if not is_zero(r)})
+        worst = ""
+    else:
+        speed = max([abs(float(x)) for x in moving.values()] + [1.0])
+        scale = speed * max(float(np.abs(np.asarray(Av, dtype=float)).max(initial=0.0)), 1.0)
+        held = sorted({o for o, r in zip(owners, residual) if abs(r) > tol * scale})
+        worst = f" (|c| = {max((abs(r) for r in residual), default=0.0):.3g})"
+    if held:
+        raise ModelError(f"model {model!r}: the rates given violate the constraints on velocities of "
+                         f"{', '.join(map(repr, held))}{worst}. Give velocity= rates that satisfy them "
+                         f"(lagrangian.plugins.multibody.consistent_initial solves the dependent ones).")
+
+
+def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, point, check: bool = True, moving=None):
+    """The multipliers ``λ₀`` with ``f₀ + Wᵀ λ₀ = 0`` (``W`` the directions the constraints' forces act along), or
+    an error when none holds the point at rest (in steady motion, given ``moving`` rates)."""
     if symbolic:
         JT = Jq.T
         lam = (JT.T * JT).LUsolve(-JT.T * f0)
         rest = f0 + JT * lam
         if check and any(not is_zero(r) for r in rest):
-            raise ModelError(f"model {model!r} is not at rest at this operating point: the loop constraints cannot "
-                             f"balance the net forces {list(rest)}. Give at= an equilibrium.")
+            raise ModelError(f"{_not_steady(model, moving)}: the constraints cannot balance the net forces "
+                             f"{list(rest)}. {_give(moving)}.")
         return list(lam)
     J = np.asarray(Jq, dtype=float)
     f = np.array([float(e) for e in f0])
@@ -590,8 +700,8 @@ def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, poin
     scale = max(_scale(K0, None, point, names), float(np.abs(f).max(initial=0.0)))
     if check and np.abs(rest).max(initial=0.0) > tol * max(scale, 1e-300):
         i = int(np.argmax(np.abs(rest)))
-        raise ModelError(f"model {model!r} is not at rest at this operating point: a net force {rest[i]:.3g} on "
-                         f"{names[i]!r} that the loop constraints do not balance. Give at= an equilibrium.")
+        raise ModelError(f"{_not_steady(model, moving)}: a net force {rest[i]:.3g} on {names[i]!r} that the "
+                         f"constraints do not balance. {_give(moving)}.")
     return [sp.Float(x) for x in lam]
 
 

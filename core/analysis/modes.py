@@ -56,7 +56,8 @@ def _balance(lin: LinearModel) -> tuple[LinearModel, np.ndarray]:
     d = np.where(size > 0, 1 / np.sqrt(np.where(size > 0, size, 1.0)), 1.0)
     D = np.diag(d)
     scaled = LinearModel(**{**lin.__dict__, "M": D @ lin.M @ D, "C": D @ lin.C @ D, "K": D @ lin.K @ D,
-                            "Phi": lin.Phi @ D, "B": [D @ b for b in lin.B], "Bi": D @ lin.Bi,
+                            "Phi": lin.Phi @ D, "Phi_v": None if lin.Phi_v is None else lin.Phi_v @ D,
+                            "B": [D @ b for b in lin.B], "Bi": D @ lin.Bi,
                             "Cq": [c @ D for c in lin.Cq]})
     return scaled, d
 
@@ -91,7 +92,8 @@ def _descriptor(lin: LinearModel, with_io: bool) -> tuple[np.ndarray, np.ndarray
     eigenvalues are the invariant zeros.
 
     Unknowns ``(q, v, a, λ)``, with ``v`` and ``a`` scaled by ``w0`` and ``w0²``: ``σ q = ṽ``, ``σ ṽ = ã``,
-    ``0 = −M w0² ã − C w0 ṽ − K q + Φᵀλ + Σ b_k w_k``, ``0 = Φ q``.  With the input: a chain ``w_k = s^k u``
+    ``0 = −M w0² ã − C w0 ṽ − K q + Wᵀλ + Σ b_k w_k``, ``0 = Φ q + Φ_v w0 ṽ`` (``W`` the directions of the
+    constraints' forces, ``Φ_v`` the coefficient of ``s`` of those on velocities).  With the input: a chain ``w_k = s^k u``
     (or ``s^(k−1) u`` when the input's integral enters, ``Bi`` or ``Di``), scaled by ``w0^k``, rows ``σ w_k = w_(k+1)``,
     ``u = w_0`` (or ``u = s w_0``), and the output row ``y = 0``."""
     lin, _ = _balance(lin)
@@ -112,8 +114,10 @@ def _descriptor(lin: LinearModel, with_io: bool) -> tuple[np.ndarray, np.ndarray
     A[ia:il, iq:iv] = -lin.K
     A[ia:il, iv:ia] = -lin.C * w0
     A[ia:il, ia:il] = -lin.M * w0**2
-    A[ia:il, il:iw] = lin.Phi.T
+    A[ia:il, il:iw] = lin.force_rows().T
     A[il:iw, iq:iv] = lin.Phi
+    if lin.velocity_rows:  # (∂c/∂q + A s) q = 0: s q = w0 ṽ
+        A[il:iw, iv:ia] = lin.rate_rows() * w0
     if not with_io:
         return A, E
     iu, row_in, row_out = iw + order + 1, iw + order, iw + order + 1
