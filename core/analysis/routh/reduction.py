@@ -133,7 +133,7 @@ class ReducedModel(DerivedModel):
             )
         # p_I = rest + M_II v_I (checked above) makes L = L|v_I=0 + restᵀ v_I + ½ v_Iᵀ M_II v_I exactly, so with
         # w = C − rest:  v_I = M_II⁻¹ w  and  R = C·v_I − L = ½ wᵀ M_II⁻¹ w − L|v_I=0  (no substitution into L)
-        w = sp.Matrix([c - r for c, r in zip(C, rest)])
+        w = sp.Matrix(len(C), 1, [c - r for c, r in zip(C, rest)])  # a column even when nothing is ignored
         adjugate = MII.adjugate().applyfunc(_tidy)
         rates = [_tidy(e / det) for e in adjugate * w]
         at = dict(zip(vI, rates))
@@ -403,7 +403,7 @@ class ReducedModel(DerivedModel):
         symbol ``<name>_0``).  With ``params`` and ``momenta`` giving every
         value, the coordinates are found numerically when SymPy cannot
         solve: all roots of the conditions in ``search`` ranges (default
-        ``(−π, π)`` for joint angles), by bracketing in one coordinate and
+        ``(−π, π]`` for joint angles), by bracketing in one coordinate and
         by Newton from a grid of starts in several.
 
         The symbolic solve runs under a budget of ``budget`` seconds (``None``:

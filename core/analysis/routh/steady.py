@@ -164,15 +164,17 @@ def _is_angle(coordinate) -> bool:
 
 
 def _numeric_roots(model: str, coordinates, exprs, names, q, search) -> list[dict]:
-    """Every root of the steady-motion conditions ``exprs`` (in ``q``) within the ``search`` ranges (default
-    ``(−π, π)`` for angles): bracketed in one coordinate, by Newton from a grid of starts in several."""
+    """Every root of the steady-motion conditions ``exprs`` (in ``q``) within the ``search`` ranges, ends included
+    (default ``(−π, π]`` for angles, the whole turn, ``−π`` being ``π``): bracketed in one coordinate, by Newton
+    from a grid of starts in several."""
     from scipy.optimize import brentq, root
 
-    ranges = []
+    ranges, turns = [], []
     for i, n in enumerate(names):
+        turns.append(n not in search and _is_angle(coordinates[i]))
         if n in search:
             lo, hi = map(float, search[n])
-        elif _is_angle(coordinates[i]):
+        elif turns[-1]:
             lo, hi = -math.pi, math.pi
         else:
             raise ReductionError(
@@ -197,6 +199,12 @@ def _numeric_roots(model: str, coordinates, exprs, names, q, search) -> list[dic
                 with np.errstate(all="ignore"):
                     if abs(fn([x])[0]) < 1e-8 * max(1.0, scale):  # a root, not a pole
                         found.append(np.array([x]))
+        # a root on an end of the range (π on the default one) need not change sign inside it: it is one when the
+        # value there is negligible against its neighbour's (a simple root's f'·h, h the grid's step)
+        for end, inner in ((0, 1), (-1, -2)):
+            fa, fb = vals[end], vals[inner]
+            if np.isfinite(fa) and np.isfinite(fb) and abs(fa) <= 1e-8 * abs(fb):
+                found.append(np.array([grid[end]]))
     else:
         jac = sp.lambdify([q], sp.Matrix(exprs).jacobian(q), modules="numpy")
         axes = [np.linspace(lo, hi, 9) for lo, hi in ranges]
@@ -204,8 +212,15 @@ def _numeric_roots(model: str, coordinates, exprs, names, q, search) -> list[dic
             with np.errstate(all="ignore"):
                 sol = root(lambda x: np.asarray(fn(x), dtype=float), start,
                            jac=lambda x: np.asarray(jac(x), dtype=float), tol=1e-13)
-            if sol.success and all(lo <= x <= hi for x, (lo, hi) in zip(sol.x, ranges)):
-                found.append(sol.x)
+            if not sol.success:
+                continue
+            x = np.array([lo + (xi - lo) % (2 * math.pi) if turn else xi
+                          for xi, turn, (lo, hi) in zip(sol.x, turns, ranges)])
+            if all(lo <= xi <= hi for xi, (lo, hi) in zip(x, ranges)):
+                found.append(x)
+    # on a whole turn −π is π: one steady motion, reported at π
+    found = [np.array([hi if turn and xi - lo < 1e-9 else xi for xi, turn, (lo, hi) in zip(x, turns, ranges)])
+             for x in found]
     unique: list[np.ndarray] = []
     for x in found:
         if not any(np.allclose(x, y, atol=1e-9) for y in unique):
@@ -243,6 +258,7 @@ def _solve(exprs: list[sp.Expr], unknowns: list[sp.Symbol]) -> list[dict] | None
         return None
     if not sols and any(e.free_symbols for e in exprs):
         return None if any(not e.is_rational_function(*unknowns) for e in exprs) else []
+    sols += _half_turns(exprs, unknowns, sols)
     out = []
     for sol in sols:
         if any(val.is_real is False for val in sol.values()):
@@ -250,4 +266,31 @@ def _solve(exprs: list[sp.Expr], unknowns: list[sp.Symbol]) -> list[dict] | None
         if any(val.has(sp.I) and val.is_number and abs(sp.im(sp.N(val))) > 1e-12 for val in sol.values()):
             continue
         out.append({k: (sp.re(v) if v.is_number else v) for k, v in sol.items()})
+    return out
+
+
+def _half_turns(exprs: list[sp.Expr], unknowns: list[sp.Symbol], sols: list[dict]) -> list[dict]:
+    """The solutions at ``x = π`` of an unknown ``x`` inside trigonometric functions that ``sols`` lacks.
+
+    SymPy solves trigonometric equations through ``u = tan(x/2)``, which
+    cannot reach ``x = π``: ``sin x (a cos x − g) = 0`` comes back without
+    the bead at the top of its hoop.  Each such unknown is set to ``π`` and
+    the conditions solved for the others (checked identically zero when
+    none is left).
+    """
+    trig = (sp.sin, sp.cos, sp.tan, sp.cot, sp.sec, sp.csc)
+    out = []
+    for x in unknowns:
+        if not any(f.args[0].has(x) for e in exprs for f in e.atoms(*trig)):
+            continue
+        if any(x in sol and sp.sympify(sol[x]).is_number and is_zero(sp.cos(sol[x]) + 1) for sol in sols):
+            continue
+        at = [sp.sympify(e).xreplace({x: sp.pi}) for e in exprs]
+        others = [u for u in unknowns if u != x]
+        if not others:
+            if all(is_zero(e) for e in at):
+                out.append({x: sp.pi})
+            continue
+        rest = _solve(at, others)
+        out += [{x: sp.pi, **sol} for sol in rest or []]
     return out
