@@ -32,7 +32,7 @@ from .errors import LagrangianError, ModelError, ParameterError, UnknownNameErro
 from .base.graph import ComponentGraph
 from .base.units import is_quantity, split, to_si
 from .plugin.registry import Registry, default_registry
-from .numerics.simulation import NumericModel, Result, initial_state
+from .numerics.simulation import NumericModel, Result, check_start, initial_state
 from .numerics.integrate import choose, integrate, Problem, resolve
 from .numerics.events import Event
 from .numerics.events import check as check_events
@@ -288,7 +288,7 @@ class Model:
         return sorted(self.eq.parameter_symbols(), key=lambda s: (s.name, str(s.assumptions0)))
 
     def _unvalued(self) -> bool:
-        """Whether a symbol of the components' contributions (or the domains' constraints) has no value."""
+        """Whether a symbol of the contributions (or the domains' constraints, eliminated solutions) has no value."""
         a = self.assembly
         known = set(a.values) | {t}
         for c in a.generic.values():
@@ -298,7 +298,8 @@ class Model:
                 if isinstance(e, (sp.Basic, sp.MatrixBase)) and not e.free_symbols <= known:
                     return True
         return any(not sp.Matrix(view.constraints).free_symbols <= known
-                   for view in a.generic_views.values() if len(getattr(view, "constraints", ())))
+                   for view in a.generic_views.values() if len(getattr(view, "constraints", ()))) \
+            or any(not e.solution.free_symbols <= known for e in a.eliminated.values())  # θ = x / R, R cancelled
 
     def latex(self, dots: bool = False) -> str:
         """The Lagrangian, Rayleigh function and equations of motion as LaTeX: SymPy's notation (``x(t)``,
@@ -731,42 +732,6 @@ class Model:
                         f"which {analysis} does not cover: the Lagrange–d'Alembert equations hold them only in a "
                         f"simulation (Model.simulate) or an impact.")
 
-    def _check_constraints(self, numeric: NumericModel, t0: float, y0: np.ndarray, tol: float = 1e-8) -> None:
-        """Refuse an initial state that violates the loop-closure constraints (or their rates)."""
-        eq = self.eq
-        q, v = eq.sym.q, eq.sym.v
-        if len(eq.velocity_constraints):  # nonholonomic: the start's rates must satisfy them
-            c = eq.velocity_constraints.xreplace({s: sp.Float(x) for s, x in numeric.values.items()})
-            v0, _ = numeric.velocities(t0, y0)
-            point = {**dict(zip(q, y0[: numeric.n])), **dict(zip(v, v0)), t: t0}
-            gaps = [abs(float(e.xreplace(point))) for e in c]
-            held = sorted({o for o, g in zip(eq.velocity_owners, gaps) if g > tol})
-            if held:
-                raise ModelError(
-                    f"the initial rates of model {self.name!r} violate the constraints on velocities of "
-                    f"{', '.join(map(repr, held))} (|c| = {max(gaps):.3g}): give rates that satisfy "
-                    f"{'; '.join(f'{eq.display(e)} = 0' for e, g in zip(eq.velocity_constraints, gaps) if g > tol)}.")
-        if not len(eq.constraints):
-            return
-        Phi = eq.constraints.xreplace({s: sp.Float(x) for s, x in numeric.values.items()})
-        rate = Phi.jacobian(q) * sp.Matrix(v) + Phi.diff(t)
-        v0, _ = numeric.velocities(t0, y0)
-        point = {**dict(zip(q, y0[: numeric.n])), **dict(zip(v, v0)), t: t0}
-        gaps = [max(abs(float(a.xreplace(point))), abs(float(b.xreplace(point)))) for a, b in zip(Phi, rate)]
-        gap = max(abs(float(e.xreplace(point))) for e in Phi)
-        gap_rate = max(abs(float(e.xreplace(point))) for e in rate)
-        if gap > tol or gap_rate > tol:
-            owners = getattr(eq, "constraint_owners", [None] * len(gaps))
-            held = sorted({owner for owner, g in zip(owners, gaps) if owner and g > tol})
-            what = "its kinematic loops" if not held else (
-                f"the constraints of {', '.join(repr(h) for h in held)}"
-                + (" and its kinematic loops" if any(o is None and g > tol for o, g in zip(owners, gaps)) else ""))
-            raise ModelError(
-                f"the initial state of model {self.name!r} does not satisfy {what} (|Φ| = {gap:.3g}, "
-                f"|dΦ/dt| = {gap_rate:.3g}): solve the dependent coordinates first with "
-                f"lagrangian.plugins.multibody.consistent_initial(model, initial, velocity)."
-            )
-
     def _integrate(self, run: RunOptions) -> Result:
         integrator = resolve(run.method, self.registry.integrators)
         numeric = self.numeric(run.params)
@@ -776,7 +741,7 @@ class Model:
             # method with a compiled loop says so itself)
             notes.append(note)
         y0, defaulted = initial_state(self.eq, run.initial, run.velocity)
-        self._check_constraints(numeric, run.span[0], y0)
+        check_start(numeric, self.name, run.span[0], y0, params=run.params)
         grid = check_grid(run.span, run.points, run.t_eval, len(y0))
         problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
         given = {"rtol": run.rtol, "atol": run.atol, "max_step": run.max_step, "step": run.step}

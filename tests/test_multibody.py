@@ -1029,7 +1029,8 @@ def test_general_body_on_a_spherical_joint_matches_sympy_kane_in_each_family(seq
     model.add("body", "b", "b", m=SB["m"], inertia=SB["I"], com=SB["com"])
     model.add("spherical", "ball", ("ground", "b"), parent_point=SB["pivot"], child_point=SB["at"], sequence=sequence)
     model.add("gravity", "g", g=G, direction=(0, 0, -1))
-    names = ("phi", "theta", "psi") if sequence[0] == sequence[2] else ("alpha", "beta", "gamma")
+    names = ("phi", "theta", "psi") if sequence[0] == sequence[2] else [{"x": "alpha", "y": "beta", "z": "gamma"}[a]
+                                                                           for a in sequence]
     assert model.coordinate_names == [f"{n}_ball" for n in names]
     assert agree(model, *theirs(MM, F, q, u)) < 1e-12
 

@@ -326,11 +326,14 @@ class Equations:
         return list(self._switches)
 
     def parameter_symbols(self) -> set[sp.Symbol]:
-        """Symbols without values in the equations and energies (not coordinates, velocities or ``t``); cached."""
+        """Symbols without values in the equations and energies (not coordinates, velocities or ``t``), and in the
+        solutions of the coordinates a constraint eliminated (a radius that cancels from the energies still gives the
+        eliminated angle: ``θ = x / R``); cached."""
         if getattr(self, "_free", None) is None:
             g = self.generic()
             inner = set(self.sym.q) | set(self.sym.v) | set(self.sym.a) | {t}
             free = symbols_of(sp.sympify(g[k]) for k in ("A", "b", "T", "V", "D"))
+            free |= symbols_of(self.symbolic(e.solution) for e in self.eliminated.values())
             self._free = free - inner - set(self._values)
         return set(self._free)
 

@@ -392,20 +392,22 @@ class Problem:
     def _conservative(self) -> tuple[bool, str]:
         """Whether the energy is conserved, and why not (the cheap part of :attr:`structure`, which the energy
         check needs on every run: no derivatives taken)."""
+        # decided with the run's values (a turntable given as 0 and turned in params= moves its constraint)
         eq, values = self.numeric.eq, self.numeric.values
+        generic = eq.generic()
         subs = {s: sp.Float(v) for s, v in values.items()}
         reasons = []
-        if not is_zero(eq.D.xreplace(subs)):
+        if not is_zero(sp.sympify(generic["D"]).xreplace(subs)):
             reasons.append("it dissipates energy (Rayleigh function D ≠ 0)")
-        if not all(is_zero(x.xreplace(subs)) for x in eq.Q):
+        if not all(is_zero(x.xreplace(subs)) for x in generic["Q"]):
             reasons.append("applied forces or sources do work on it (generalized forces Q ≠ 0)")
-        if depends_on(eq.L.xreplace(subs), time_symbol):
+        if depends_on(sp.sympify(generic["L"]).xreplace(subs), time_symbol):
             reasons.append("its Lagrangian depends on time (prescribed motions or time-varying parameters)")
         # constraints fixed in time (Φ(q), A(q)·q̇ = 0) do no work: their forces are perpendicular to every motion
         # they allow; moving ones (a driven loop, A(q, t)·q̇ + b(q, t)) put energy in or take it out
-        velocity = getattr(eq, "velocity_constraints", sp.zeros(0, 1))
+        velocity = generic.get("velocity_constraints", sp.zeros(0, 1))
         at_rest = {x: 0 for x in eq.sym.v}
-        if any(depends_on(c.xreplace(subs), time_symbol) for c in [*eq.constraints, *velocity]) or \
+        if any(depends_on(c.xreplace(subs), time_symbol) for c in [*generic["constraints"], *velocity]) or \
                 any(not is_zero(c.xreplace(subs).xreplace(at_rest)) for c in velocity):
             reasons.append("its constraints move with time, and their forces do work")
         return not reasons, "; ".join(reasons)

@@ -27,7 +27,7 @@ from ..errors import warn as _warn
 from ..base.switching import switching_times
 from ..base.text import as_expr, parse_expression
 
-__all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state"]
+__all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state", "check_start"]
 
 
 def _is_angle(coordinate) -> bool:
@@ -538,3 +538,48 @@ def initial_state(
             + (f", … ({len(defaulted) - 40} more)" if len(defaulted) > 40 else ""), InitialConditionWarning
         )
     return np.array(y0), defaulted
+
+
+def check_start(numeric: NumericModel, model: str, t0: float, y0: np.ndarray, *, params: Mapping[str, Any] | None = None,
+                tol: float = 1e-8) -> None:
+    """Refuse an initial state that violates the model's constraints on positions (loop closures, a rolling body's
+    height) or on velocities, or the rates of those on positions: a :class:`ModelError` naming the components.
+
+    The constraints are the generic ones, with ``numeric``'s parameter values put in: those of the run (another value
+    given in ``params=`` to a parameter given as a number counts, as it does in the equations); ``params``, the run's,
+    go into the advice the refusal gives."""
+    eq = numeric.eq
+    if not len(eq.constraints) and not len(eq.velocity_constraints):
+        return
+    q, v = eq.sym.q, eq.sym.v
+    generic = eq.generic()
+    subs = {s: sp.Float(x) for s, x in numeric.values.items()}
+    v0, _ = numeric.velocities(t0, y0)
+    point = {**dict(zip(q, y0[: numeric.n])), **dict(zip(v, v0)), t: t0}
+    if len(eq.velocity_constraints):  # nonholonomic: the start's rates must satisfy them
+        c = generic["velocity_constraints"].xreplace(subs)
+        gaps = [abs(float(e.xreplace(point))) for e in c]
+        held = sorted({o for o, g in zip(eq.velocity_owners, gaps) if g > tol})
+        if held:
+            raise ModelError(
+                f"the initial rates of model {model!r} violate the constraints on velocities of "
+                f"{', '.join(map(repr, held))} (|c| = {max(gaps):.3g}): give rates that satisfy "
+                f"{'; '.join(f'{eq.display(e)} = 0' for e, g in zip(c, gaps) if g > tol)}.")
+    if not len(eq.constraints):
+        return
+    Phi = generic["constraints"].xreplace(subs)
+    rate = Phi.jacobian(q) * sp.Matrix(v) + Phi.diff(t)
+    gaps = [max(abs(float(a.xreplace(point))), abs(float(b.xreplace(point)))) for a, b in zip(Phi, rate)]
+    gap = max(abs(float(e.xreplace(point))) for e in Phi)
+    gap_rate = max(abs(float(e.xreplace(point))) for e in rate)
+    if gap > tol or gap_rate > tol:
+        owners = getattr(eq, "constraint_owners", [None] * len(gaps))
+        held = sorted({owner for owner, g in zip(owners, gaps) if owner and g > tol})
+        what = "its kinematic loops" if not held else (
+            f"the constraints of {', '.join(repr(h) for h in held)}"
+            + (" and its kinematic loops" if any(o is None and g > tol for o, g in zip(owners, gaps)) else ""))
+        raise ModelError(
+            f"the initial state of model {model!r} does not satisfy {what} (|Φ| = {gap:.3g}, "
+            f"|dΦ/dt| = {gap_rate:.3g}): solve the dependent coordinates first with "
+            f"lagrangian.plugins.multibody.consistent_initial(model, initial, velocity{', params=params' if params else ''})."
+        )

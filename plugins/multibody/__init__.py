@@ -17,7 +17,9 @@ the parent (``absolute=True``: ``θ`` is the child's angle to the fixed x
 axis); a prismatic joint slides the child by ``s`` along ``axis`` (parent
 frame).  Spatial: revolute about ``axis`` (parent frame); spherical and free
 joints use three body-fixed angles in the ``sequence`` given (default ``"xyz"``:
-``alpha``, ``beta``, ``gamma``, singular at ``beta = ±π/2``; a proper Euler
+``alpha``, ``beta``, ``gamma``, singular at ``beta = ±π/2``; another Tait–Bryan
+sequence names each angle after its axis, alpha about x, beta about y, gamma
+about z: ``"zyx"`` gives ``gamma``, ``beta``, ``alpha``; a proper Euler
 sequence such as ``"zxz"``: ``phi``, ``theta``, ``psi``, singular at
 ``theta = 0`` or ``π``) — see :class:`Spherical`.
 

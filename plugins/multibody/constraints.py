@@ -65,10 +65,12 @@ class _Closure:
         # constraints on velocities, c = A(q, t) q̇ + b(q, t) = 0: their rows A and b
         self.k = len(eq.velocity_constraints)
         self.velocity_owners = list(getattr(eq, "velocity_owners", []))
+        # the generic constraints with the values of this call's ``params`` in (those given as numbers among them)
         values = model.numeric(params).values if (self.m or self.k) else {}
         subs = {s: sp.Float(v) for s, v in values.items()}
+        generic = eq.generic() if (self.m or self.k) else {}
         if self.k:
-            C = eq.velocity_constraints.xreplace(subs)
+            C = generic["velocity_constraints"].xreplace(subs)
             A = C.jacobian(eq.sym.v)
             b = C.xreplace(dict.fromkeys(eq.sym.v, 0))
             self.rate_structure = np.array([[A[r, i] != 0 for i in range(A.cols)] for r in range(A.rows)], dtype=bool)
@@ -78,7 +80,7 @@ class _Closure:
         if not self.m:
             self.structure = np.zeros((0, len(self.names)), dtype=bool)
             return
-        Phi = eq.constraints.xreplace(subs)
+        Phi = generic["constraints"].xreplace(subs)
         J = Phi.jacobian(eq.sym.q)
         self.structure = np.array([[J[k, i] != 0 for i in range(J.cols)] for k in range(J.rows)], dtype=bool)
         free = (Phi.free_symbols | J.free_symbols) - set(eq.sym.q) - {t}
@@ -150,7 +152,8 @@ def independent_coordinates(model, at=None, *, params=None, time: float = 0.0) -
     """Which coordinates are independent and which dependent at the configuration ``at`` (coordinate values by
     name; missing ones are 0), from a pivoted QR factorization of the constraint Jacobian Φ_q: its ``rank``
     pivot columns are the dependent coordinates (the best-conditioned set the constraints can solve for), the
-    remaining ``dof`` columns the independent ones.  An over-constrained loop — Φ_q of rank below the number
+    remaining ``dof`` columns the independent ones (with the parameter values ``params``, by name as
+    ``Model.simulate`` takes them).  An over-constrained loop — Φ_q of rank below the number
     of constraints — is a :class:`~lagrangian.ModelError` naming its joints.
 
     A rod pinned to the ground at both ends keeps one angle and two equations:
@@ -205,7 +208,8 @@ def consistent_initial(model, initial, velocity=None, *, independent=None, param
     ``rolling``, ``knife_edge``, ``velocity_constraint``) then hold too: the rates given in ``velocity`` are kept
     and every other rate they involve is solved for (a rolling disc's centre velocity from its turning rates).
     Returns ``(initial, velocity)`` for every coordinate, ready for ``model.simulate(..., initial=...,
-    velocity=...)``.
+    velocity=...)``.  ``params`` are the parameter values of that run, by name as ``Model.simulate`` takes them
+    (another value for a parameter given as a number included): the constraints hold with them.
 
     No solution near the guess (held values that put a loop out of reach), more coordinates held than the loop
     leaves free, held coordinates the constraints tie together, or an over-constrained loop: a
@@ -372,7 +376,8 @@ def _rates_on_velocity_constraints(cl: _Closure, time: float, q, v, velocity: di
 
 
 def constraint_residual(model, result) -> float:
-    """The largest |Φ| of the model's loop-closure constraints along a simulation ``result`` (0 without loops).
+    """The largest |Φ| of the model's loop-closure constraints along a simulation ``result`` (0 without loops),
+    with the parameter values the result was run with (``params=`` included).
 
     >>> import lagrangian as lg
     >>> from lagrangian.plugins.multibody import consistent_initial, constraint_residual
@@ -394,4 +399,5 @@ def constraint_residual(model, result) -> float:
     eq = model.eq
     if not len(eq.constraints):
         return 0.0
-    return float(max(np.max(np.abs(result.quantity(eq.display(c)))) for c in eq.constraints))
+    # in the parameters' symbols: the result puts in the values it was run with (params= included)
+    return float(max(np.max(np.abs(result.quantity(eq.display(c)))) for c in eq.generic()["constraints"]))

@@ -152,8 +152,10 @@ class Spherical(_Joint):
     axis, then about the once-turned body's second axis, then about the twice-turned body's third axis.
 
     * Tait–Bryan sequences ``"xyz"`` (the default), ``"xzy"``, ``"yxz"``, ``"yzx"``, ``"zxy"``, ``"zyx"``
-      (three different axes): coordinates ``alpha_<joint>``, ``beta_<joint>``, ``gamma_<joint>`` for the
-      first, second and third angle; gimbal lock where ``beta = ±π/2`` (the first and third axes in line).
+      (three different axes): each angle named after the axis it turns about, ``alpha_<joint>`` about x,
+      ``beta_<joint>`` about y, ``gamma_<joint>`` about z, in the sequence's order (``"xyz"``: alpha, beta,
+      gamma; ``"zyx"``, yaw–pitch–roll: gamma, beta, alpha); gimbal lock where the second angle is ``±π/2``
+      (the first and third axes in line: ``beta = ±π/2`` for ``"xyz"`` and ``"zyx"``).
     * Proper Euler sequences ``"zxz"``, ``"zyz"``, ``"xyx"``, ``"xzx"``, ``"yxy"``, ``"yzy"`` (first axis
       repeated): ``phi_<joint>`` (precession), ``theta_<joint>`` (nutation), ``psi_<joint>`` (spin); gimbal
       lock where ``theta = 0`` or ``±π``.  With ``"zxz"`` and a vertical z axis, a symmetric top's
@@ -185,6 +187,11 @@ class Spherical(_Joint):
     Traceback (most recent call last):
     ...
     lagrangian.errors.SingularMassMatrixError: the mass matrix is singular at t=0 at phi_ball = 0, theta_ball = 0, psi_ball = 0 (...): the motion of phi_ball, psi_ball is not determined there ... sequence "zxz" is in gimbal lock where theta_ball = 0 or ±π ...; sequence="xyz" locks elsewhere ...
+    >>> yaw_pitch_roll = lg.Model("aircraft", dim=3)
+    >>> _ = yaw_pitch_roll.add("body", "plane", "plane", m=0.3, inertia=(0.1, 0.2, 0.25))
+    >>> _ = yaw_pitch_roll.add("spherical", "j", ("ground", "plane"), sequence="zyx")
+    >>> yaw_pitch_roll.coordinate_names  # about z, then y, then x
+    ['gamma_j', 'beta_j', 'alpha_j']
     >>> lg.Model("m", dim=3).add("spherical", "j", ("ground", "b"), sequence="zxx")
     Traceback (most recent call last):
     ...

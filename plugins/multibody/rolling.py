@@ -8,9 +8,29 @@ import sympy as sp
 from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter
 from lagrangian.plugins.mechanics import STICK_SLIP, _check_phase, friction_contribution
 
-from .checks import _need_dim
+from .bodies import _BodyBase
+from .checks import _need_dim, lg_param_error
 
 SHAPES = ("disc", "sphere")
+
+
+def _shown(value) -> str:
+    return f"{float(value):g}" if value.is_number else sp.sstr(value)
+
+
+def _same(a, b) -> bool:
+    """Whether two radii given (numbers, or expressions of the same symbols) are the same radius."""
+    if a.is_number and b.is_number:
+        return abs(float(a) - float(b)) <= 1e-12 * max(abs(float(a)), abs(float(b)))
+    return sp.expand(a - b) == 0
+
+
+def _withdraw(ctx, value) -> None:
+    """Take the symbol standing for a number given to a parameter the contribution does not use out of the model's
+    values: it is then no parameter of the model (``parameter_values``), and ``params=`` refuses it by name rather than
+    take a value that would change nothing."""
+    if isinstance(ctx.values, dict) and isinstance(value, sp.Symbol):
+        ctx.values.pop(value, None)
 
 
 class Rolling(Component):
@@ -33,6 +53,17 @@ class Rolling(Component):
     ``c = n · ẑ``; a disc lying flat (``c = ±1``) is outside the model.  ``axis`` is the disc's axis in the body's
     frame (the z axis of a :class:`~lagrangian.plugins.multibody.Disc`).  Nothing is assumed of the body's mass:
     the body kinds give it (a ``disc``, a ``body`` with a sphere's inertia).
+
+    A body with a radius of its own (a ``disc``) rolls on it: ``radius`` may be left out, and the contact takes the
+    disc's.  Given to both, the two must be the same (else a :class:`~lagrangian.ParameterError` naming both
+    components and both values), and the radius is then one parameter of the model, the disc's: another value in
+    ``params=`` (``{"radius_<disc>": ...}``) moves the disc's inertia and its rim on the ground together, and the
+    rolling's own name (``radius_<rolling>``) is no parameter of the model, which ``params=`` refuses.  A body
+    without one (a ``body`` with a sphere's inertia) needs ``radius``, a parameter of the rolling.
+
+    ``turntable`` given as a number, 0 included (as an integer or a float alike), is a parameter of a model in space:
+    ``params={"turntable_<rolling>": Ω}`` turns the ground at Ω.  In the plane the ground cannot turn: a turntable
+    given as 0 is none, and no parameter of the model (``params=`` refuses it); any other is refused.
 
     The methods that need a Lagrangian system without constraints on velocities (the Routhian, linearization,
     equilibria, scenes, sweeps, the exact solution) refuse a model that rolls in space, by name; energy and the
@@ -79,7 +110,7 @@ class Rolling(Component):
     terminals = ("body",)
     multibody = True
     parameters = {
-        "radius": Parameter("rolling radius", unit="m"),
+        "radius": Parameter("rolling radius (default: the body's own, a disc's radius)", default=None, unit="m"),
         "shape": Parameter("'disc' (a wheel, touching the ground at its rim) or 'sphere' (a ball)", default="disc",
                            shape="name"),
         "axis": Parameter("a disc's axis in the body's frame (space only)", default=(0, 0, 1), shape="vector",
@@ -112,7 +143,38 @@ class Rolling(Component):
                              f"in the plane (dim=2); in space drop stick_slip for the smooth friction (F_c, v_s) that "
                              f"Model.simulate runs.")
         pose = ctx.view.pose(self.nodes[0])
-        return ctx.view.velocity(self.nodes[0])[0] + pose.omega * self.radius
+        return ctx.view.velocity(self.nodes[0])[0] + pose.omega * self.rolling_radius(ctx)
+
+    def rolling_radius(self, ctx):
+        """The radius the contact rolls on: that of the body (a disc) when it has one, checked against ``radius``
+        when both are given (the rolling's own number then withdrawn: the body's is the one parameter), else
+        ``radius``; a :class:`~lagrangian.ParameterError` when they differ or neither is given."""
+        body = self.nodes[0]
+        own = self.params.get("radius")
+        bodies = [c for c in ctx.components if isinstance(c, _BodyBase) and tuple(c.nodes) == (body,)
+                  and c.params.get("radius") is not None]
+        if not bodies:
+            if own is None:
+                raise lg_param_error(self.name, "radius", f"required: rolling {self.name!r} rolls on body {body!r}, "
+                                     f"which has no radius of its own (a disc has one): give the contact's radius=.")
+            return own
+        disc = bodies[0]
+        theirs = sp.sympify(disc.params["radius"])
+        for other in [*bodies[1:], *([self] if own is not None else [])]:
+            given = sp.sympify(other.params["radius"])
+            a, b = given.xreplace(other.values), theirs.xreplace(disc.values)  # each component's own numbers
+            if not _same(a, b):
+                where = (f"rolls on {disc.kind} {disc.name!r}" if other is self
+                         else f"is on body {body!r}, as is {disc.kind} {disc.name!r}")
+                fix = (f"Leave radius= out of rolling {self.name!r} (it then takes the {disc.kind}'s), or give both "
+                       f"the same value" if other is self else "Give both the same value")
+                raise lg_param_error(
+                    self.name, "radius",
+                    f"{other.kind} {other.name!r} has radius {_shown(a)} but {where}, whose radius is {_shown(b)}: a "
+                    f"body rolls on its own rim. {fix}.")
+        if own is not None and own != theirs:
+            _withdraw(ctx, own)
+        return theirs
 
     def contribute(self, ctx) -> Contribution:
         dim = _need_dim(self, ctx.view, (2, 3))
@@ -121,13 +183,15 @@ class Rolling(Component):
             raise ModelError(f"rolling {self.name!r}: attach it to a body (its centre is the body's origin), not to "
                              f"the point {body!r}.")
         pose = ctx.view.pose(body)
-        r = self.radius
+        r = self.rolling_radius(ctx)
         centre, v = pose.p, ctx.view.velocity(body)
-        # the turntable's rate as given (a number given is a symbol standing for it here: 0 given is no turntable)
-        turntable = sp.sympify(self.turntable, strict=True).xreplace(self.values)
+        # the turntable's rate: a number given (0 or 0.0 alike) is a symbol standing for it here, so structurally
+        # zero only where not given
+        turntable = sp.sympify(self.turntable, strict=True)
         if dim == 2:  # a circle on the line y = 0: ω ẑ × (0, −r) = (ω r, 0)
-            if turntable != 0:
+            if turntable.xreplace(self.values).is_zero is not True:
                 raise ModelError(f"rolling {self.name!r}: a turntable turns the ground of a model in space (dim=3).")
+            _withdraw(ctx, turntable)  # 0 given: no turntable, and no parameter that params= could set
             if self.F_c is None:
                 return Contribution(constraints=[centre[1] - r], velocity_constraints=[v[0] + pose.omega * r])
             friction = friction_contribution(self, self.sliding_rate(ctx))
@@ -151,7 +215,7 @@ class Rolling(Component):
         slip = v + pose.omega.cross(reach)
         if turntable != 0:  # the ground turns under the contact: its point there moves at Ω ẑ × contact
             contact = centre + reach
-            slip = slip - sp.Matrix([-self.turntable * contact[1], self.turntable * contact[0], 0])
+            slip = slip - sp.Matrix([-turntable * contact[1], turntable * contact[0], 0])
         if self.F_c is None:
             return Contribution(constraints=[centre[2] - height], velocity_constraints=[slip[0], slip[1]])
         # sliding along the ground: an isotropic force against the slip, regularized below v_s

@@ -76,12 +76,23 @@ def _check_sequence(kind: str, name: str, value) -> str:
         name, "sequence",
         f"{kind} joint {name!r}: {value!r} is not an angle sequence.{hint} Give one of the 12 body-fixed sequences: "
         f"proper Euler {', '.join(map(repr, PROPER_EULER))} (angles phi, theta, psi) or Tait–Bryan "
-        f"{', '.join(map(repr, TAIT_BRYAN))} (angles alpha, beta, gamma); the default is 'xyz'.",
+        f"{', '.join(map(repr, TAIT_BRYAN))} (each angle named after its axis: alpha about x, beta about y, gamma "
+        f"about z); the default is 'xyz'.",
     )
 
 
+#: The name of a Tait–Bryan angle, after the axis it turns about (``"xyz"``: alpha, beta, gamma in turn).
+AXIS_ANGLES = {"x": "alpha", "y": "beta", "z": "gamma"}
+
+
 def _angle_names(sequence: str) -> tuple[str, str, str]:
-    return ("phi", "theta", "psi") if sequence in PROPER_EULER else ("alpha", "beta", "gamma")
+    """The names of a sequence's three angles, in its order: a proper Euler sequence's precession, nutation and spin
+    ``phi``, ``theta``, ``psi``; a Tait–Bryan sequence's named after their axes, ``alpha`` about x, ``beta`` about y,
+    ``gamma`` about z (``"zyx"``: gamma, beta, alpha)."""
+    if sequence in PROPER_EULER:
+        return ("phi", "theta", "psi")
+    a, b, c = (AXIS_ANGLES[axis] for axis in sequence)
+    return a, b, c
 
 
 def _lock(sequence: str) -> str:
