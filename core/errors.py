@@ -149,8 +149,8 @@ class DomainError(ModelError):
 
 class TopologyError(ModelError):
     """The network cannot be solved as drawn: a loop of ideal across-sources
-    (voltage sources, prescribed motions) or a cut-set of ideal through-sources
-    (current sources)."""
+    (voltage sources, prescribed motions), a cut-set of ideal through-sources
+    (current sources), or a component whose branch joins a node to itself."""
 
 
 class FloatingNetworkError(TopologyError):

@@ -131,13 +131,6 @@ class Model:
                 f"{kind} {name!r} takes {len(cls.terminals)} node(s) ({want}), got {len(node_list)}: {node_list!r}."
             )
         normalized = tuple(self._graph.normalize_node(n) for n in node_list)
-        if cls.distinct_terminals and len(set(normalized)) < len(normalized):
-            twice = next(n for n in normalized if normalized.count(n) > 1)
-            frame = " (from the frame to a node: ('ground', node))" if len(normalized) == 2 else ""
-            raise ModelError(
-                f"{kind} {name!r}: its terminals {', '.join(cls.terminals)} are all node {twice!r} (given as "
-                f"{node_list!r:.80}), so it would act on nothing. Join different nodes{frame}."
-            )
         component = cls(name, normalized, params)
         self._graph.add(component)
         self._changed()

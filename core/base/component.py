@@ -451,9 +451,15 @@ class Component:
     6. ``role``: ``None``, ``"across"`` (an ideal source fixing the across
        quantity of its branch: a prescribed motion, a voltage source) or
        ``"through"`` (fixing its through quantity: a current source).
-    7. ``distinct_terminals`` (optional): ``True`` for an element that acts
-       between different nodes (a spring, a joint); ``Model.add`` then
-       refuses it given one node twice.
+    7. ``distinct_terminals`` (optional, default ``True``): a component of
+       two or more terminals acts between different nodes, so one whose
+       branch joins a node to itself (two of its terminals of one domain
+       given the same node, ``ground`` under any of its names included) is
+       refused when added (:meth:`self_loop`, a
+       :class:`~lagrangian.errors.TopologyError`).  ``False`` for a kind
+       whose branch from a node to itself means something; no built-in
+       kind has one (a spring, damper, joint, resistor, capacitor, inductor
+       or source from a node to itself acts on nothing, or holds 0/0).
 
     and implement ``contribute(ctx)`` and the classmethod ``example()``;
     optionally ``linear(ctx)``, the same contribution in numbers for a
@@ -473,9 +479,9 @@ class Component:
     #: True for a component that gives the model coordinates or geometry (a joint, a massless link)
     #: rather than energy: its contribution may be empty.
     structural: ClassVar[bool] = False
-    #: True for a component that acts between different nodes (a spring, a damper, a joint): :meth:`Model.add`
-    #: refuses one given the same node twice (ground under any of its names included), which would act on nothing.
-    distinct_terminals: ClassVar[bool] = False
+    #: True (the default) for a component that acts between different nodes: one whose branch joins a node to
+    #: itself is refused when added (:meth:`self_loop`); False for a kind whose self-loop means something.
+    distinct_terminals: ClassVar[bool] = True
     #: The schematic symbol of a two-terminal circuit element: the name of a ``schemdraw.elements`` class
     #: (``"Resistor"``, ``"Capacitor"``, ``"Inductor2"``, ``"SourceV"``, ...), for ``Model.schematic``;
     #: ``None``: drawn as a box with the component's kind.
@@ -678,6 +684,32 @@ class Component:
         if not self.nodes:
             return []
         raise NotImplementedError(f"{self.kind}: components with more than two terminals must define branches()")
+
+    def self_loop(self) -> tuple[str, str, str] | None:
+        """``(terminal, terminal, node)``: two terminals of one domain given the same ``node``, joined by one of this
+        component's branches from that node to itself; ``None`` when there are none, for a component of fewer than
+        two terminals, or for a kind that allows them (``distinct_terminals = False``).
+
+        >>> import lagrangian as lg
+        >>> lg.Model().add("spring", "k1", ("ground", "p"), k=5).self_loop() is None
+        True
+        """
+        if len(self.nodes) < 2 or not self.distinct_terminals:
+            return None
+        try:
+            branches = self.branches()
+        except NotImplementedError:  # a kind of more than two terminals without its branches: said where they are used
+            return None
+        names = [*self.terminals, *(str(i) for i in range(len(self.terminals), len(self.nodes)))]
+        for a, b in branches:
+            if a != b:
+                continue
+            given = [i for i, n in enumerate(self.nodes) if n == a]
+            for i in given:
+                for j in given:
+                    if i < j and self.node_domain(i) == self.node_domain(j):
+                        return names[i], names[j], a
+        return None
 
     def signals(self) -> dict[sp.Function, Callable[[float], float]]:
         """Python callables standing behind the component's signal parameters (of time; a load's of the state too,

@@ -13,7 +13,7 @@ from typing import Any
 import networkx as nx
 
 from .component import GROUND, GROUND_ALIASES, Component
-from ..errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, UnknownNodeError
+from ..errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, TopologyError, UnknownNodeError
 
 __all__ = ["ComponentGraph"]
 
@@ -44,6 +44,17 @@ class ComponentGraph:
         return name
 
     def add(self, component: Component) -> None:
+        """Add ``component``; :class:`DuplicateNameError` for a name in use, :class:`TopologyError` for one whose
+        branch joins a node to itself (:meth:`Component.self_loop`)."""
+        loop = component.self_loop()
+        if loop is not None:
+            first, second, node = loop
+            fix = (f"('ground', {node!r}) acts between node {node!r} and the reference" if node != GROUND
+                   else "('ground', 'n1') acts between the reference and node 'n1'")
+            raise TopologyError(
+                f"{component.kind} {component.name!r}: its terminals {first}, {second} are all node {node!r}, a branch "
+                f"from that node to itself, so it would act on nothing. Join different nodes: {fix}."
+            )
         if component.name in self.components:
             other = self.components[component.name]
             raise DuplicateNameError(

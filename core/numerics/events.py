@@ -9,14 +9,26 @@ or falling (−1) crossings; ``terminal`` ends the run there; ``action(t, q,
 v)`` returns the new ``(q, v)`` (dicts by name; names left out keep their
 values) and the run goes on from them — a velocity reversed at a wall.
 
-Every crossing is located to ``xtol`` (default ``1e-14·max(1, |t|)``) by
-Brent's method: adaptive methods on their dense output between two steps
-(through the integrator contract's ``start``: scipy's solvers, and
-``dopri5_c`` whose steps and dense output are C); fixed-step methods on the
+Each step is searched for crossings inside it, not only at its ends, so that
+a function that dips below zero and comes back within one step is seen:
+besides its values at points of the step, it is evaluated where the
+polynomial through them turns towards zero.  Adaptive methods sample their
+dense output at :data:`SAMPLES` − 1 points inside each step, which places
+the turns of a function that is a polynomial of degree :data:`SAMPLES` or
+less along the step (one linear in the state, on a quartic dense output);
+fixed-step methods, for which a point inside a step costs a step of the
+method, take the values at the two step points before (the step's midpoint
+on the first step after a start) and a step only to where that cubic turns.
+Adaptive methods are stepped through the integrator contract's ``start``
+(scipy's solvers, and ``dopri5_c`` whose steps and dense output are C),
+fixed-step ones through ``stepper`` (``rk4_c`` and ``verlet_c`` take each
+step in C).  Every crossing is located to ``xtol`` (default
+``1e-14·max(1, |t|)``) by Brent's method: on the dense output, or on the
 method's own step taken from the last step point with the length being
-solved for (through ``stepper``: ``rk4_c`` and ``verlet_c`` take that step
-in C), so that the time found is where the method's solution crosses, not
-where an interpolant does.  ``Result.events`` lists what happened.
+solved for, so that the time found is where the method's solution crosses,
+not where an interpolant does.  All the events of a step are recorded, in
+order of time, up to a terminal one or one whose action changes the state.
+``Result.events`` lists what happened.
 
 >>> import lagrangian as lg
 >>> m = lg.Model("drop")
@@ -33,6 +45,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -50,6 +63,8 @@ __all__ = ["Event", "Occurrence", "StateCondition"]
 
 #: at most this many events in one run (a chattering event would otherwise never end)
 MAX_OCCURRENCES = 100_000
+#: the pieces an adaptive step is cut into to search it for crossings (:func:`solve`'s ``samples``)
+SAMPLES = 4
 
 
 @dataclass(frozen=True)
@@ -216,22 +231,91 @@ def _xtol(t: float) -> float:
     return 1e-14 * max(1.0, abs(t))
 
 
+@functools.lru_cache(maxsize=8)
+def _lobatto(samples: int) -> tuple[float, ...]:
+    """``samples`` + 1 points on [0, 1], the ends included, bunched towards them (Chebyshev–Lobatto)."""
+    return tuple(float(x) for x in (1 - np.cos(np.pi * np.arange(samples + 1) / samples)) / 2)
+
+
+#: values within this much of each other, relative, are one value to rounding
+_ROUNDING = 8 * float(np.finfo(float).eps)
+
+
+@functools.lru_cache(maxsize=64)
+def _slopes(nodes: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """The matrices mapping values at ``nodes`` to the coefficients of the derivative of the polynomial through them:
+    of 1, s, s², ..., and of the Bernstein polynomials of [0, 1] (whose signs, when all alike, are its sign there)."""
+    x = np.asarray(nodes)
+    power = np.arange(1, x.size)[:, None] * np.linalg.inv(np.vander(x, x.size, increasing=True))[1:]
+    m = x.size - 2  # the derivative's degree
+    bernstein = np.array([[math.comb(k, j) / math.comb(m, j) if j <= k else 0.0 for j in range(m + 1)]
+                          for k in range(m + 1)])
+    return power, bernstein @ power
+
+
+@functools.lru_cache(maxsize=8)
+def _powers(degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """A grid on [0, 1] and its powers 0 … ``degree``, to evaluate a polynomial on it."""
+    grid = np.linspace(0.0, 1.0, 16 * (degree + 1) + 1)
+    return grid, grid[:, None] ** np.arange(degree + 1)
+
+
+def _zeros(c: list[float]) -> list[float]:
+    """The simple real zeros of ``c[0] + c[1] s + c[2] s²`` (``c`` of length 2 or 3)."""
+    c0, c1, c2 = (*c, 0.0)[:3]
+    if c2 == 0.0:
+        return [-c0 / c1] if c1 != 0.0 else []
+    disc = c1 * c1 - 4 * c2 * c0
+    if disc <= 0.0:  # none, or a double zero: no turn
+        return []
+    q = -0.5 * (c1 + math.copysign(math.sqrt(disc), c1))
+    return [q / c2, c0 / q]
+
+
+def _turns(nodes: tuple[float, ...], values: list[float], before: float, after: float) -> list[float]:
+    """Where in (0, 1) the polynomial through ``values`` at ``nodes`` turns towards zero: a minimum where the step
+    starts or ends above zero, a maximum where it starts or ends below.  None where the values are one to rounding."""
+    hi, lo = max(values), min(values)
+    if len(values) < 3 or hi - lo <= _ROUNDING * max(hi, -lo):
+        return []
+    power, bernstein = _slopes(nodes)
+    v = np.array(values, dtype=float)
+    b = (bernstein @ v).tolist()
+    if min(b) > 0 or max(b) < 0:  # monotone over the step: no turn
+        return []
+    c = (power @ v).tolist()
+    if len(c) <= 3:  # the derivative is a line or a parabola: its zeros in closed form
+        turns = [(s, c[1] + 2 * c[2] * s > 0 if len(c) == 3 else c[1] > 0) for s in _zeros(c) if 0.0 < s < 1.0]
+    else:  # where its sign changes on a grid
+        grid, powers = _powers(len(c) - 1)
+        d = powers @ np.array(c)
+        up = d > 0
+        turns = [(float(grid[i] - d[i] * (grid[i + 1] - grid[i]) / (d[i + 1] - d[i])), bool(up[i + 1]))
+                 for i in np.nonzero(up[:-1] != up[1:])[0]]
+    return [s for s, minimum in turns if (max(before, after) > 0 if minimum else min(before, after) < 0)]
+
+
 class _Run:
     """Outputs, occurrences and the bookkeeping shared by the adaptive and the fixed-step loops."""
 
-    def __init__(self, problem, t_eval: np.ndarray, conditions: list[_Condition], samples: int = 1,
+    def __init__(self, problem, t_eval: np.ndarray, conditions: list[_Condition], samples: int = SAMPLES,
                  xtol: float | None = None):
         self.problem, self.t_eval, self.conditions = problem, t_eval, conditions
-        self.samples, self.xtol = samples, xtol
+        self.samples, self.xtol = max(1, int(samples)), xtol
         self.Y = np.full((problem.dim, t_eval.size), np.nan)
         self.next = 0  # the first output not yet written
         self.occurrences: list[Occurrence] = []
-        self.values: list[float | None] = []
+        self.values: list[float] = []
+        self.quiet: int | None = None  # the condition just handled, not searched until its next sample
+        self.past: list[tuple[float, list[float]]] = []  # the step points before the last of a fixed-step run
         self.notes: list[str] = []
 
     def start(self, t: float, y: np.ndarray, quiet: _Condition | None = None) -> None:
-        """The conditions' values at a (re)start; ``quiet`` (the event just handled) waits for a step first."""
-        self.values = [None if c is quiet else c(t, y) for c in self.conditions]
+        """The conditions' values at a (re)start; ``quiet`` (the event just handled) is not searched between the
+        restart and the first point sampled after it (where it is zero, to rounding)."""
+        self.values = [c(t, y) for c in self.conditions]
+        self.quiet = None if quiet is None else self.conditions.index(quiet)
+        self.past = []
 
     def noted(self, solver) -> None:
         """Keep what a solver or stepper says of itself (a compiled method running its Python sibling)."""
@@ -245,38 +329,94 @@ class _Run:
             self.Y[:, self.next] = state_at(float(te[self.next]))
             self.next += 1
 
-    def first_crossing(self, t_old: float, t_new: float, y_new: np.ndarray, state_at) -> tuple[float, int] | None:
-        """The earliest event in ``(t_old, t_new]``, located to ``xtol``; the values are updated to ``t_new``.
+    def crossings(self, t_old: float, t_new: float, y_new: np.ndarray, state_at, stepped: bool = False
+                  ) -> list[tuple[float, int]]:
+        """Every event in ``(t_old, t_new]`` as ``(time, condition)`` in order of time, each located to ``xtol`` on
+        ``state_at``; the values are updated to ``t_new``.
 
-        With ``samples`` > 1 the conditions are also sampled inside the step (on ``state_at``), so that a
-        function that dips below zero and comes back within one step is still seen.
+        Each condition is searched at the ends, at ``samples`` − 1 points inside the step, and where the
+        polynomial through its values there turns towards zero.  ``stepped``: ``state_at`` is a fixed step of the
+        method itself, a step's cost to evaluate; the values at the two step points before stand for the points
+        inside (the step's midpoint on the first step after a start), so that only a turn costs a step.
         """
-        found = None
         after = [c(t_new, y_new) for c in self.conditions]
-        times = [t_old, t_new]
-        rows = [[before, now] for before, now in zip(self.values, after)]
-        if self.samples > 1 and self.conditions:
-            inner = [float(s) for s in np.linspace(t_old, t_new, self.samples + 1)[1:-1]]
-            states = [state_at(s) for s in inner]
-            times = [t_old, *inner, t_new]
-            rows = [[self.values[k], *(c(s, y) for s, y in zip(inner, states)), after[k]]
-                    for k, c in enumerate(self.conditions)]
-        xtol = self.xtol if self.xtol is not None else _xtol(t_new)
+        span = t_new - t_old
+        known: dict[float, np.ndarray] = {}  # states on state_at, for the conditions after the first
+
+        def at(s: float) -> np.ndarray:
+            if s not in known:
+                known[s] = state_at(s)
+            return known[s]
+
+        searched = self.samples > 1 and bool(self.conditions)
+        inner: list[float] = []
+        nodes: tuple[float, ...] = (0.0, 1.0)
+        # the step points before, within eight of this step's length (a last, short step is fitted without them)
+        past = [(t, v) for t, v in self.past if t_old - t <= 8 * span] if stepped else []
+        if searched and past:
+            nodes = (*(round((t - t_old) / span, 9) for t, _ in past), 0.0, 1.0)
+        elif searched:
+            nodes = (0.0, 0.5, 1.0) if stepped else _lobatto(self.samples)
+            inner = [t_old + x * span for x in nodes[1:-1]]
+        if inner and hasattr(state_at, "t_min"):  # SciPy's dense output, which takes every time at once
+            states = list(np.asarray(state_at(np.array(inner)), dtype=float).T)
+            known.update(zip(inner, states))
+        else:
+            states = [at(s) for s in inner]
+        found, xtol = [], self.xtol if self.xtol is not None else _xtol(t_new)
         for k, c in enumerate(self.conditions):
-            values = rows[k]
-            for i in range(len(times) - 1):
-                if not c.crosses(values[i], values[i + 1]):
+            before, inside = self.values[k], [c(s, y) for s, y in zip(inner, states)]
+            times, values = [t_old, *inner, t_new], [before, *inside, after[k]]
+            if searched:
+                turns = _turns(nodes, [*(v[k] for _, v in past), *values], before, after[k])
+                for x in turns:
+                    s = t_old + x * span
+                    if t_old < s < t_new:
+                        times.append(s)
+                        values.append(c(s, at(s)))
+                if turns:
+                    order = sorted(range(len(times)), key=times.__getitem__)
+                    times, values = [times[i] for i in order], [values[i] for i in order]
+            for i in self._signs(k, times, values):
+                a, b, fa, fb = times[i], times[i + 1], values[i], values[i + 1]
+                if fb == 0.0:
+                    found.append((b, k))
                     continue
-                a, b = times[i], times[i + 1]
                 from scipy.optimize import brentq  # on the first crossing: scipy.optimize costs 0.3 s to import
 
-                root = b if values[i + 1] == 0.0 else brentq(lambda s, c=c: c(s, state_at(s)), a, b, xtol=xtol,
-                                                               rtol=4 * np.finfo(float).eps)
-                if found is None or root < found[0]:
-                    found = (root, k)
-                break
-        self.values = after
-        return found
+                def g(s: float, c=c, a=a, b=b, fa=fa, fb=fb) -> float:
+                    return fa if s == a else fb if s == b else c(s, at(s))
+
+                found.append((brentq(g, a, b, xtol=xtol, rtol=4 * np.finfo(float).eps), k))
+        if stepped:
+            self.past = [*self.past, (t_old, self.values)][-2:]
+        self.values, self.quiet = after, None
+        return sorted(found)
+
+    def _signs(self, k: int, times: list[float], values: list[float]) -> list[int]:
+        """The pieces ``i`` (from ``times[i]`` to ``times[i + 1]``) over which condition ``k`` crosses zero."""
+        c = self.conditions[k]
+        return [i for i in range(len(times) - 1) if not (i == 0 and k == self.quiet) and times[i] < times[i + 1]
+                and c.crosses(values[i], values[i + 1])]
+
+    def happen(self, hits: list[tuple[float, int]], state_at) -> tuple[str, float, np.ndarray, _Condition] | None:
+        """Record the events ``hits`` in order up to a terminal one (``("stop", t, y, condition)``: the run ends
+        there) or one with an action (``("restart", t, y after the action, condition)``); ``None``: the run goes on
+        through the step."""
+        for t_hit, k in hits:
+            y_hit = np.array(state_at(t_hit), dtype=float)
+            self.write(t_hit, state_at)
+            self.record(t_hit, y_hit, k)
+            cond = self.conditions[k]
+            if cond.event.terminal:
+                if self.next < self.t_eval.size:  # the run ends at the event: it is the last output
+                    self.t_eval = np.concatenate([self.t_eval[: self.next], [t_hit]])
+                    self.Y = np.concatenate([self.Y[:, : self.next], y_hit[:, None]], axis=1)
+                    self.next += 1
+                return "stop", t_hit, y_hit, cond
+            if cond.event.action is not None:
+                return "restart", t_hit, _apply(cond, t_hit, y_hit), cond
+        return None
 
     def record(self, t: float, y: np.ndarray, k: int) -> None:
         c = self.conditions[k]
@@ -294,14 +434,13 @@ class _Run:
 
 
 def solve(integrator, problem, t_span, y0, t_eval, options: Mapping[str, Any], events: Sequence[Event], *,
-          conditions: Sequence[_Condition] = (), samples: int = 1, xtol: float | None = None
+          conditions: Sequence[_Condition] = (), samples: int = SAMPLES, xtol: float | None = None
           ) -> tuple[Solution, list[Occurrence]]:
     """Integrate with ``events`` (see the module docstring): the solution up to the end or a terminal event.
 
-    Drivers built on events add ``conditions`` (:class:`StateCondition`), sample every condition at
-    ``samples`` − 1 points inside each adaptive step besides its ends (on the dense output; a fixed step is
-    checked at its ends, as sampling inside it would cost a step per point), and locate crossings to
-    ``xtol`` in time.
+    Drivers built on events add ``conditions`` (:class:`StateCondition`); each step of an adaptive method is
+    searched at ``samples`` − 1 points inside it besides its ends (``samples=1``: at its ends only, for every
+    method), and crossings are located to ``xtol`` in time.
     """
     notes: list[str] = []
     conditions = [_Condition(e, i, problem) for i, e in enumerate(events)] + list(conditions)
@@ -309,7 +448,6 @@ def solve(integrator, problem, t_span, y0, t_eval, options: Mapping[str, Any], e
     run.notes = notes
     start = problem.nfev
     if integrator.kind == "fixed-step" and callable(getattr(integrator, "stepper", None)):
-        run.samples = 1
         status, message, h = _fixed(integrator, problem, t_span, np.asarray(y0, dtype=float), options, run)
     elif callable(getattr(integrator, "start", None)):
         status, message, h = (*_adaptive(integrator, problem, t_span, np.asarray(y0, dtype=float), options, run), None)
@@ -335,30 +473,14 @@ def _adaptive(integrator, problem, t_span, y0, options, run: _Run) -> tuple[int,
             return -1, str(message or "the step failed")
         t_old, t_new, y_new = float(solver.t_old), float(solver.t), np.array(solver.y, dtype=float)
         dense = solver.dense_output()
-        hit = run.first_crossing(t_old, t_new, y_new, dense)
-        if hit is None:
+        outcome = run.happen(run.crossings(t_old, t_new, y_new, dense), dense)
+        if outcome is None:
             run.write(t_new, dense)
             if solver.status == "finished":
                 return 0, ""
             continue
-        t_hit, k = hit
-        y_hit = np.array(dense(t_hit), dtype=float)
-        run.write(t_hit, dense)
-        run.record(t_hit, y_hit, k)
-        cond = run.conditions[k]
-        if cond.event.terminal:
-            if run.next < run.t_eval.size:  # the run ends at the event: it is the last output
-                run.t_eval = np.concatenate([run.t_eval[: run.next], [t_hit]])
-                run.Y = np.concatenate([run.Y[:, : run.next], y_hit[:, None]], axis=1)
-                run.next += 1
-            return 0, ""
-        if cond.event.action is None:
-            run.write(t_new, dense)
-            if solver.status == "finished":
-                return 0, ""
-            continue
-        y_after = _apply(cond, t_hit, y_hit)
-        if t_hit >= t1:
+        what, t_hit, y_after, cond = outcome
+        if what == "stop" or t_hit >= t1:
             return 0, ""
         solver = integrator.start(problem, t_hit, y_after, t1, **options)
         run.start(t_hit, y_after, quiet=cond)
@@ -385,11 +507,9 @@ def _fixed(integrator, problem, t_span, y0, options, run: _Run) -> tuple[int, st
     t, y = t0, np.array(y0, dtype=float)
     run.start(t, y)
     run.write(t, lambda s: y)
-    steps = 0
     while t1 - t > 1e-12 * max(1.0, abs(t1)):
         tau = min(h, t1 - t)
         y_new = advance(t, y, tau)
-        steps += 1
         if not np.all(np.isfinite(y_new)):
             return -1, f"the state became non-finite at t={t + tau:g}", h
         t_new = t1 if tau == t1 - t else t + h
@@ -397,27 +517,15 @@ def _fixed(integrator, problem, t_span, y0, options, run: _Run) -> tuple[int, st
         def state_at(s: float, t=t, y=y, t_new=t_new, y_new=y_new) -> np.ndarray:
             return y_new if s >= t_new else y if s <= t else advance(t, y, s - t)
 
-        hit = run.first_crossing(t, t_new, y_new, state_at)
-        if hit is None:
+        outcome = run.happen(run.crossings(t, t_new, y_new, state_at, stepped=True), state_at)
+        if outcome is None:
             run.write(t_new, state_at)
             t, y = t_new, y_new
             continue
-        t_hit, k = hit
-        y_hit = state_at(t_hit)
-        run.write(t_hit, state_at)
-        run.record(t_hit, y_hit, k)
-        cond = run.conditions[k]
-        if cond.event.terminal:
-            if run.next < run.t_eval.size:
-                run.t_eval = np.concatenate([run.t_eval[: run.next], [t_hit]])
-                run.Y = np.concatenate([run.Y[:, : run.next], y_hit[:, None]], axis=1)
-                run.next += 1
+        what, t_hit, y_after, cond = outcome
+        if what == "stop":
             return 0, "", h
-        if cond.event.action is None:
-            run.write(t_new, state_at)
-            t, y = t_new, y_new
-            continue
-        t, y = t_hit, _apply(cond, t_hit, y_hit)
+        t, y = t_hit, y_after
         run.start(t, y, quiet=cond)
     run.write(t1, lambda s: y)
     return 0, "", h
