@@ -15,10 +15,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from .model import Model
 
-__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "loudspeaker", "rlc_ladder"]
+__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "loudspeaker", "rlc_ladder", "whipple_bicycle"]
 
 
 def spherical_pendulum(m: Any = 1.0, length: Any = 1.0, g: Any = 9.81) -> Model:
@@ -122,4 +123,112 @@ def rlc_ladder(sections: int, seed: int = 1, E: Any = 0) -> Model:
         model.add("inductor", f"L{k}", (f"m{k}", f"n{k}"), L=L)
         model.add("capacitor", f"C{k}", (f"n{k}", "0"), C=C)
         prev = f"n{k}"
+    return model
+
+
+def whipple_bicycle(w: Any = 1.02, c: Any = 0.08, lam: Any = None, g: Any = 9.81,
+                    rR: Any = 0.3, mR: Any = 2.0, IRxx: Any = 0.0603, IRyy: Any = 0.12,
+                    xB: Any = 0.3, zB: Any = -0.9, mB: Any = 85.0,
+                    IB: Any = ((9.2, 0, 2.4), (0, 11.0, 0), (2.4, 0, 2.8)),
+                    xH: Any = 0.9, zH: Any = -0.7, mH: Any = 4.0,
+                    IH: Any = ((0.05892, 0, -0.00756), (0, 0.06, 0), (-0.00756, 0, 0.00708)),
+                    rF: Any = 0.35, mF: Any = 3.0, IFxx: Any = 0.1405, IFyy: Any = 0.28) -> Model:
+    """The Whipple bicycle: a rear frame with its rider, a front fork and handlebar, and two wheels rolling on level
+    ground without slipping, the benchmark of Meijaard, Papadopoulos, Ruina and Schwab (Proc. R. Soc. A 463, 2007).
+
+    The parameters are the benchmark's, its Table 1 the defaults, in its axes: x forward, y to the right, z down,
+    origin at the rear contact, in the upright reference configuration.  The model is built in the ground's axes
+    (x forward, y to the left, z up, gravity along −z; the ground is z = 0).  Four bodies: ``frame`` on a ``free``
+    joint to the ground, its origin at the rear axle and its axes the *steer axes* (z along the steer axis, upward;
+    y along the rear axle, to the left), so that upright its pitch is −λ; ``rear_wheel`` on a ``revolute`` about the
+    frame's y axis at the axle; ``fork`` on a ``revolute`` about the frame's z axis (the steer axis), its origin on
+    the steer axis level with the front axle in the steer axes; ``front_wheel`` on a ``revolute`` about the fork's y
+    axis at the front axle.  Both wheels roll (``rolling``, shape ``"disc"``, axis y) and ``gravity`` pulls.  Each
+    wheel's height is a holonomic constraint, the rear one keeping ``z_frame``, the front one closing the loop
+    (``theta_pitch`` follows from ``theta_roll`` and ``theta_steer``), and each contact's not sliding two constraints
+    on velocities: three degrees of freedom in velocity (lean, steer and the rear wheel's spin).
+
+    Parameters
+    ----------
+    w, c, lam, g
+        Wheelbase, trail, steer axis tilt from the vertical (default π/10) and gravity.
+    rR, mR, IRxx, IRyy
+        Rear wheel: radius, mass, moments of inertia about a diameter (IRzz = IRxx) and about the axle.
+    xB, zB, mB, IB
+        Rear frame and rider: centre of mass in the benchmark's axes, mass, inertia about the centre of mass
+        (3 × 3, the benchmark's axes and signs).
+    xH, zH, mH, IH
+        Front fork and handlebar, as the rear frame.
+    rF, mF, IFxx, IFyy
+        Front wheel, as the rear wheel.
+
+    Each may be a number or a SymPy expression.  Those given as numbers are folded into the bodies' centres of
+    mass, inertias and points (``parameter_values``), not kept under these names; symbols are kept
+    (``simulate(..., params={"lam": ...})``).
+
+    Returns
+    -------
+    Model
+        Nine coordinates, in this order: ``x_frame``, ``y_frame``, ``z_frame`` (the rear axle's position);
+        ``theta_yaw``, ``theta_roll``, ``theta_pitch`` (the frame's body-fixed z-x-y angles, ``sequence="zxy"``:
+        heading about the vertical, lean about the forward axis, positive to the right, and pitch of the steer
+        axes about the rear axle, −λ upright; gimbal lock only at a lean of ±π/2); ``theta_rear`` (the rear wheel's
+        turn in the frame, positive rolling forwards); ``theta_steer`` (the fork's turn about the steer axis,
+        positive to the left); ``theta_front`` (the front wheel's turn in the fork, positive rolling forwards).
+
+    Notes
+    -----
+    Upright, running straight at speed ``v``: ``initial = {"x_frame": 0, "y_frame": 0, "z_frame": rR,
+    "theta_yaw": 0, "theta_roll": 0, "theta_pitch": -lam, "theta_rear": 0, "theta_steer": 0, "theta_front": 0}``
+    and ``velocity = {"x_frame": v, "theta_rear": v / rR, "theta_front": v / rF}``, the other rates 0.  Leaning or
+    steered, or with a lean or steer rate, :func:`~lagrangian.plugins.multibody.consistent_initial` holding
+    ``x_frame``, ``y_frame``, ``theta_yaw``, ``theta_roll``, ``theta_rear``, ``theta_steer`` and ``theta_front``
+    (with the rates of ``theta_roll``, ``theta_steer`` and ``theta_rear`` given) finds the pitch, the height and
+    the other rates.
+
+    Examples
+    --------
+    >>> m = whipple_bicycle()
+    >>> m.coordinate_names
+    ['x_frame', 'y_frame', 'z_frame', 'theta_yaw', 'theta_roll', 'theta_pitch', 'theta_rear', 'theta_steer', 'theta_front']
+    >>> sorted(m.components)
+    ['fork', 'frame', 'front', 'front_roll', 'front_wheel', 'g', 'ground_frame', 'rear', 'rear_roll', 'rear_wheel', 'steer']
+    """
+    def value(e):
+        e = sp.sympify(e)
+        return (float(e) if e != 0 else 0) if e.is_number else e
+
+    lam = sp.pi / 10 if lam is None else sp.sympify(lam)
+    w, c, rR, rF = (sp.sympify(e) for e in (w, c, rR, rF))
+    cl, sl = sp.cos(lam), sp.sin(lam)
+    # the steer axes in the ground's (x forward, y left, z up), upright: x_s = (cos λ, 0, sin λ), z_s = (−sin λ, 0, cos λ)
+    R = sp.Matrix([[cl, 0, -sl], [0, 1, 0], [sl, 0, cl]])
+    flip = sp.diag(1, -1, -1)  # the benchmark's axes (z down, y right) to the ground's
+
+    def steer_axes(x, z):
+        """A point of the benchmark's plane of symmetry (from the rear contact), from the rear axle in steer axes."""
+        return R.T * (flip * sp.Matrix([x, 0, z]) - sp.Matrix([0, 0, rR]))
+
+    def inertia(I):
+        I = R.T * flip * sp.Matrix(I) * flip * R
+        return [[value((I[i, j] + I[j, i]) / 2) for j in range(3)] for i in range(3)]
+
+    # the steer axis meets the ground at the trail c ahead of the front contact; the front axle lies d3 ahead of it
+    d1 = (w + c) * cl - rR * sl  # the steer axis, ahead of the rear axle
+    front_axle = steer_axes(w, -rF)
+    head = sp.Matrix([d1, 0, front_axle[2]])  # the fork's origin, on the steer axis
+    d3 = front_axle[0] - d1  # = rF sin λ − c cos λ
+    model = Model("Whipple bicycle", dim=3)
+    model.add("body", "frame", "frame", m=mB, inertia=inertia(IB), com=[value(e) for e in steer_axes(xB, zB)])
+    model.add("body", "fork", "fork", m=mH, inertia=inertia(IH), com=[value(e) for e in steer_axes(xH, zH) - head])
+    model.add("body", "rear_wheel", "rear_wheel", m=mR, inertia=(IRxx, IRyy, IRxx))
+    model.add("body", "front_wheel", "front_wheel", m=mF, inertia=(IFxx, IFyy, IFxx))
+    model.add("free", "ground_frame", ("ground", "frame"), sequence="zxy",
+              coordinates="x_frame,y_frame,z_frame,theta_yaw,theta_roll,theta_pitch")
+    model.add("revolute", "rear", ("frame", "rear_wheel"), axis=(0, 1, 0))
+    model.add("revolute", "steer", ("frame", "fork"), axis=(0, 0, 1), parent_point=[value(e) for e in head])
+    model.add("revolute", "front", ("fork", "front_wheel"), axis=(0, 1, 0), parent_point=(value(d3), 0, 0))
+    model.add("rolling", "rear_roll", "rear_wheel", radius=rR, shape="disc", axis=(0, 1, 0))
+    model.add("rolling", "front_roll", "front_wheel", radius=rF, shape="disc", axis=(0, 1, 0))
+    model.add("gravity", "g", g=g)
     return model

@@ -58,7 +58,7 @@ SLOW_MODULES = {"test_examples", "test_sweep_dask", "test_transducer_spice", "te
 #: of pytest-xdist take tests in the order collected, and a long test started last keeps one worker busy while the
 #: other idles (the documentation build alone takes half a minute).
 LONGEST_FIRST = ("test_site", "test_spatial_chains", "test_notebook", "test_sweep_dask", "test_untrusted_code",
-                 "test_cli", "test_fuzz", "test_robustness", "test_examples", "test_multibody")
+                 "test_cli", "test_fuzz", "test_robustness", "test_examples", "test_bicycle", "test_multibody")
 
 
 def _module(item) -> str:

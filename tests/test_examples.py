@@ -124,3 +124,16 @@ def test_stability_map_agrees_with_the_closed_form_boundary(run, tmp_path):
     agree, total = map(int, re.search(r"stable where Ω² l < g in (\d+) of (\d+) samples", out).groups())
     assert total == 16 and agree == total
     assert "16 done, 0 failed" in out and (tmp_path / "s.png").stat().st_size > 1000
+
+
+def test_bicycle_finds_the_papers_weave_and_capsize_speeds_and_a_nudge_dies_away(run, tmp_path):
+    out = run("bicycle.py", "--out", str(tmp_path / "bike.png"), cwd=tmp_path)
+    weave, capsize = (float(x) for x in re.findall(r"(?:weave|capsize) speed\s+(\S+) m/s", out))
+    assert weave == pytest.approx(4.29238253634111, abs=1e-12)  # Meijaard et al. (2007), Table 2
+    assert capsize == pytest.approx(6.02426201538837, abs=1e-12)
+    offs = [float(x) for x in re.findall(r"paper \S+\s+off (\S+)", out)]
+    assert len(offs) == 5 and max(offs) < 1e-12  # three eigenvalues at 5 m/s, two speeds
+    peak, after, drift = (float(x) for x in re.search(
+        r"lean peaks at (\S+) rad, (\S+) rad after 6 s; energy kept to (\S+)", out).groups())
+    assert after < 0.1 * peak and drift < 1e-9
+    assert (tmp_path / "bike.png").stat().st_size > 10_000

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import lagrangian as lg
 from lagrangian.analysis.linearize import s
-from lagrangian.frequency import linearize, modes, transfer_function
+from lagrangian.frequency import linearize, modes, speed_sweep, transfer_function
 
 G = 9.81
 
@@ -52,6 +52,7 @@ def lean_squared(r, spin, g=G):
     return 0.8 * (g / r - 3 * spin**2)
 
 
+@pytest.mark.slow
 def test_the_symbolic_disc_has_the_closed_form_characteristic_polynomial():
     m, r, W, g = sp.symbols("m r W g", positive=True)
     at, velocity = upright(r, W)
@@ -89,6 +90,7 @@ def test_the_upright_disc_is_stable_above_the_critical_speed_over_decades(m, r, 
     assert np.min(np.abs(pencil - big[np.argmax(big.imag)])) <= 1e-8 * expected
 
 
+@pytest.mark.slow
 def test_numbers_and_symbols_give_the_same_structure_and_verdict():
     r_, spin_ = 0.07, 12.0
     numeric = linearize(disc(0.3, r_), at={"z_j": r_, "theta_j": math.pi / 2}, velocity={"psi_j": -spin_, "x_j": spin_ * r_})
@@ -103,6 +105,7 @@ def test_numbers_and_symbols_give_the_same_structure_and_verdict():
         assert np.allclose(value, getattr(numeric, name), rtol=1e-12, atol=1e-12 * np.abs(value).max()), name
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(m=decade(0.05, 50.0), inertia=decade(1e-4, 5.0), a=decade(1e-3, 1.0), u=st.floats(-3.0, 3.0),
        sign=st.sampled_from([1.0, -1.0]))
@@ -142,6 +145,7 @@ def test_a_push_on_the_gliding_sleigh_has_the_transfer_function_of_its_speed():
         assert complex(H(1j * w)) == pytest.approx(1 / (m * 1j * w), rel=1e-12)  # a push along the edge: 1/(m s)
 
 
+@pytest.mark.slow
 def test_rates_that_break_the_constraints_or_move_what_the_equations_depend_on_are_refused():
     model = disc(0.3, 0.07)
     with pytest.raises(lg.ModelError, match=r"violate the constraints on velocities of 'roll'.*consistent_initial"):
@@ -157,3 +161,28 @@ def test_rates_that_break_the_constraints_or_move_what_the_equations_depend_on_a
     lin = linearize(sleigh(0.3, 2e-3, 0.05), velocity={"x_j": 0.4})
     with pytest.raises(lg.ModelError, match="no second-order form in independent coordinates"):
         lin.independent()
+
+
+@pytest.mark.slow
+@settings(max_examples=4, deadline=None)
+@given(m=decade(0.01, 30.0), r=decade(0.003, 1.0))
+def test_the_speed_sweep_finds_the_discs_critical_speed_over_decades(m, r):
+    critical = math.sqrt(G * r / 3)  # v² = g r / 3
+    sweep = speed_sweep(disc(m, r), np.linspace(0.25, 3.1, 9) * critical, at={"z_j": r, "theta_j": math.pi / 2},
+                        velocity={"x_j": 1.0, "psi_j": -1 / r})
+    assert sweep.exact
+    (crossing,) = sweep.crossings()
+    assert crossing.kind == "real" and crossing.becomes == "stable"  # the lean's pair leaves the real axis through 0
+    assert crossing.speed == pytest.approx(critical, rel=1e-10)
+
+
+def test_the_speed_sweep_refuses_what_it_cannot_sweep():
+    model = sleigh(0.3, 2e-3, 0.05)
+    with pytest.raises(lg.ModelError, match="1 to 10⁶ finite numbers"):
+        speed_sweep(model, [0.1, math.nan], velocity={"x_j": 1.0})
+    with pytest.raises(lg.ModelError, match="1 to 10⁶ finite numbers"):
+        speed_sweep(model, [], velocity={"x_j": 1.0})
+    with pytest.raises(lg.ModelError, match="rates of the steady motion at unit speed"):
+        speed_sweep(model, [0.1, 0.2], velocity={})
+    with pytest.raises(lg.ModelError, match=r"'theta_j' move"):
+        speed_sweep(model, [0.1, 0.2], velocity={"theta_j": 1.0})

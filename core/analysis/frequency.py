@@ -15,7 +15,9 @@ be.
 - :func:`frequency_response`: ``H(j 2π f)`` for every input and output on a
   frequency grid (:func:`decades` makes SPICE's ``.ac dec`` grid), with Bode
   and Nyquist charts;
-- :func:`modes`: natural frequencies, damping ratios and mode shapes.
+- :func:`modes`: natural frequencies, damping ratios and mode shapes;
+- :func:`speed_sweep`: the eigenvalues of a steady motion against its speed,
+  and the speeds where a mode changes stability.
 
 A series RLC driven by a voltage source: its current over the source
 voltage is ``s C / (L C s² + R C s + 1)``.
@@ -53,9 +55,10 @@ from ..model import Model
 from .linearize import LinearModel, linearize, s
 from .laplace import _solve
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
+from .speeds import SpeedSweep, speed_sweep
 
-__all__ = ["FrequencyResponse", "Modes", "TransferFunction", "decades", "frequency_response", "impedance",
-           "linearize", "modes", "s", "sweep", "transfer_function"]
+__all__ = ["FrequencyResponse", "Modes", "SpeedSweep", "TransferFunction", "decades", "frequency_response",
+           "impedance", "linearize", "modes", "s", "speed_sweep", "sweep", "transfer_function"]
 
 #: Largest number of unknowns for which a transfer function is solved in exact arithmetic with SymPy.
 SYMBOLIC_MAX = 8

@@ -51,7 +51,7 @@ from ..base.component import check_value, t
 from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
-from ..derivation.calculus import symbols_of
+from ..derivation.calculus import Rewriter, symbols_of
 from .lti import _number, numeric, stamped
 from .motion import kane_state_space, rates, steady_check
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
@@ -408,8 +408,12 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
             **{us: sp.Integer(0) for us in u_syms}, t: sp.Float(time) if time else sp.Integer(0)}
     subs.update({sym: (sp.Float(val) if isinstance(val, float) else val) for sym, val in values.items()})
 
+    rewrite = [Rewriter(subs), dict(subs)]  # memoized: the derivatives share sub-expressions; renewed when subs moves
+
     def at_point(expr):
-        out = sp.sympify(expr, strict=True).xreplace(subs)
+        if rewrite[1] != subs:
+            rewrite[:] = [Rewriter(subs), dict(subs)]
+        out = rewrite[0](sp.sympify(expr, strict=True))
         return out if is_symbolic else _number(out, model.name)
 
     def matrix(rows, cols, entries):
