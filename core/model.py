@@ -722,8 +722,9 @@ class Model:
         owners = sorted({name for name, _ in self.assembly.velocity_constraint_list(generic=True)})
         if owners:
             raise error(f"model {self.name!r} has constraints on velocities (nonholonomic: {', '.join(map(repr, owners))}), "
-                        f"which {analysis} does not cover: the Lagrange–d'Alembert equations hold them only in a "
-                        f"simulation (Model.simulate) or an impact.")
+                        f"which {analysis} does not cover: the Lagrange–d'Alembert equations hold them in a "
+                        f"simulation (Model.simulate), an impact and a linearization (lagrangian.frequency.linearize "
+                        f"about rest or a steady motion, velocity=; speed_sweep).")
 
     def _integrate(self, run: RunOptions) -> Result:
         integrator = resolve(run.method, self.registry.integrators)

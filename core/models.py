@@ -148,6 +148,10 @@ def whipple_bicycle(w: Any = 1.02, c: Any = 0.08, lam: Any = None, g: Any = 9.81
     (``theta_pitch`` follows from ``theta_roll`` and ``theta_steer``), and each contact's not sliding two constraints
     on velocities: three degrees of freedom in velocity (lean, steer and the rear wheel's spin).
 
+    Each parameter may be a number or a SymPy expression.  Those given as numbers are folded into the bodies'
+    centres of mass, inertias and points (``parameter_values``), not kept under these names; symbols are kept
+    (``simulate(..., params={"lam": ...})``).
+
     Parameters
     ----------
     w, c, lam, g
@@ -162,10 +166,6 @@ def whipple_bicycle(w: Any = 1.02, c: Any = 0.08, lam: Any = None, g: Any = 9.81
     rF, mF, IFxx, IFyy
         Front wheel, as the rear wheel.
 
-    Each may be a number or a SymPy expression.  Those given as numbers are folded into the bodies' centres of
-    mass, inertias and points (``parameter_values``), not kept under these names; symbols are kept
-    (``simulate(..., params={"lam": ...})``).
-
     Returns
     -------
     Model
@@ -178,9 +178,12 @@ def whipple_bicycle(w: Any = 1.02, c: Any = 0.08, lam: Any = None, g: Any = 9.81
 
     Notes
     -----
-    Upright, running straight at speed ``v``: ``initial = {"x_frame": 0, "y_frame": 0, "z_frame": rR,
-    "theta_yaw": 0, "theta_roll": 0, "theta_pitch": -lam, "theta_rear": 0, "theta_steer": 0, "theta_front": 0}``
-    and ``velocity = {"x_frame": v, "theta_rear": v / rR, "theta_front": v / rF}``, the other rates 0.  Leaning or
+    Upright, running straight at speed ``v`` (the other coordinates and rates 0)::
+
+        initial = {"z_frame": rR, "theta_pitch": -lam}
+        velocity = {"x_frame": v, "theta_rear": v / rR, "theta_front": v / rF}
+
+    Leaning or
     steered, or with a lean or steer rate, :func:`~lagrangian.plugins.multibody.consistent_initial` holding
     ``x_frame``, ``y_frame``, ``theta_yaw``, ``theta_roll``, ``theta_rear``, ``theta_steer`` and ``theta_front``
     (with the rates of ``theta_roll``, ``theta_steer`` and ``theta_rear`` given) finds the pitch, the height and

@@ -1,5 +1,5 @@
 """The Whipple bicycle: self-stability against speed, and a ride between the weave and capsize speeds.
-=================================================================================================
+=====================================================================================================
 
 The benchmark bicycle of Meijaard, Papadopoulos, Ruina and Schwab (Proc. R.
 Soc. A 463, 2007), ``lagrangian.models.whipple_bicycle()``: a rear frame on

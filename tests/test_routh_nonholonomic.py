@@ -201,7 +201,27 @@ def test_the_reduced_model_checks_its_start_and_the_analyses_it_is_outside_refus
         with pytest.raises(lg.ReductionError, match=r"'flywheel sled \(reduced\)'.*nonholonomic: 'edge'.*steady"):
             call()
     by_hand = routh.SteadyMotion(red, {"x_j": 0, "y_j": 0, "theta_j": 0}, {"theta_r": 0.01}, {"theta_r": 1.0})
-    with pytest.raises(lg.ReductionError, match=r"nonholonomic: 'edge'.*linearization about a steady motion"):
-        by_hand.stability()
+    with pytest.raises(lg.ReductionError, match=r"nonholonomic: 'edge'.*stability\(\) linearizes on the constraints"):
+        by_hand.perturbation()
+    verdict = by_hand.stability()  # at rest, free: every push along the edge, every turn, persists
+    assert verdict.verdict == "marginal" and np.max(np.abs(verdict.eigenvalues)) <= 1e-12
     with pytest.raises(lg.ModelError, match=r"nonholonomic: 'edge'"):
         equilibria(red, params={"C_theta_r": 0.01})
+
+
+@settings(max_examples=5, deadline=None)
+@given(m=decade(0.1, 10.0), I=decade(1e-3, 1.0), k=decade(1e-2, 10.0))
+def test_a_sled_held_by_a_torsion_spring_turns_on_its_edge_at_the_closed_form_frequency(m, I, k):
+    """The flywheel sled at rest, its edge at its centre of mass, a torsion spring k to the ground: on the edge it
+    turns at ω² = k / I (the flywheel spins apart, its mass on the axis adds nothing), and slides along the edge
+    freely: marginal, with the pair ±i√(k/I) beside zeros."""
+    model = flywheel_sled(m, I, 0.3, 7e-3)
+    model.add("rotational_spring", "k", ("ground", "b"), k=k)
+    red = routh.reduce(model)
+    motion = routh.SteadyMotion(red, {"x_j": 0, "y_j": 0, "theta_j": 0}, {"theta_r": 0.02}, {"theta_r": 1.0})
+    verdict = motion.stability()
+    lam = verdict.eigenvalues
+    omega = math.sqrt(k / I)
+    assert verdict.verdict == "marginal"
+    assert np.sort(np.abs(lam))[-2:] == pytest.approx([omega, omega], rel=1e-9)
+    assert np.max(np.abs(lam.real)) <= 1e-9 * omega

@@ -31,7 +31,7 @@ zero eigenvalues of ignorable coordinates.
 >>> sweep = speed_sweep(disc, [0.1, 0.3, 0.5], at={"z_j": 0.07, "theta_j": math.pi / 2},
 ...                     velocity={"x_j": 1.0, "psi_j": -1 / 0.07})      # v = 1 m/s: spin v / r
 >>> [round(c.speed, 9) for c in sweep.crossings()], round(math.sqrt(9.81 * 0.07 / 3), 9)   # v² = g r / 3
-([0.478434948], 0.478434948)
+([0.478434949], 0.478434949)
 """
 
 from __future__ import annotations

@@ -6,8 +6,9 @@ linearization and its stability; :func:`_solve` finds every real branch of the
 conditions symbolically, splitting ``|x|`` and ``sign(x)`` into their cases,
 :func:`_numeric_roots` every root numerically within search ranges, and
 :func:`_is_angle` tells which coordinates get ``(−π, π)`` as a default search range.
-A reduced model that keeps constraints on velocities (nonholonomic) has no steady
-motions of this kind to linearize: :meth:`SteadyMotion.perturbation` refuses it.
+A reduced model that keeps constraints on velocities (nonholonomic) has no
+perturbation equations of this form (:meth:`SteadyMotion.perturbation` refuses
+it); :meth:`SteadyMotion.stability` linearizes it on its constraints.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import sympy as sp
 from ...base import display
 from ...base.identity import is_zero
 from ...errors import LagrangianError, ReductionError, UnknownNameError
+from ..linearize import linearize
 from .stability import Perturbation, Stability, _fmt, _off_singular
 
 
@@ -59,8 +61,10 @@ class SteadyMotion:
         return display.block("steady motion", *parts)
 
     def perturbation(self) -> Perturbation:
-        """``M s̈ + C ṡ + K s = 0`` about this steady motion (symbolic where the steady motion is)."""
-        self.model._holonomic_only("the linearization about a steady motion (and its stability)", ReductionError)
+        """``M s̈ + C ṡ + K s = 0`` about this steady motion (symbolic where the steady motion is).  A reduced model
+        that keeps constraints on velocities has no such form: :meth:`stability` linearizes it on them."""
+        self.model._holonomic_only("the perturbation equations M s̈ + C ṡ + K s = 0 (stability() linearizes on the "
+                                   "constraints instead)", ReductionError)
         eq = self.model.reconstructing(False).eq
         q, v = eq.sym.q, eq.sym.v
         at = {q[i]: self.coordinates[n] for i, n in enumerate(eq.names)} | dict.fromkeys(v, sp.Integer(0))
@@ -90,7 +94,15 @@ class SteadyMotion:
         effective potential is not a minimum), and *stable* when every mode
         oscillates and ``V_eff`` has a strict minimum there (the energy
         integral then bounds the perturbation).
+
+        A reduced model that keeps constraints on velocities (a sled's knife
+        edge) is linearized on them (:func:`lagrangian.frequency.linearize`,
+        Kane's independent coordinates and speeds): its verdict comes from
+        those eigenvalues, and an undamped one is *marginal* (no effective
+        potential bounds the motion there).
         """
+        if self.model.assembly.velocity_constraint_list(generic=True):
+            return _on_constraints(self, values)
         pert = self.perturbation()
         needed = {str(s) for m in (pert.M, pert.C, pert.K) for s in m.free_symbols}
         names = {str(s): s for e in [*self.coordinates.values(), *self.momenta.values(), pert.M, pert.C, pert.K]
@@ -156,6 +168,44 @@ class SteadyMotion:
         if curvature is not None and verdict == "unstable" and minimum and is_zero(self.model.eq.D):
             reason += "; the effective potential has a minimum there, yet a mode grows (non-conservative forces)"
         return Stability(verdict, lam, freqs, curvature, reason)
+
+
+def _on_constraints(motion: SteadyMotion, values: Mapping[str, float] | None) -> Stability:
+    """:meth:`SteadyMotion.stability` of a reduced model with constraints on velocities: the eigenvalues of Kane's
+    state space of its linearization at the steady motion, the momenta and ``values`` as parameters."""
+    given = {str(k): v for k, v in (values or {}).items()}
+    params = {str(k): float(v) for k, v in motion.values.items() if isinstance(v, (int, float)) or v.is_number}
+    known = {p.name for p in motion.model.parameters} | set(motion.model.parameter_values)
+    params = {k: v for k, v in params.items() if k in known}
+    # a momentum the reduced equations do not hold (a flywheel spinning apart from the sled) is no parameter of them
+    params.update({f"C_{n}": c for n, c in motion.momenta.items() if not isinstance(c, sp.Symbol) and f"C_{n}" in known})
+    params.update(given)
+    numbers = {sp.Symbol(k, real=True): v for k, v in given.items()}
+    at = {}
+    for name, x in motion.coordinates.items():
+        x = sp.sympify(x).xreplace(numbers) if isinstance(x, sp.Basic) else x
+        if isinstance(x, sp.Basic) and not x.is_number:
+            raise ReductionError(f"the steady motion is symbolic in {', '.join(sorted(map(str, x.free_symbols)))}: "
+                                 f"give values=... for them.")
+        at[name] = float(x)
+    lin = linearize(motion.model, at=at, params=params, inputs=[], symbolic=False)
+    A = lin.state_space()[0]
+    lam = np.linalg.eigvals(A) if A.size else np.zeros(0, dtype=complex)
+    scale = float(np.max(np.abs(lam), initial=0.0))
+    tol = 1e-7 * scale
+    freqs = np.sort(np.abs(lam.imag[lam.imag > tol]))
+    if scale > 0.0 and np.any(lam.real > tol):
+        return Stability("unstable", lam, freqs, None,
+                         f"an eigenvalue with positive real part ({_fmt(lam[np.argmax(lam.real)])})")
+    if scale == 0.0 or np.any(np.abs(lam) <= tol):
+        return Stability("marginal", lam, freqs, None,
+                         "a zero eigenvalue: the linearization on the constraints on velocities cannot decide (a "
+                         "neutral direction, such as a family of motions the constraints allow)")
+    if np.all(lam.real < -tol):
+        return Stability("asymptotically stable", lam, freqs, None, "every eigenvalue has a negative real part")
+    return Stability("marginal", lam, freqs, None,
+                     "the motion on the constraints on velocities oscillates without growth, and no effective "
+                     "potential bounds it there: linear analysis is inconclusive")
 
 
 def _is_angle(coordinate) -> bool:
