@@ -38,6 +38,7 @@ benchmark: setup
 	.venv/bin/python benchmarks/scale.py
 	.venv/bin/python benchmarks/ac.py
 	.venv/bin/python benchmarks/sweep.py
+	.venv/bin/python benchmarks/bicycle.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins
