@@ -53,7 +53,7 @@ from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..derivation.calculus import Rewriter, symbols_of
 from .lti import _number, numeric, stamped
-from .motion import kane_state_space, rates, steady_check
+from .motion import kane_state_space, null_space, number, rates, steady_check
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
 
 __all__ = ["LinearModel", "linearize", "s"]
@@ -255,22 +255,13 @@ class LinearModel:
 
 def _independent(lin: LinearModel) -> LinearModel:
     """:meth:`LinearModel.independent`."""
-    import scipy.linalg
-
     if lin.symbolic:
         raise ModelError(f"model {lin.model!r}: independent coordinates of a symbolic linearization are not formed; "
                          f"give the parameters values (params=).")
     if lin.first_order:
         raise ModelError(f"model {lin.model!r}: first-order coordinates ({', '.join(lin.first_order)}) inside closed "
                          f"loops have no independent-coordinate form here; use the transfer function.")
-    n = len(lin.coordinates)
-    _, R, pivots = scipy.linalg.qr(lin.Phi, pivoting=True)
-    rank = int(np.sum(np.abs(np.diag(R)) > 1e-10 * max(np.abs(R).max(initial=0.0), 1e-300)))
-    dependent, free = sorted(pivots[:rank]), sorted(pivots[rank:])
-    # Φ_d δq_d + Φ_i δq_i = 0: δq = N δq_i
-    N = np.zeros((n, len(free)))
-    N[free, np.arange(len(free))] = 1.0
-    N[dependent] = np.linalg.lstsq(lin.Phi[:, dependent], -lin.Phi[:, free], rcond=None)[0]  # redundant rows: exact
+    _, free, N = null_space(lin.Phi, len(lin.coordinates))  # Φ_d δq_d + Φ_i δq_i = 0: δq = N δq_i
     project = (lambda X: N.T @ X @ N)
     return LinearModel(**{**lin.__dict__, "coordinates": [lin.coordinates[i] for i in free], "M": project(lin.M),
                           "C": project(lin.C), "K": project(lin.K), "Phi": np.zeros((0, len(free))),
@@ -608,17 +599,7 @@ def _operating_point(model: Model, names: list[str], at: Mapping[str, Any] | Non
             raise eliminated[key].refusal("at", f"the point of {key} follows")
         if key not in point:
             raise UnknownNameError("coordinate", key, names)
-        if isinstance(val, sp.Basic) and not val.is_number:
-            point[key] = val
-            continue
-        try:
-            x = float(val)
-        except (TypeError, ValueError):
-            raise ModelError(f"at[{key!r}] must be a number, got {val!r:.80}.") from None
-        if not np.isfinite(x):
-            raise ModelError(f"at[{key!r}] must be finite, got {val!r:.80}.")
-        # an exact number (−π/2) stays exact: a symbolic linearization then finds the rest it has there exactly
-        point[key] = val if isinstance(val, sp.Basic) and val.is_real else sp.Float(x) if x else sp.Integer(0)
+        point[key] = number("at", key, val)
     return point
 
 

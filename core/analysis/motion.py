@@ -46,7 +46,7 @@ import sympy as sp
 from ..base.identity import depends_on
 from ..errors import ModelError, UnknownNameError
 
-__all__ = ["kane_state_space", "rates", "steady_check"]
+__all__ = ["kane_state_space", "null_space", "number", "rates", "steady_check"]
 
 
 def rates(model, names: Sequence[str], velocity: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -67,18 +67,25 @@ def rates(model, names: Sequence[str], velocity: Mapping[str, Any] | None) -> di
         if key in first:
             raise ModelError(f"velocity[{key!r}]: {key!r} is a first-order coordinate (no inertia), whose rate follows "
                              f"from the equations; leave it out of velocity=.")
-        if isinstance(val, sp.Basic) and not val.is_number:
-            out[key] = val
-            continue
-        try:
-            x = float(val)
-        except (TypeError, ValueError):
-            raise ModelError(f"velocity[{key!r}] must be a number, got {val!r:.80}.") from None
-        if not np.isfinite(x):
-            raise ModelError(f"velocity[{key!r}] must be finite, got {val!r:.80}.")
-        if x:
-            out[key] = val if isinstance(val, sp.Basic) and val.is_real else sp.Float(x)
+        x = number("velocity", key, val)
+        if not (x.is_number and x == 0):
+            out[key] = x
     return out
+
+
+def number(argument: str, key: str, val: Any) -> sp.Expr:
+    """``argument[key]`` (a point's coordinate, a motion's rate) as SymPy: a symbol or expression kept, an exact real
+    number kept exact (−π/2: a symbolic linearization then finds the rest it has there exactly), a plain number a
+    Float (an exact 0 for zero); anything not finite, or not a number, a :class:`ModelError` naming it."""
+    if isinstance(val, sp.Basic) and not val.is_number:
+        return val
+    try:
+        x = float(val)
+    except (TypeError, ValueError):
+        raise ModelError(f"{argument}[{key!r}] must be a number, got {val!r:.80}.") from None
+    if not np.isfinite(x):
+        raise ModelError(f"{argument}[{key!r}] must be finite, got {val!r:.80}.")
+    return val if isinstance(val, sp.Basic) and val.is_real else sp.Float(x) if x else sp.Integer(0)
 
 
 def steady_check(model: str, names: Sequence[str], q: Sequence[sp.Symbol], moving: Mapping[str, Any],
@@ -99,9 +106,10 @@ def steady_check(model: str, names: Sequence[str], q: Sequence[sp.Symbol], movin
                          f"from the equations: a position, a heading, a wheel's angle), or linearize at rest.")
 
 
-def _split(J: np.ndarray, n: int) -> tuple[list[int], list[int], np.ndarray]:
-    """``(dependent, independent, N)`` of the rows ``J x = 0``: the dependent unknowns are those whose columns are
-    best conditioned (QR with column pivoting), ``x = N x_independent``."""
+def null_space(J: np.ndarray, n: int) -> tuple[list[int], list[int], np.ndarray]:
+    """``(dependent, independent, N)`` of the rows ``J x = 0`` in ``n`` unknowns: the dependent unknowns are those
+    whose columns are best conditioned (QR with column pivoting), ``x = N x_independent`` (redundant rows solved
+    exactly, by least squares)."""
     import scipy.linalg
 
     if not J.shape[0]:
@@ -147,8 +155,8 @@ def kane_state_space(lin) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
     h = lin.Phi.shape[0] - k
     J = lin.force_rows()
     G = np.vstack([np.zeros((h, n)), lin.Phi[h:]])
-    _, free_q, Nh = _split(lin.Phi[:h], n)
-    dependent, free_v, Nv = _split(J, n)
+    _, free_q, Nh = null_space(lin.Phi[:h], n)
+    dependent, free_v, Nv = null_space(J, n)
     P = np.zeros((n, n))
     if dependent:
         P[dependent] = np.linalg.lstsq(J[:, dependent], -G, rcond=None)[0]
