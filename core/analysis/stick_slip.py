@@ -119,13 +119,15 @@ class _Phases:
         own = names(model)
         return {k: x for k, x in self.params.items() if k in own}
 
-    def number(self, value, numeric, name: str, what: str) -> float:
-        """A friction's ``F_c`` or ``F_s`` as a number: the model's values, then ``params`` by name (a symbol only
+    def number(self, comp, pname: str, numeric) -> float:
+        """A friction's ``F_c`` or ``F_s`` as a number in this run: one given as a number takes its value from the
+        run's values (``params=`` may give it another), a symbol its value from ``params`` by name (a symbol only
         sliding uses is not one of a stuck model's parameters)."""
+        value = comp.symbolic_view().params[pname]  # a number given is a symbol there, valued by ``numeric``
         expr = sp.sympify(value, strict=True).xreplace({s: sp.Float(x) for s, x in numeric.values.items()})
         expr = expr.xreplace({s: sp.Float(self.params[s.name]) for s in expr.free_symbols if s.name in self.params})
         if expr.free_symbols:
-            raise ModelError(f"{name}: {what} needs a value: give params={{{', '.join(sorted(repr(s.name) for s in expr.free_symbols))}: ...}}.")
+            raise ModelError(f"{comp.name}: {pname} needs a value: give params={{{', '.join(sorted(repr(s.name) for s in expr.free_symbols))}: ...}}.")
         return float(expr)
 
     def numbers(self, phases: tuple[str, ...]):
@@ -140,10 +142,12 @@ class _Phases:
             q, v = list(eq.sym.q), list(eq.sym.v)
             held = self.model_in(("stick",) * len(self.names))  # every rate as a constraint row: its a and b
             stuck = held.eq
+            # the rows with the parameters given as numbers still symbols, and this run's values in (params= included)
             values = {s: sp.Float(x) for s, x in held.numeric(self.params_of(held)).values.items()}  # its own symbols
+            generic = stuck.generic()["velocity_constraints"]
             rows = []
             for j, comp in enumerate(self.frictions):
-                r = stuck.velocity_constraints[stuck.velocity_owners.index(comp.name)].xreplace(values)
+                r = generic[stuck.velocity_owners.index(comp.name)].xreplace(values)
                 grad = [r.diff(x) for x in v]
                 rest = r.xreplace(dict.fromkeys(v, 0))
                 a = sp.lambdify((t, q), grad, modules="numpy")
@@ -155,9 +159,8 @@ class _Phases:
                     k = (len(eq.inertial) + len(eq.first_order) + len(eq.constraints)
                          + eq.velocity_owners.index(comp.name))
                 own = model.components[comp.name]
-                limit = own.F_c if own.F_s is None else own.F_s
-                rows.append((a, b, k, self.number(limit, numeric, comp.name, "F_s"),
-                             self.number(own.F_c, numeric, comp.name, "F_c"), exact))
+                rows.append((a, b, k, self.number(own, "F_c" if own.F_s is None else "F_s", numeric),
+                             self.number(own, "F_c", numeric), exact))
             self._numbers[phases] = (numeric, rows)
         return self._numbers[phases]
 

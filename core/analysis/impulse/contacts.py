@@ -101,8 +101,9 @@ class Contact:
     name: str
     e: Any
 
-    def gap(self, model) -> sp.Expr:  # pragma: no cover - every contact overrides it
-        """The gap ``g`` in terms of the coordinate functions ``q(t)``."""
+    def gap(self, model, *, generic: bool = False) -> sp.Expr:  # pragma: no cover - every contact overrides it
+        """The gap ``g`` in terms of the coordinate functions ``q(t)``; ``generic``: with the model's parameters given
+        as numbers still the symbols standing for them (a run puts in its own values, ``params=`` included)."""
         raise NotImplementedError
 
     def __repr__(self) -> str:
@@ -115,14 +116,14 @@ class _Plane(Contact):
         self.name = _contact_name(name, f"plane({point})")
         self.e = _restitution(e, self.name)
 
-    def gap(self, model):
-        view = _view(model, self.name)
+    def gap(self, model, *, generic: bool = False):
+        view = _view(model, self.name, generic)
         n = _as_vector(self.normal, view.dim, f"contact {self.name!r}: the normal")
         norm = sp.sqrt(sum(x**2 for x in n))
         if norm == 0:
             raise ContactError(f"contact {self.name!r}: the normal must not be the zero vector.")
         a = sp.zeros(view.dim, 1) if self.through is None else _as_vector(self.through, view.dim, f"contact {self.name!r}: the point on the surface")
-        r = _position(model, self.point, self.name)
+        r = _position(model, self.point, self.name, generic)
         return sp.Add(*[ni * (ri - ai) for ni, ri, ai in zip(n / norm, r, a) if ni != 0])
 
 
@@ -132,9 +133,9 @@ class _Between(Contact):
         self.name = _contact_name(name, f"between({a}, {b})")
         self.e = _restitution(e, self.name)
 
-    def gap(self, model):
-        view = _view(model, self.name)
-        d = _position(model, self.b, self.name) - _position(model, self.a, self.name)
+    def gap(self, model, *, generic: bool = False):
+        view = _view(model, self.name, generic)
+        d = _position(model, self.b, self.name, generic) - _position(model, self.a, self.name, generic)
         if view.dim == 1:
             return d[0] - self.distance
         if self.distance == 0:
@@ -161,9 +162,9 @@ class _Ground(Contact):
         self.name = _contact_name(name, f"ground({point})")
         self.e = _restitution(e, self.name)
 
-    def gap(self, model):
-        view = _view(model, self.name)
-        return _position(model, self.point, self.name)[view.dim - 1] - self.level
+    def gap(self, model, *, generic: bool = False):
+        view = _view(model, self.name, generic)
+        return _position(model, self.point, self.name, generic)[view.dim - 1] - self.level
 
 
 class _Wall(Contact):
@@ -174,8 +175,8 @@ class _Wall(Contact):
         self.point, self.x, self.side = point, as_expr(x, "wall(): x"), side
         self.e = _restitution(e, self.name)
 
-    def gap(self, model):
-        return self.side * (_position(model, self.point, self.name)[0] - self.x)
+    def gap(self, model, *, generic: bool = False):
+        return self.side * (_position(model, self.point, self.name, generic)[0] - self.x)
 
 
 def ground(point: str, *, e=1, level=0, name: str | None = None) -> Contact:
@@ -210,11 +211,12 @@ def between(a: str, b: str, *, distance=0, e=1, name: str | None = None) -> Cont
 
 class Lock:
     """A sudden bilateral constraint ``J(q, t) q̇⁺ + b(q, t) = 0`` (perfectly plastic); made by :func:`fix` and
-    :func:`lock`.  ``rows(model)`` gives ``(J, b)`` in the coordinate functions' symbols."""
+    :func:`lock`.  ``rows(model)`` gives ``(J, b)`` in the coordinate functions' symbols (``generic=True``: with the
+    parameters given as numbers still the symbols standing for them)."""
 
     name: str
 
-    def rows(self, model) -> tuple[sp.Matrix, sp.Matrix]:  # pragma: no cover - overridden
+    def rows(self, model, *, generic: bool = False) -> tuple[sp.Matrix, sp.Matrix]:  # pragma: no cover - overridden
         raise NotImplementedError
 
     def __repr__(self) -> str:
@@ -226,9 +228,9 @@ class _Fix(Lock):
         self.point = point
         self.name = _contact_name(name, f"fix({point})")
 
-    def rows(self, model):
+    def rows(self, model, *, generic: bool = False):
         eq = model.eq
-        r = _position(model, self.point, self.name)
+        r = _position(model, self.point, self.name, generic)
         return r.jacobian(eq.sym.q), r.diff(t)
 
 
@@ -237,7 +239,7 @@ class _LockJoint(Lock):
         self.joint = joint
         self.name = _contact_name(name, f"lock({joint})")
 
-    def rows(self, model):
+    def rows(self, model, *, generic: bool = False):
         eq = model.eq
         try:
             comp = model.component(self.joint)
@@ -245,7 +247,7 @@ class _LockJoint(Lock):
             raise ContactError(f"sudden constraint {self.name!r}: {exc}") from None
         if tuple(getattr(comp, "terminals", ())) != ("parent", "child") or not hasattr(comp, "names"):
             raise ContactError(f"sudden constraint {self.name!r}: {comp.kind} {self.joint!r} is not a joint; lock a joint (revolute, prismatic, ...).")
-        view = _view(model, self.name)
+        view = _view(model, self.name, generic)
         if comp.kind == "revolute" and view.dim == 2:  # the relative angular velocity, whatever the angle's reference
             rel = view.pose(comp.nodes[1]).omega - view.pose(comp.nodes[0]).omega
             w = eq.symbolic(rel)
@@ -284,9 +286,11 @@ def lock(joint: str, *, name: str | None = None) -> Lock:
 # -- the model's points ----------------------------------------------------------------------------
 
 
-def _view(model, who):
-    """The domain view that knows point positions (the mechanical one)."""
-    for view in model.assembly.views.values():
+def _view(model, who, generic: bool = False):
+    """The domain view that knows point positions (the mechanical one); ``generic``: the one built in the symbols
+    standing for the parameters given as numbers (what a run with other values in ``params=`` evaluates)."""
+    assembly = model.assembly
+    for view in (assembly.generic_views if generic else assembly.views).values():
         if callable(getattr(view, "position", None)) and hasattr(view, "dim"):
             return view
     raise ContactError(f"{who}: model {model.name!r} has no points with positions (no mechanical nodes); give impulses per coordinate instead.")
@@ -299,9 +303,9 @@ def _known_points(model, view) -> list[str]:
     return list(dict.fromkeys(points))
 
 
-def _position(model, point, who) -> sp.Matrix:
-    """The position of ``point`` in the plain coordinate symbols of ``model.eq``."""
-    view = _view(model, who)
+def _position(model, point, who, generic: bool = False) -> sp.Matrix:
+    """The position of ``point`` in the plain coordinate symbols of ``model.eq`` (``generic``: see :func:`_view`)."""
+    view = _view(model, who, generic)
     if not isinstance(point, str):
         raise ContactError(f"{who}: points are named by strings (a node, or '<body>.<point>'), got {point!r}.")
     try:

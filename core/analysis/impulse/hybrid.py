@@ -85,7 +85,8 @@ def _fn(args, expr: sp.Matrix, shape):
 
 
 class _Hybrid:
-    """Numeric pieces of a model with contacts (parameters substituted), and the impact map."""
+    """Numeric pieces of a model with contacts, and the impact map: the setup's generic pieces (the parameters given
+    as numbers still symbols) with the run's values in, those of ``params=`` included."""
 
     def __init__(self, model, contacts, params):
         self.numeric = numeric = model.numeric(params)
@@ -112,17 +113,17 @@ class _Hybrid:
         self.n, self.k, self.m = n, k, m
         q, v = list(eq.sym.q), list(eq.sym.v)
         sub = lambda x: x.xreplace(vals)
-        self.M = _fn((t, q), sub(eq.M), (n, n))
+        self.M = _fn((t, q), sub(setup.M), (n, n))
         self.C = _fn((t, q), sub(setup.C), (m, n))
         self.c = _fn((t, q), sub(setup.c), (m,))
-        self.Phi = _fn((t, q), sub(eq.constraints), (m,)) if m else (lambda *a: np.zeros(0))
+        self.Phi = _fn((t, q), sub(setup.Phi), (len(setup.Phi),)) if len(setup.Phi) else (lambda *a: np.zeros(0))
         self.W = _fn((t, q), sub(setup.W), (n, k))
         self.gt = _fn((t, q), sub(setup.gt), (k,))
         self.gaps = _fn((t, q), sub(sp.Matrix(setup.gaps)), (k,))
         gdot = setup.W.T * sp.Matrix(v) + setup.gt
         h = gdot.jacobian(q) * sp.Matrix(v) + gdot.diff(t)
         self.h = _fn((t, q, v), sub(h), (k,))
-        self.T = _fn((t, q, v), sub(sp.Matrix([eq.T])), (1,))
+        self.T = _fn((t, q, v), sub(sp.Matrix([setup.T])), (1,))
         self.names = [c.name for c in setup.contacts]
         self.rate = float(eq.constraint_rate)
 
@@ -276,8 +277,9 @@ def simulate_with_impacts(
     Between impacts the model's equations are integrated by an integrator plugin (``method``: an adaptive
     one, ``"DOP853"``, ``"RK45"``, ``"Radau"``, ... with ``rtol``, ``atol``, ``max_step``; or a fixed-step
     one, ``"rk4"``, ... with ``step``; ``dopri5_c`` and ``rk4_c`` step in C), stepped through the events of :mod:`lagrangian.numerics.events`:
-    after each step the gaps are checked (at six points of an adaptive step, on its dense output; at the
-    ends of a fixed one) and a gap changing sign from positive to zero or below is located by Brent's
+    after each step the gaps are checked (at seven points of an adaptive step, on its dense output; at the
+    ends of a fixed one; and where the polynomial through their values there, and at the step points before a
+    fixed one, turns towards zero) and a gap changing sign from positive to zero or below is located by Brent's
     method (on the dense output, or the method's own step) to ``event_tol`` in time.  There the contacts that are closed are resolved together (:func:`impact`), and
     integration restarts from the post-impact state.
 
@@ -316,7 +318,7 @@ def simulate_with_impacts(
     check_grid(span, points, None, 2 * n)
     y, defaulted = initial_state(eq, initial or {}, velocity or {})
     t0, t1 = span
-    if hy.m and np.max(np.abs(hy.Phi(t0, y[:n]))) > 1e-8:
+    if len(hy.setup.Phi) and np.max(np.abs(hy.Phi(t0, y[:n]))) > 1e-8:  # the run's loops (params= included)
         raise ModelError(
             f"the initial state of model {model.name!r} does not close its kinematic loops: solve the dependent "
             f"coordinates first with lagrangian.plugins.multibody.consistent_initial(model, initial, velocity)."

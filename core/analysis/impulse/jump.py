@@ -30,7 +30,7 @@ def _applied(model, impulses) -> sp.Matrix:
     for item in impulses:
         if isinstance(item, Impulse):
             who = f"impulse at {item.point!r}"
-            r = _position(model, item.point, who)
+            r = _position(model, item.point, who, generic=True)
             P = _as_vector(item.vector, r.rows, f"{who}: the impulse vector")
             Q += r.jacobian(eq.sym.q).T * P  # Q̂_k = P̂ · ∂r/∂q_k
         elif isinstance(item, Mapping):
@@ -99,7 +99,9 @@ def _geometry_symbols(model) -> list[sp.Symbol]:
 
 
 def _substitution(model, at, velocity, params, time) -> dict:
-    """Values for the plain symbols: given coordinates, velocities (0 when absent), parameters by name, time."""
+    """Values for the plain symbols: given coordinates, velocities (0 when absent), parameters by name, time.  The
+    parameters given as numbers are symbols in what :class:`_Setup` holds: their values go in here, or those
+    ``params`` gives them by name."""
     eq = model.eq
     _check_names(model, at, "coordinate")
     _check_names(model, velocity, "coordinate")
@@ -108,8 +110,10 @@ def _substitution(model, at, velocity, params, time) -> dict:
         subs[q] = as_expr(at[name], f"at[{name!r}]") if name in at else eq.display(q)
     for v, name in zip(eq.sym.v, eq.names):
         subs[v] = as_expr(velocity.get(name, 0), f"velocity[{name!r}]")
+    values = eq.values  # the parameters given as numbers: their values unless params gives others
+    subs.update(values)
     by_name: dict[str, list] = {}
-    for s in [*model.parameters, *_geometry_symbols(model)]:  # also symbols only in points (where impulses act)
+    for s in [*model.parameters, *_geometry_symbols(model), *values]:  # also symbols only in points (where impulses act)
         if s not in by_name.get(s.name, []):
             by_name.setdefault(s.name, []).append(s)
     for name, value in params.items():
@@ -163,7 +167,9 @@ class Jump:
 
 
 class _Setup:
-    """Everything of an impulse problem in the plain symbols of ``model.eq``."""
+    """Everything of an impulse problem in the plain symbols of ``model.eq``, with the parameters given as numbers
+    still the symbols standing for them (``eq.generic()``): who solves it puts in the values, those of ``params=``
+    included."""
 
     def __init__(self, model, contacts=(), impulses=None):
         eq = self.eq = model.eq
@@ -187,28 +193,31 @@ class _Setup:
                 f"coordinates {', '.join(eq.names[i] for i in eq.first_order)} of model {model.name!r} have no inertia: "
                 f"an impulse would change their velocity without bound. Give them inertia (a mass, an inductor)."
             )
-        self.gaps = [sp.sympify(eq.symbolic(c.gap(model))) for c in self.contacts]
+        generic = eq.generic()
+        self.M, self.T = generic["M"], generic["T"]
+        self.gaps = [sp.sympify(eq.symbolic(c.gap(model, generic=True))) for c in self.contacts]
         self.W = sp.Matrix.hstack(*[sp.Matrix([g.diff(s) for s in q]) for g in self.gaps]) if self.gaps else sp.zeros(len(q), 0)
         self.gt = sp.Matrix([g.diff(t) for g in self.gaps]) if self.gaps else sp.zeros(0, 1)
         rows, rhs = [], []
-        if len(eq.constraints):
-            rows.append(eq.constraints.jacobian(q))
-            rhs.append(eq.constraints.diff(t))
-        if len(eq.velocity_constraints):  # A(q, t) q̇ + b(q, t) = 0 holds after the blow as before it
-            c = eq.velocity_constraints
+        self.Phi = Phi = generic["constraints"]
+        if len(Phi):
+            rows.append(Phi.jacobian(q))
+            rhs.append(Phi.diff(t))
+        if len(generic["velocity_constraints"]):  # A(q, t) q̇ + b(q, t) = 0 holds after the blow as before it
+            c = generic["velocity_constraints"]
             rows.append(c.jacobian(eq.sym.v))
             rhs.append(c.xreplace({x: sp.Integer(0) for x in eq.sym.v}))
         self.lock_rows = []
         for lk in self.locks:
-            J, b = lk.rows(model)
+            J, b = lk.rows(model, generic=True)
             keep = [k for k in range(J.rows) if any(x != 0 for x in J.row(k))]
             self.lock_rows.append((lk.name, len(keep)))
             rows.append(J.extract(keep, list(range(J.cols))) if keep else sp.zeros(0, len(q)))
             rhs.append(b.extract(keep, [0]) if keep else sp.zeros(0, 1))
         self.C = sp.Matrix.vstack(*rows) if rows else sp.zeros(0, len(q))
         self.c = sp.Matrix.vstack(*rhs) if rhs else sp.zeros(0, 1)
-        self.holonomic = len(eq.constraints)
-        self.loops = self.holonomic + len(eq.velocity_constraints)
+        self.holonomic = len(Phi)
+        self.loops = self.holonomic + len(generic["velocity_constraints"])
         self.e = [c.e for c in self.contacts]
 
     def row_owner(self, k: int) -> str:
@@ -237,10 +246,10 @@ def _resolve(setup: _Setup, subs: dict, approaching_only: bool, simplify: bool) 
     entry is a number, exactly (SymPy) when something is symbolic or every number is exact."""
     eq = setup.eq
     names, contacts = eq.names, [c.name for c in setup.contacts]
-    M, W, gt, C, c, Q = (x.xreplace(subs) for x in (eq.M, setup.W, setup.gt, setup.C, setup.c, setup.Q))
+    M, W, gt, C, c, Q = (x.xreplace(subs) for x in (setup.M, setup.W, setup.gt, setup.C, setup.c, setup.Q))
     vb = sp.Matrix([subs[v] for v in eq.sym.v])
     e = sp.Matrix([sp.sympify(x).xreplace(subs) for x in setup.e])
-    T_before = eq.T.xreplace(subs)
+    T_before = setup.T.xreplace(subs)
     mats = (M, W, gt, C, c, Q, vb, e)
     n, m, k = M.rows, C.rows, W.cols
     active, notes = list(range(k)), []
@@ -257,7 +266,7 @@ def _resolve(setup: _Setup, subs: dict, approaching_only: bool, simplify: bool) 
                 impulses=_impulse_dict(setup, [float(x) for x in lam], [float(x) for x in mu]),
                 normal_before=dict(zip(contacts, map(float, Wn.T @ vn + _arr(gt).reshape(-1)))),
                 normal_after=dict(zip(contacts, map(float, Wn.T @ va + _arr(gt).reshape(-1)))),
-                T_before=float(T_before), T_after=float(eq.T.xreplace(vsub)), exact=False, notes=notes,
+                T_before=float(T_before), T_after=float(setup.T.xreplace(vsub)), exact=False, notes=notes,
             )
     else:
         gb0 = W.T * vb + gt
@@ -296,7 +305,7 @@ def _resolve(setup: _Setup, subs: dict, approaching_only: bool, simplify: bool) 
                   for key, x in _impulse_dict(setup, lam, mu).items()},
         normal_before={nm: eq.display(tidy(x)) for nm, x in zip(contacts, gb)},
         normal_after={nm: eq.display(tidy(x)) for nm, x in zip(contacts, W.T * va + gt)},
-        T_before=eq.display(tidy(T_before)), T_after=eq.display(tidy(eq.T.xreplace(vsub))), exact=True, notes=notes,
+        T_before=eq.display(tidy(T_before)), T_after=eq.display(tidy(setup.T.xreplace(vsub))), exact=True, notes=notes,
     )
 
 
