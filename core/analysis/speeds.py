@@ -10,7 +10,7 @@ three speeds only, checks the quadratic law at a fourth (a model whose
 forces are not polynomial in the rates — dry friction, a callable load —
 is linearized at every speed instead), and evaluates ``A(v)`` wherever it
 is asked: a hundred speeds cost four linearizations.  Measured on the
-Whipple bicycle (``benchmarks/bicycle.py``): 2.1 s for 101 speeds and the
+Whipple bicycle (``benchmarks/bicycle.py``): 2.0 s for 101 speeds and the
 weave and capsize speeds, against 1.4 s for each speed linearized apart.
 
 :meth:`SpeedSweep.crossings` finds the speeds where a mode changes
