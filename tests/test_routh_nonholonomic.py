@@ -197,9 +197,8 @@ def test_the_reduced_model_checks_its_start_and_the_analyses_it_is_outside_refus
     with pytest.raises(lg.ModelError, match=r"violate the constraints on velocities of 'edge'"):
         red.simulate(1.0, initial={"x_j": 0, "y_j": 0, "theta_j": 0.3}, velocity={"x_j": 1, "y_j": 0, "theta_j": 0},
                      momenta={"theta_r": 0.01})
-    for call in (red.steady_motions, red.steady_conditions):
-        with pytest.raises(lg.ReductionError, match=r"'flywheel sled \(reduced\)'.*nonholonomic: 'edge'.*steady"):
-            call()
+    (rest,) = red.steady_motions()  # no force on it: the edge holds it at rest anywhere, turned any way
+    assert all(str(rest.coordinates[n]) == f"{n}_0" for n in ("x_j", "y_j", "theta_j"))
     by_hand = routh.SteadyMotion(red, {"x_j": 0, "y_j": 0, "theta_j": 0}, {"theta_r": 0.01}, {"theta_r": 1.0})
     with pytest.raises(lg.ReductionError, match=r"nonholonomic: 'edge'.*stability\(\) linearizes on the constraints"):
         by_hand.perturbation()
@@ -225,3 +224,27 @@ def test_a_sled_held_by_a_torsion_spring_turns_on_its_edge_at_the_closed_form_fr
     assert verdict.verdict == "marginal"
     assert np.sort(np.abs(lam))[-2:] == pytest.approx([omega, omega], rel=1e-9)
     assert np.max(np.abs(lam.real)) <= 1e-9 * omega
+
+
+@settings(max_examples=5, deadline=None)
+@given(m=decade(0.1, 10.0), I=decade(1e-3, 1.0), k=decade(1e-2, 10.0), kt=decade(1e-2, 10.0),
+       y0=st.floats(-1.0, 1.0))
+def test_springs_across_the_edge_leave_a_family_of_rests_the_edge_holds(m, I, k, kt, y0):
+    """A spring from the ground to the centre (k) and a torsion spring (kt): at rest the spring's pull across the
+    edge is held by the edge's force, so the sled rests anywhere on the line x = 0, square to it (θ = 0): a family in
+    y.  About any of them it slides along the edge at ω² = k / (m + m_w) and turns at ω² = kt / I."""
+    model = flywheel_sled(m, I, 0.3, 7e-3)
+    model.add("spring", "ks", ("ground", "b"), k=k)
+    model.add("rotational_spring", "kt", ("ground", "b"), k=kt)
+    red = routh.reduce(model)
+    (rest,) = red.steady_motions()
+    assert float(rest.coordinates["x_j"]) == pytest.approx(0.0, abs=1e-12)
+    assert float(rest.coordinates["theta_j"]) == pytest.approx(0.0, abs=1e-12)
+    assert str(rest.coordinates["y_j"]) == "y_j_0"
+    with pytest.raises(lg.ReductionError, match="symbolic in y_j_0"):
+        rest.stability()
+    verdict = rest.stability(values={"y_j_0": y0, "C_theta_r": 0.02})
+    lam = verdict.eigenvalues
+    assert verdict.verdict == "marginal"  # the family: a zero eigenvalue
+    for omega in (math.sqrt(k / (m + 0.3)), math.sqrt(kt / I)):
+        assert np.min(np.abs(lam - 1j * omega)) <= 1e-9 * omega

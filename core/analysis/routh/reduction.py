@@ -375,9 +375,15 @@ class ReducedModel(DerivedModel):
         """The conditions for steady motion: the reduced equations at zero remaining velocities (``∂R/∂q_k = 0``)."""
         return [sp.Eq(self._show(e), 0) for e in self._steady_exprs()]
 
+    def _constraint_forces(self) -> list[sp.Symbol]:
+        """The multipliers of the constraints on velocities at a steady motion: the forces that hold it (one per
+        constraint, unknowns of the steady-motion conditions)."""
+        if getattr(self, "_mu", None) is None:
+            owners = self.reconstructing(False).eq.velocity_owners
+            self._mu = [sp.Dummy(f"mu_{owner}", real=True) for owner in owners]
+        return self._mu
+
     def _steady_exprs(self) -> list[sp.Expr]:
-        self._holonomic_only("the search for steady motions (stationary points of the effective potential)",
-                             ReductionError)
         eq = self.reconstructing(False).eq
         if len(eq.constraints):
             raise ReductionError(f"steady motions of {self.name!r}: models with loop constraints are not supported.")
@@ -385,6 +391,12 @@ class ReducedModel(DerivedModel):
         f = sp.ImmutableMatrix(eq.generic()["f"])
         parts = _by_structure(("steady", f), eq.values, lambda: {"exprs": [_tidy(e.xreplace(rest)) for e in f]})
         out = _put(parts["exprs"], eq.values)
+        c = sp.Matrix(eq.generic()["velocity_constraints"])
+        if len(c):  # at rest the constraints on velocities push with A(q)ᵀ μ, and need b(q) = 0
+            A, b = _put(list(c.jacobian(eq.sym.v)), eq.values), _put(list(c.xreplace(rest)), eq.values)
+            n, mu = len(out), self._constraint_forces()
+            out = [e + sum(m * A[k * n + i] for k, m in enumerate(mu)) for i, e in enumerate(out)]
+            out += [e for e in b if not is_zero(e)]
         if any(e.has(t) for e in out):
             raise ReductionError(
                 f"the reduced equations of {self.name!r} depend explicitly on time: there is no steady motion."
@@ -406,6 +418,13 @@ class ReducedModel(DerivedModel):
         ``(−π, π]`` for joint angles), by bracketing in one coordinate and
         by Newton from a grid of starts in several.
 
+        A reduced model that keeps constraints on velocities (a sled's knife
+        edge) rests where its forces are held by the constraints' forces
+        ``A(q)ᵀ μ`` too (with ``b(q) = 0``): its rests come in families, and a
+        coordinate the conditions leave free stays a symbol ``<name>_0`` (a
+        sled pulled across its edge by a spring rests anywhere along the
+        spring's line).  They are solved symbolically only.
+
         The symbolic solve runs under a budget of ``budget`` seconds (``None``:
         none); past it a :class:`~lagrangian.ReductionError` says what to
         give instead (numeric values, a search range, fewer unknowns).
@@ -416,6 +435,7 @@ class ReducedModel(DerivedModel):
         exprs = self._steady_exprs()
         values = self._values_for(params, momenta)
         exprs = [e.xreplace(values) for e in exprs]
+        forces = self._constraint_forces() if len(eq.velocity_constraints) else []
         unknowns_names = list(solve_for) if solve_for is not None else list(names)
         lookup = {n: q[i] for i, n in enumerate(names)}
         lookup.update({C.name: C for C in self._r_parts["C"] if isinstance(C, sp.Symbol)})
@@ -427,12 +447,13 @@ class ReducedModel(DerivedModel):
             unknowns.append(lookup[n])
         rest = {q[i]: sp.Symbol(f"{n}_0", real=True) for i, n in enumerate(names) if q[i] not in unknowns}
         exprs = [e.xreplace(rest) for e in exprs]
+        unknowns += forces  # the constraint forces that hold a steady motion: solved for, never shown
         free = set().union(*(e.free_symbols for e in exprs)) - set(unknowns)
         numeric = solve_for is None and not free
         unfolded = [e.replace(sp.Abs, lambda x: x).replace(sp.sign, lambda x: sp.Integer(1)) for e in exprs]
         rational = all(e.is_rational_function(*unknowns) for e in unfolded)
         branches = None
-        if rational or not numeric:
+        if rational or not numeric or forces:
             try:
                 branches = within(_solve, exprs, unknowns, seconds=budget)
             except BudgetExceeded:
@@ -444,6 +465,12 @@ class ReducedModel(DerivedModel):
                         f"unknowns, or raise budget=."
                     ) from None
                 # every value is known: the coordinates are found numerically instead
+        if branches is None and forces:
+            raise ReductionError(
+                f"SymPy did not solve the steady-motion conditions of {self.name!r}, whose constraints on velocities "
+                f"({', '.join(map(repr, sorted(set(eq.velocity_owners))))}) hold it at rest along whole families of "
+                f"positions, so there is no numeric search for isolated roots: solve for fewer coordinates "
+                f"(solve_for=[...]; the others stay symbols <name>_0), or raise budget=.")
         if branches is None:
             if not numeric:
                 raise ReductionError(
@@ -460,8 +487,12 @@ class ReducedModel(DerivedModel):
         out = []
         for sol in branches:
             coords = {}
+            # a coordinate the solve leaves free (a family of rests held by constraints on velocities) is a symbol
+            family = {q[i]: sp.Symbol(f"{n}_0", real=True) for i, n in enumerate(names) if q[i] in unknowns
+                      and q[i] not in sol}
+            sol = {k: sp.sympify(v).xreplace(family) for k, v in sol.items()}
             for i, n in enumerate(names):
-                coords[n] = sol.get(q[i], rest.get(q[i]))
+                coords[n] = sol.get(q[i], rest.get(q[i], family.get(q[i])))
             fixed = {q[i]: coords[n] for i, n in enumerate(names)}
             others = {s: val for s, val in sol.items() if s not in q}
             C_values = {n: sp.sympify(C).xreplace(values).xreplace(others) for n, C in zip(self.ignored, self._r_parts["C"])}

@@ -179,7 +179,7 @@ def _on_constraints(motion: SteadyMotion, values: Mapping[str, float] | None) ->
     params = {k: v for k, v in params.items() if k in known}
     # a momentum the reduced equations do not hold (a flywheel spinning apart from the sled) is no parameter of them
     params.update({f"C_{n}": c for n, c in motion.momenta.items() if not isinstance(c, sp.Symbol) and f"C_{n}" in known})
-    params.update(given)
+    params.update({k: v for k, v in given.items() if k in known})  # the others name a family's coordinates
     numbers = {sp.Symbol(k, real=True): v for k, v in given.items()}
     at = {}
     for name, x in motion.coordinates.items():
@@ -188,6 +188,9 @@ def _on_constraints(motion: SteadyMotion, values: Mapping[str, float] | None) ->
             raise ReductionError(f"the steady motion is symbolic in {', '.join(sorted(map(str, x.free_symbols)))}: "
                                  f"give values=... for them.")
         at[name] = float(x)
+    missing = sorted(p.name for p in motion.model.parameters if p.name not in params)
+    if missing:
+        raise ReductionError(f"the steady motion is symbolic in {', '.join(missing)}: give values=... for them.")
     lin = linearize(motion.model, at=at, params=params, inputs=[], symbolic=False)
     A = lin.state_space()[0]
     lam = np.linalg.eigvals(A) if A.size else np.zeros(0, dtype=complex)
@@ -334,6 +337,8 @@ def _half_turns(exprs: list[sp.Expr], unknowns: list[sp.Symbol], sols: list[dict
         if not any(f.args[0].has(x) for e in exprs for f in e.atoms(*trig)):
             continue
         if any(x in sol and sp.sympify(sol[x]).is_number and is_zero(sp.cos(sol[x]) + 1) for sol in sols):
+            continue
+        if any(x not in sol for sol in sols):  # left free by a solution (a family of rests): π is one of them
             continue
         at = [sp.sympify(e).xreplace({x: sp.pi}) for e in exprs]
         others = [u for u in unknowns if u != x]
