@@ -180,7 +180,9 @@ def test_the_default_contact_radius_follows_the_disc_over_decades(r):
     a = 2 * 0.2 / (3 * 0.4)
     assert acc[0] == pytest.approx(a, rel=1e-12)
     assert acc[2] == pytest.approx(-a / r, rel=1e-12)
-    assert abs(acc[1]) < 1e-12 * a
+    # held on the ground: zero to the round-off of the solve that balances gravity, whose conditioning grows with
+    # the inertia m r²/2 against the mass
+    assert abs(acc[1]) < 1e-13 * G * max(1.0, r * r)
 
 
 @functools.lru_cache(maxsize=None)
