@@ -22,6 +22,11 @@ simulates a model over a grid (or ``--design random --samples N --seed S``
 draws of ``uniform:LOW:HIGH``, ``loguniform:…``, ``normal:MEAN:STD``) on Dask
 (see :mod:`lagrangian.sweep`: a local cluster, or ``--address`` of a
 scheduler), prints a summary and writes a netCDF file and a chart.
+``lagrangian simulate SOURCE --t-end 5 --param k_k=4 --initial x_p=0.1 --out run.csv``
+runs a transient of a netlist or model (``--method``, ``--points``,
+``--velocity``) and writes its coordinates and rates as CSV, netCDF
+(``.nc``) or a chart (``.png``), or prints their final values;
+``lagrangian equations SOURCE [--latex]`` prints its equations of motion.
 ``lagrangian --version`` prints the installed version.
 
 Errors are one line on standard error, ``lagrangian: error: <message>``,
@@ -38,7 +43,7 @@ Exit status:
 - 0: success (also ``--help`` and ``--version``);
 - 1: the command failed while running: an error of the library
   (:class:`~lagrangian.LagrangianError`: an unknown benchmark or output, a
-  model that cannot be built...), a scene source that cannot be read, an
+  model that cannot be built...), a source that cannot be read, an
   output file or directory that cannot be written;
 - 2: usage error: no command, an unknown option, a bad option value;
 - 130: interrupted (Ctrl-C);
@@ -297,25 +302,25 @@ def _load_model(source: str):
     path, _, attr = source.partition(":") if not Path(source).exists() else (source, "", "")
     file = Path(path)
     if not file.exists():
-        raise ModelError(f"scene source {path!r} does not exist: give a netlist file or a Python file (file.py[:name]).")
+        raise ModelError(f"source {path!r} does not exist: give a netlist file or a Python file (file.py[:name]).")
     if file.is_dir():
-        raise ModelError(f"scene source {path!r} is a directory: give a netlist file or a Python file (file.py[:name]).")
+        raise ModelError(f"source {path!r} is a directory: give a netlist file or a Python file (file.py[:name]).")
     try:
         if file.suffix.lower() in _NETLISTS:
             imported = read_netlist_file(file)
             span = (imported.tran.start, imported.tran.stop) if imported.tran else None
             return imported.model, imported.initial, imported.velocity, span
         if file.suffix != ".py":
-            raise ModelError(f"scene source {path!r}: expected a netlist (.cir, .net, .sp, .spice) or a Python file (.py).")
+            raise ModelError(f"source {path!r}: expected a netlist (.cir, .net, .sp, .spice) or a Python file (.py).")
         spec = importlib.util.spec_from_file_location(f"_lagrangian_scene_{file.stem}", file)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
     except UnicodeDecodeError as exc:
-        raise ModelError(f"scene source {path!r} is not a text file ({exc.reason}): give a netlist or a Python file.") from exc
+        raise ModelError(f"source {path!r} is not a text file ({exc.reason}): give a netlist or a Python file.") from exc
     except SyntaxError as exc:
-        raise ModelError(f"scene source {path!r}, line {exc.lineno}: {exc.msg}: fix the Python file.") from exc
+        raise ModelError(f"source {path!r}, line {exc.lineno}: {exc.msg}: fix the Python file.") from exc
     except OSError as exc:
-        raise ModelError(f"scene source {path!r} cannot be read: {exc.strerror or exc}.") from exc
+        raise ModelError(f"source {path!r} cannot be read: {exc.strerror or exc}.") from exc
     names = [attr] if attr else ["model", "build"]
     for name in names:
         obj = getattr(module, name, None)
@@ -527,6 +532,20 @@ def _parser() -> _Parser:
     ac.add_argument("--csv", help="write magnitude (dB) and phase (°) per output to this CSV file")
     ac.add_argument("--chart", help="write a Bode chart to this PNG file")
     ac.add_argument("--ngspice", action="store_true", help="also run ngspice's .ac and print the differences")
+    sim = sub.add_parser("simulate", help="run a transient of a model or netlist and write or print its result")
+    sim.add_argument("source", help="a netlist (.cir/.net/.sp/.spice: its .tran and .ic) or file.py[:name]")
+    sim.add_argument("--t-end", type=_positive("an end time", "10"), help="end time (default: .tran stop, else 10)")
+    sim.add_argument("--points", type=_whole(2, "output times from the start to the end time"), default=501,
+                     help="output times (default 501)")
+    sim.add_argument("--method", type=_methods(("auto", "exact"), single=True), default="auto",
+                     help="integration method (default auto)")
+    sim.add_argument("--initial", action="append", type=_pairs, help="initial coordinates name=value[,name=value]")
+    sim.add_argument("--velocity", action="append", type=_pairs, help="initial velocities name=value[,name=value]")
+    sim.add_argument("--param", action="append", type=_pairs, help="parameter values name=value[,name=value]")
+    sim.add_argument("--out", help="write the result: .csv (t, coordinates, rates), .nc (netCDF) or .png (a chart)")
+    eqs = sub.add_parser("equations", help="print a model's or netlist's equations of motion")
+    eqs.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name]")
+    eqs.add_argument("--latex", action="store_true", help="LaTeX instead of text")
     sw = sub.add_parser("sweep", help="simulate a model over a grid or random samples of its parameters, on Dask")
     sw.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name] defining a model")
     sw.add_argument("--param", "-p", action="append", required=True,
@@ -589,6 +608,56 @@ def _sweep(args) -> int:
     return 0
 
 
+def _simulate(args) -> int:
+    import numpy as np
+
+    kinds = {".csv": "csv", ".nc": "netCDF", ".png": "chart"}
+    if args.out:
+        problem = _output_problem("--out", args.out, directory=False)
+        if not problem and Path(args.out).suffix.lower() not in kinds:
+            problem = f"--out {args.out!r}: give a .csv, .nc or .png file."
+        if problem:
+            return _fail(problem)
+    model, initial, velocity, span = _load_model(args.source)
+    t_end = args.t_end if args.t_end is not None else (span[1] if span else 10.0)
+    res = model.simulate(t_end, initial={**initial, **_merged(args.initial)},
+                         velocity={**velocity, **_merged(args.velocity)}, params=_merged(args.param) or None,
+                         points=args.points, method=args.method)
+    print(f"{model.name}: {len(res.t)} points from t = {res.t[0]:g} to {res.t[-1]:g}, method {res.method}")
+    if not args.out:
+        for name in res.names:
+            print(f"  {name} = {res[name][-1]:.10g}, {name}' = {res.velocity(name)[-1]:.10g}")
+        return 0
+    try:
+        suffix = Path(args.out).suffix.lower()
+        if suffix == ".csv":
+            table = res.to_pandas()
+            table.index.name = "t"
+            table.to_csv(args.out, float_format="%.17g")
+        elif suffix == ".nc":
+            res.to_xarray().to_netcdf(args.out)
+        else:
+            import matplotlib.pyplot as plt
+
+            ax = res.plot()
+            ax.figure.savefig(args.out, dpi=110)
+            plt.close(ax.figure)
+    except OSError as exc:
+        return _fail(_write_failure("--out", args.out, exc))
+    print(f"written: {args.out} ({kinds[suffix]}; final {', '.join(f'{n} = {res[n][-1]:.6g}' for n in res.names[:4])}"
+          f"{', …' if len(res.names) > 4 else ''}; max |x| {max(float(np.max(np.abs(res[n]))) for n in res.names):.6g})")
+    return 0
+
+
+def _equations(args) -> int:
+    model = _load_model(args.source)[0]
+    if args.latex:
+        print(model.latex())
+        return 0
+    print(model.describe())  # components, coordinates, the Lagrangian and the equations
+    return 0
+
+
 def _run(argv: list[str] | None) -> int:
     parser = _parser()
     try:
@@ -598,8 +667,8 @@ def _run(argv: list[str] | None) -> int:
             return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_USAGE)
         if args.command is None:
             parser.print_usage(sys.stderr)
-            print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac, sweep "
-                  "(see 'lagrangian --help')", file=sys.stderr)
+            print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac, sweep, "
+                  "simulate, equations (see 'lagrangian --help')", file=sys.stderr)
             return EXIT_USAGE
         registry = default_registry()
         if args.command == "bench":
@@ -610,6 +679,10 @@ def _run(argv: list[str] | None) -> int:
             return _ac(args)
         if args.command == "sweep":
             return _sweep(args)
+        if args.command == "simulate":
+            return _simulate(args)
+        if args.command == "equations":
+            return _equations(args)
         text = {"plugins": registry.describe, "kinds": lambda: _kinds(registry),
                 "integrators": lambda: _integrators(registry)}
         print(text[args.command]())

@@ -1,0 +1,98 @@
+"""``lagrangian simulate`` and ``lagrangian equations``: a transient written as CSV, netCDF or a chart and checked
+against the closed form of a damped oscillator; a netlist's own ``.tran`` and ``.ic``; the equations printed; output
+files refused by their suffix before anything runs."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from lagrangian.cli import main
+
+MSD = """import lagrangian as lg
+
+model = lg.Model("msd")
+model.add("mass", "m", "p", m=0.3)
+model.add("spring", "k", ("ground", "p"), k=40.0)
+model.add("damper", "c", ("ground", "p"), c=0.2)
+"""
+
+RC = """charging RC
+V1 in 0 DC 2
+R1 in a 1k
+C1 a 0 1u ic=0
+.tran 10u 3m uic
+.end
+"""
+
+
+def damped(m, k, c, x0, t):
+    """x(t) of m x'' + c x' + k x = 0 from x0 at rest (under-damped)."""
+    wn, zeta = math.sqrt(k / m), c / (2 * math.sqrt(k * m))
+    wd = wn * math.sqrt(1 - zeta**2)
+    return np.exp(-zeta * wn * t) * (x0 * np.cos(wd * t) + zeta * wn * x0 / wd * np.sin(wd * t))
+
+
+def test_simulate_writes_the_transient_as_csv_with_the_parameters_and_start_given(tmp_path, capsys):
+    source = tmp_path / "msd.py"
+    source.write_text(MSD)
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(source), "--t-end", "2", "--points", "201", "--initial", "x_p=0.1",
+                 "--velocity", "x_p=0", "--param", "k_k=9", "--out", str(out)]) == 0
+    assert f"written: {out}" in capsys.readouterr().out
+    table = pd.read_csv(out)
+    t = table["t"].to_numpy()
+    assert len(t) == 201 and t[-1] == pytest.approx(2.0)
+    assert np.max(np.abs(table["x_p"] - damped(0.3, 9.0, 0.2, 0.1, t))) < 1e-8
+
+
+def test_simulate_prints_final_values_and_writes_netcdf_and_a_chart(tmp_path, capsys):
+    source = tmp_path / "msd.py"
+    source.write_text(MSD)
+    assert main(["simulate", f"{source}:model", "--t-end", "1.5", "--initial", "x_p=0.1", "--velocity", "x_p=0"]) == 0
+    final = float(capsys.readouterr().out.split("x_p = ")[1].split(",")[0])
+    assert final == pytest.approx(float(damped(0.3, 40.0, 0.2, 0.1, np.array(1.5))), abs=1e-9)
+    xr = pytest.importorskip("xarray")
+    assert main(["simulate", str(source), "--t-end", "1", "--initial", "x_p=0.1", "--velocity", "x_p=0",
+                 "--out", str(tmp_path / "run.nc")]) == 0
+    ds = xr.open_dataset(tmp_path / "run.nc")
+    assert float(ds["x_p"][-1]) == pytest.approx(float(damped(0.3, 40.0, 0.2, 0.1, np.array(1.0))), abs=1e-9)
+    assert main(["simulate", str(source), "--t-end", "1", "--initial", "x_p=0.1", "--velocity", "x_p=0",
+                 "--out", str(tmp_path / "run.png")]) == 0
+    assert (tmp_path / "run.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_simulate_takes_a_netlists_tran_and_ic(tmp_path):
+    source = tmp_path / "rc.cir"
+    source.write_text(RC)
+    out = tmp_path / "rc.csv"
+    assert main(["simulate", str(source), "--out", str(out)]) == 0
+    table = pd.read_csv(out)
+    t = table["t"].to_numpy()
+    assert t[-1] == pytest.approx(3e-3)
+    charge = table["q_R1"].to_numpy()
+    # the capacitor charges to C V: q = C V (1 − e^{−t/RC})
+    assert np.max(np.abs(charge - 1e-6 * 2 * (1 - np.exp(-t / 1e-3)))) < 1e-6 * 2 * 1e-7
+
+
+def test_equations_prints_the_lagrangian_and_the_equation_of_motion(tmp_path, capsys):
+    source = tmp_path / "msd.py"
+    source.write_text(MSD)
+    assert main(["equations", str(source)]) == 0
+    text = capsys.readouterr().out
+    assert "L = -20.0*x_p(t)**2 + 0.15*Derivative(x_p(t), t)**2" in text
+    assert main(["equations", str(source), "--latex"]) == 0
+    latex = capsys.readouterr().out
+    assert "x_{p}" in latex and "\\frac" in latex
+
+
+def test_simulate_refuses_an_output_it_cannot_write_before_running(tmp_path, capsys):
+    source = tmp_path / "msd.py"
+    source.write_text(MSD)
+    assert main(["simulate", str(source), "--out", str(tmp_path / "run.txt")]) == 1
+    assert "give a .csv, .nc or .png file" in capsys.readouterr().err
+    assert main(["simulate", str(tmp_path / "missing.py")]) == 1
+    assert "does not exist" in capsys.readouterr().err
