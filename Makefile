@@ -39,6 +39,7 @@ benchmark: setup
 	.venv/bin/python benchmarks/ac.py
 	.venv/bin/python benchmarks/sweep.py
 	.venv/bin/python benchmarks/bicycle.py
+	.venv/bin/python benchmarks/travel.py
 
 plugins: setup
 	.venv/bin/lagrangian plugins

@@ -32,12 +32,15 @@ from .numerics.simulation import InitialConditionWarning, Result
 
 __version__ = "0.1.0"
 
+#: ``lagrangian.load("m.json")``: the model a model file describes (:meth:`Model.load`, :mod:`lagrangian.modelfile`).
+load = Model.load
+
 #: Every module keeps the name it had before the package was layered (``lagrangian.integrate``,
 #: ``lagrangian.routh``, ...): ``import lagrangian.routh`` gives the same module object as
 #: ``lagrangian.analysis.routh``, imported when first asked for.
 MODULES = {
     "base": ("component", "domain", "graph", "network", "text", "identity", "arguments", "switching", "budget",
-             "display", "units", "latex"),
+             "display", "units", "latex", "modelfile"),
     "plugin": ("contracts", "hookspecs", "registry"),
     "derivation": ("assembly", "derive", "equations"),
     "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench", "ensemble",
@@ -79,6 +82,7 @@ def __getattr__(name: str):
 
 __all__ = [
     "Model",
+    "load",
     "Result",
     "Component",
     "Contribution",

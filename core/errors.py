@@ -30,6 +30,7 @@ __all__ = [
     "FloatingNetworkError",
     "ReductionError",
     "ExpressionError",
+    "ModelFileError",
     "NumericalError",
     "SingularMassMatrixError",
     "IntegrationError",
@@ -70,7 +71,23 @@ def warn(message: str, category: type[Warning]) -> None:
 
 
 class LagrangianError(Exception):
-    """Base class of every error raised by lagrangian."""
+    """Base class of every error raised by lagrangian.
+
+    Every one pickles (with its message, ``args`` and attributes, whatever its ``__init__`` takes): unpickling
+    restores them without calling ``__init__`` again.
+    """
+
+    def __reduce__(self):
+        return _unpickled_error, (type(self), self.args, self.__dict__)
+
+
+def _unpickled_error(cls: type, args: tuple, state: dict) -> BaseException:
+    """An error of class ``cls`` with ``args`` and attributes ``state``, its ``__init__`` not called (it may take
+    other arguments than the message it built)."""
+    error = cls.__new__(cls, *args)
+    error.args = args
+    error.__dict__.update(state)
+    return error
 
 
 class PluginError(LagrangianError):
@@ -166,6 +183,22 @@ class ReductionError(ModelError):
 class ExpressionError(ModelError):
     """Text given as an expression holds something an expression may not (a call, an attribute), or cannot be
     read; nothing in it is ever run (:mod:`lagrangian.text`)."""
+
+
+class ModelFileError(ModelError):
+    """A model file cannot be written or read (:mod:`lagrangian.base.modelfile`): a value a file cannot hold, or a
+    file that is not valid, too large, of an unknown version or naming a kind no installed plugin provides.
+
+    ``pointer`` is the JSON pointer of the place at fault (``"/components/3/params/k"``; ``""`` the whole file) and
+    ``path`` the file, where known.
+    """
+
+    def __init__(self, message: str, *, pointer: str | None = None, path: str | None = None):
+        self.pointer, self.path = pointer, path
+        where = f"model file {path!r}" if path is not None else "model file"
+        if pointer:
+            where += f", at {pointer}"
+        super().__init__(f"{where}: {message}")
 
 
 class NumericalError(LagrangianError, ArithmeticError):

@@ -137,3 +137,13 @@ def test_bicycle_finds_the_papers_weave_and_capsize_speeds_and_a_nudge_dies_away
         r"lean peaks at (\S+) rad, (\S+) rad after 6 s; energy kept to (\S+)", out).groups())
     assert after < 0.1 * peak and drift < 1e-9
     assert (tmp_path / "bike.png").stat().st_size > 10_000
+
+
+def test_travel_pickles_saves_exports_and_converts_the_double_pendulum(run, tmp_path):
+    out = run("travel.py", "--out", str(tmp_path / "travel.png"), "--dir", str(tmp_path), cwd=tmp_path)
+    assert out.count("bit for bit the same run: True") == 2  # pickled, and through the model file
+    fmu = float(re.search(r"FMPy's run against ours: (\S+) of the peak", out).group(1))
+    bode = float(re.search(r"Bode response against ours: (\S+)", out).group(1))
+    assert fmu < 1e-7 and bode < 1e-12
+    assert (tmp_path / "double_pendulum.fmu").stat().st_size > 1000
+    assert (tmp_path / "travel.png").stat().st_size > 10_000

@@ -52,6 +52,7 @@ import sympy as sp
 
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
+from . import control as _control
 from .linearize import LinearModel, linearize, s
 from .laplace import _solve
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
@@ -254,6 +255,35 @@ class TransferFunction:
             return math.inf
         return value.real if abs(value.imag) <= 1e-12 * abs(value) else value
 
+    def to_control(self) -> Any:
+        """``H(s)`` as a python-control transfer function (``pip install 'lagrangian[control]'``).
+
+        Returns
+        -------
+        control.TransferFunction
+            Numerator and denominator from :attr:`expr`, named by our input and output labels.  Beyond
+            :data:`SYMBOLIC_MAX` unknowns those come from the poles and zeros, and a ratio of polynomials of high
+            degree holds the response to fewer digits (about 1e-7 for a 20-section ladder, degree 40): the
+            linearization's :meth:`~lagrangian.frequency.LinearModel.to_control` keeps it to 1e-12.
+
+        Raises
+        ------
+        ModelError
+            For a symbolic transfer function (naming its symbols), or without python-control.
+
+        Examples
+        --------
+        >>> import lagrangian as lg
+        >>> m = lg.Model("rl")
+        >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+        >>> _ = m.add("resistor", "R1", ("in", "a"), R=10.0)
+        >>> _ = m.add("inductor", "L1", ("a", "0"), L=7e-3)
+        >>> sys = transfer_function(m, "V1", "i(L1)").to_control()    # 1 / (L s + R)
+        >>> sys.poles().real.round(6).tolist(), round(float(sys.dcgain()), 12)
+        ([-1428.571429], 0.1)
+        """
+        return _control.transfer_function(self)
+
 
 def transfer_function(system: Model | LinearModel, input: str, output: Any, **kwargs: Any) -> TransferFunction:
     """``H(s)`` from ``input`` (a source or load component) to ``output`` (a coordinate, ``"v(C1)"``, ...).
@@ -384,6 +414,27 @@ class FrequencyResponse:
         if key not in names:
             raise UnknownNameError(what, key, names)
         return names.index(key)
+
+    def to_control(self) -> Any:
+        """The response as python-control frequency-response data (``pip install 'lagrangian[control]'``).
+
+        Returns
+        -------
+        control.FrequencyResponseData
+            ``H`` at ``ω = 2π f`` (rad/s), outputs and inputs named by our labels.
+
+        Examples
+        --------
+        >>> import lagrangian as lg
+        >>> m = lg.Model("rl")
+        >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+        >>> _ = m.add("resistor", "R1", ("in", "a"), R=10.0)
+        >>> _ = m.add("inductor", "L1", ("a", "0"), L=7e-3)
+        >>> data = frequency_response(m, [1e3], outputs=["i(L1)"]).to_control()
+        >>> data.input_labels, data.output_labels, data.omega.round(3).tolist()
+        (['V1'], ['i(L1)'], [6283.185])
+        """
+        return _control.frequency_response_data(self)
 
     def magnitude_db(self, output: Any, input: str | None = None) -> np.ndarray:
         """``20 log10 |H|``."""

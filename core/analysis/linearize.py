@@ -53,6 +53,7 @@ from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..derivation.calculus import Rewriter, symbols_of
 from .lti import _number, numeric, stamped
+from .control import state_space_system
 from .motion import kane_state_space, null_space, number, rates, steady_check
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
 
@@ -251,6 +252,37 @@ class LinearModel:
             D[0] + Cq[1] @ B[:n] + sel(Cq[2], inertial) @ B[n:])
         states = list(self.coordinates) + [f"{self.coordinates[i]}'" for i in inertial]
         return A, B, C_out, D_out, states
+
+    def to_control(self) -> Any:
+        """The linearization as a python-control state space (``pip install 'lagrangian[control]'``).
+
+        Returns
+        -------
+        control.StateSpace
+            :meth:`state_space`'s ``A, B, C, D`` (with loop constraints in independent coordinates, with constraints
+            on velocities in independent coordinates and speeds), inputs, outputs and states named by our labels.
+
+        Raises
+        ------
+        ModelError
+            For a symbolic linearization (naming its symbols without values); for one with no state-space form
+            (inputs through their derivatives or integral: ``transfer_function(lin, input, output).to_control()``
+            gives each entry exactly in ``s``); without python-control.
+
+        Examples
+        --------
+        >>> import lagrangian as lg
+        >>> from lagrangian.frequency import linearize
+        >>> m = lg.Model("msd")
+        >>> _ = m.add("mass", "m", "p", m=0.3)
+        >>> _ = m.add("spring", "k", ("ground", "p"), k=40.0)
+        >>> _ = m.add("damper", "c", ("ground", "p"), c=0.5)
+        >>> _ = m.add("force", "F", "p", F=0)
+        >>> sys = linearize(m, inputs=["F"], outputs=["x_p"]).to_control()
+        >>> sys.state_labels, round(float(sys.dcgain()), 12)      # 1 / k
+        (['x_p', "x_p'"], 0.025)
+        """
+        return state_space_system(self)
 
 
 def _independent(lin: LinearModel) -> LinearModel:

@@ -9,6 +9,10 @@ virtual power).  The assembly sums contributions into one Lagrangian.
 
 from __future__ import annotations
 
+import math
+
+import pickle
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -232,7 +236,11 @@ def check_value(expr: Any, check: str, component: str, name: str) -> None:
     if isinstance(expr, (sp.MatrixBase, _CallableSignal, str, bool, dict)) or expr is None:
         return
     if expr.is_number:
-        if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo) or not expr.is_real:
+        try:  # SymPy's own evaluation of a number near a branch point (log of a tiny complex) may divide by zero
+            finite = not expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo) and expr.is_real and math.isfinite(float(expr))
+        except (ArithmeticError, TypeError, ValueError):
+            finite = False
+        if not finite:
             raise ParameterError(component, name, f"must be a finite real number (got {expr}).")
         if not test(float(expr)):
             raise ParameterError(component, name, f"{rule} (got {expr}).")
@@ -303,6 +311,35 @@ class _Standing:
 def _plain_number(value: Any) -> bool:
     """A finite real number (a SymPy Number), as opposed to an expression, a matrix or a callable."""
     return isinstance(value, sp.Number) and value.is_finite is not False
+
+
+def pickling_by_name() -> bool:
+    """Whether what is under way is pickle's own pickling, which carries a function, class or module by an
+    importable name only: not cloudpickle's (which carries one built at run time by value), nor a
+    :func:`copy.deepcopy` (which keeps functions as they are)."""
+    cloudpickle = sys.modules.get("cloudpickle")
+    pickler = getattr(cloudpickle, "Pickler", None)
+    frame = sys._getframe(1)
+    while frame is not None:
+        if frame.f_globals.get("__name__") == "copy" or (
+                pickler is not None and isinstance(frame.f_locals.get("self"), pickler)):
+            return False
+        frame = frame.f_back
+    return True
+
+
+def refuse_unpicklable(func: Any, what: str) -> None:
+    """A :class:`ModelError` naming ``what`` when ``func`` (a Python callable a model holds) is one pickle cannot
+    carry — a lambda, a local function — and the pickling under way is pickle's; cloudpickle carries it by value."""
+    if not pickling_by_name():
+        return
+    try:
+        pickle.dumps(func)
+    except Exception as exc:
+        raise ModelError(f"{what} is the Python callable {func!r:.60}, which pickle cannot carry "
+                         f"({exc.__class__.__name__}: {exc}): pickle the model with cloudpickle (which carries it "
+                         f"by value), define the function in an importable module, or give a SymPy expression of "
+                         f"t.") from None
 
 
 class _CallableSignal:
@@ -514,6 +551,13 @@ class Component:
         self.params = values
         self._given = frozenset(params)
         self._floats = floats
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Its attributes; a parameter given as a Python callable that pickle cannot carry is refused, by name."""
+        for pname, value in self.params.items():
+            if isinstance(value, _CallableSignal):
+                refuse_unpicklable(value.func, f"component {self.name!r}: parameter {pname!r}")
+        return self.__dict__
 
     def _stand(self) -> None:
         """Make the symbols standing for the parameters given as numbers (:attr:`values`), on first use: a model

@@ -8,6 +8,7 @@ function; ``L = T - V``.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -127,24 +128,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     symbolic = [comp.symbolic_view() for comp in components]
     standing = {c.name: view for c, view in zip(components, symbolic)}
 
-    def build(stand: Mapping[str, Component] | None) -> dict[str, DomainView]:
-        out: dict[str, DomainView] = {}
-        for dname in dict.fromkeys(d for c in components for d in c.domains):
-            domain = registry.domains.get(dname)
-            if domain is None:
-                raise DomainError(f"no installed plugin provides the domain {dname!r}.")
-            members = [c for c in components if dname in c.domains]
-            opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
-            network = graph.graph(members, domain=dname)
-            if stand is not None:
-                for _, _, data in network.edges(data=True):
-                    if "component" in data:
-                        data["component"] = stand[data["component"].name]
-                members = [stand[c.name] for c in members]
-            out[dname] = domain.build(Network(network, members), opts)
-        return out
-
-    views = build(standing)
+    views = _views(graph, registry, options, components, standing)
 
     coordinates: list[Coordinate] = []
     seen: dict[str, str] = {}
@@ -191,8 +175,30 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
         generic = _substituted(generic, eliminated)
         coordinates = [c for c in coordinates if c.name not in eliminated]
     contributions = _Valued(generic, values)
-    valued = None if all(view is comp for comp, view in zip(components, symbolic)) else (lambda: build(None))
+    valued = None if all(view is comp for comp, view in zip(components, symbolic)) else \
+        functools.partial(_views, graph, registry, options, components, None)  # (a partial, not a closure: it pickles)
     return Assembly(coordinates, views, contributions, signals, generic, values, valued, eliminated)
+
+
+def _views(graph: ComponentGraph, registry: Registry, options: Mapping[str, Any], components: list[Component],
+           stand: Mapping[str, Component] | None) -> dict[str, DomainView]:
+    """The domains' views of ``components``: built from the components ``stand`` has in their place (their symbolic
+    views), or from the components as given (``None``)."""
+    out: dict[str, DomainView] = {}
+    for dname in dict.fromkeys(d for c in components for d in c.domains):
+        domain = registry.domains.get(dname)
+        if domain is None:
+            raise DomainError(f"no installed plugin provides the domain {dname!r}.")
+        members = [c for c in components if dname in c.domains]
+        opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
+        network = graph.graph(members, domain=dname)
+        if stand is not None:
+            for _, _, data in network.edges(data=True):
+                if "component" in data:
+                    data["component"] = stand[data["component"].name]
+            members = [stand[c.name] for c in members]
+        out[dname] = domain.build(Network(network, members), opts)
+    return out
 
 
 def _applied(force: Any, applied: Mapping) -> Any:

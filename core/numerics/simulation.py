@@ -19,7 +19,7 @@ import sympy as sp
 
 from .codegen import compile_model
 from .result import Result
-from ..base.component import StateCall, t
+from ..base.component import StateCall, refuse_unpicklable, t
 from ..derivation.assembly import refuse_eliminated
 from ..derivation.equations import Equations
 from ..errors import ExpressionError, LagrangianError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
@@ -163,8 +163,25 @@ def _not_finite(time: float, state: np.ndarray, why: str) -> str:
             f"or reduce the step.")
 
 
+class _Deferred:
+    """The compiled code an unpickled :class:`NumericModel` used, built on first use (from the disk cache when
+    it is there): whichever method is called first puts the built one, or None, in its place."""
+
+    def __init__(self, numeric: "NumericModel", kind: str):
+        self.numeric, self.kind = numeric, kind
+
+    def __getattr__(self, name: str) -> Any:
+        numeric = self.numeric
+        numeric._fast = numeric.compile(self.kind)  # None: cannot be compiled here, NumPy as use_compiled() has it
+        return getattr(numeric._fast if numeric._fast is not None else numeric, name)
+
+
 class NumericModel:
-    """Compiled (NumPy) functions of one model with numeric parameter values."""
+    """Compiled (NumPy) functions of one model with numeric parameter values.
+
+    It pickles without its compiled code and lambdified functions, which are rebuilt on first use after
+    unpickling (see ``_UNPICKLED``).
+    """
 
     def __init__(self, eq: Equations, values: Mapping[sp.Symbol, float], signals: Mapping[Any, Any]):
         self.eq = eq
@@ -189,6 +206,26 @@ class NumericModel:
         self.python_only = False  # compiled=False was asked (use_compiled sets it)
         self.compile_note: str | None = None
         self._fast: Any = None  # the CompiledModel that rhs() and energies() use (use_compiled)
+
+    #: What a pickle leaves out: compiled code (native libraries, tape programs, ctypes handles) and the NumPy
+    #: functions lambdified from the equations, all rebuilt on first use where it is unpickled (native code from
+    #: the disk cache, or compiled again) — never unpickled as machine code.
+    _UNPICKLED = ("_builds", "_fast", "_flat_fn", "_solve_fn", "_energy_fn")
+
+    def __getstate__(self) -> dict[str, Any]:
+        for f, fn in self.signals.items():  # (a load's callable of the state is held by a StateCall)
+            refuse_unpicklable(fn.func if isinstance(fn, StateCall) else fn,
+                               f"the signal {f} (a parameter given as a Python callable)")
+        state = {k: v for k, v in self.__dict__.items() if k not in self._UNPICKLED}
+        state["_fast_kind"] = None if self._fast is None else self._mode  # the compiled code rhs() used
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        kind = state.pop("_fast_kind", None)
+        self.__dict__.update(state)
+        self._builds, self._flat_fn, self._fast = {}, None, None
+        if kind is not None:
+            self._fast = _Deferred(self, kind)
 
     @functools.cached_property
     def _solve_args(self):

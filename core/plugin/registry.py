@@ -12,8 +12,12 @@ invalid registration or an exception inside a hook becomes a
 from __future__ import annotations
 
 import functools
+import importlib
 import importlib.metadata as metadata
 import keyword
+import pickle
+import sys
+import types
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -21,10 +25,10 @@ from typing import Any
 import pluggy
 
 from . import hookspecs
-from ..base.component import Component, Example, Parameter
+from ..base.component import Component, Example, Parameter, pickling_by_name
 from .contracts import Analogy, Benchmark, integrator_problem, resolve
 from ..base.domain import Domain, Option
-from ..errors import PluginError, UnknownKindError, closest
+from ..errors import ModelError, PluginError, UnknownKindError, closest
 
 __all__ = ["Registry", "PluginInfo", "default_registry", "ENTRY_POINT_GROUP"]
 
@@ -69,6 +73,8 @@ class Registry:
         self.integrators: dict[str, Any] = {}
         self.benchmarks: dict[str, Any] = {}
         self.info: dict[str, PluginInfo] = {}
+        self._given = dict(plugins or {})  # the plugins passed in, as given (what pickling refers to)
+        self._entry_points = entry_points
         if entry_points:
             for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
                 dist = getattr(ep, "dist", None)
@@ -86,6 +92,18 @@ class Registry:
             self._register_plugin(name, plugin, PluginInfo(name))
         self.pm.check_pending()
         self._collect()
+
+    def __reduce__(self):
+        """Pickled by reference, never by content (a plugin manager holds modules and hook callers): the
+        plugins of the entry-point group are loaded again by name where it is unpickled (the registry of
+        installed plugins, :func:`default_registry`, when no others were given), and any plugin that was passed
+        in is pickled by its module's import name when it is an importable module, as itself when it pickles,
+        and by value under cloudpickle; else pickling refuses with a :class:`~lagrangian.errors.ModelError`
+        naming it.  Unpickling checks that every plugin of the entry-point group it was built with is installed
+        (a :class:`~lagrangian.errors.PluginError` naming the one that is not)."""
+        loaded = sorted(n for n, info in self.info.items() if info.distribution is not None and n not in self._given)
+        given = {name: _plugin_reference(name, plugin) for name, plugin in self._given.items()}
+        return _unpickled_registry, (given, self._entry_points, loaded)
 
     def _register_plugin(self, name: str, plugin: Any, info: PluginInfo) -> None:
         if name in self.info:
@@ -275,6 +293,62 @@ def _component_type_problem(cls: Any) -> str | None:
     if not isinstance(example, Example):
         return "example() must return a lagrangian.Example"
     return None
+
+
+class _ImportedPlugin:
+    """A plugin module, pickled by its import name and imported again where it is unpickled."""
+
+    def __init__(self, module: str):
+        self.module = module
+
+
+def _importable(module: types.ModuleType) -> bool:
+    """Whether ``module`` is the one its name imports (not built at run time, nor replaced in ``sys.modules``)."""
+    name = getattr(module, "__name__", None)
+    return (isinstance(name, str) and sys.modules.get(name) is module and getattr(module, "__spec__", None) is not None
+            and name != "__main__")
+
+
+def _plugin_reference(name: str, plugin: Any) -> Any:
+    """What a registry's pickle holds for the plugin passed in as ``name`` (see :meth:`Registry.__reduce__`)."""
+    if isinstance(plugin, types.ModuleType) and _importable(plugin):
+        return _ImportedPlugin(plugin.__name__)
+    if not pickling_by_name():
+        return plugin
+    if not isinstance(plugin, types.ModuleType):
+        try:
+            pickle.dumps(plugin)
+        except Exception as exc:
+            raise ModelError(f"plugin {name!r}, passed in to Registry(plugins=...), does not pickle "
+                             f"({exc.__class__.__name__}: {exc}): define it in an importable module, or pickle "
+                             f"with cloudpickle, which pickles it by value.") from None
+        return plugin
+    raise ModelError(
+        f"plugin {name!r}, passed in to Registry(plugins=...), is the module {plugin.__name__!r}, which cannot be "
+        f"imported by that name (it was built at run time): a model or registry holding it pickles with "
+        f"cloudpickle (by value), not with pickle. Put the plugin in an importable module, or install it under "
+        f"the entry-point group {ENTRY_POINT_GROUP!r}."
+    )
+
+
+def _unpickled_registry(given: Mapping[str, Any], entry_points: bool, loaded: Iterable[str]) -> Registry:
+    """A registry rebuilt where it is unpickled (see :meth:`Registry.__reduce__`)."""
+    plugins = {}
+    for name, plugin in given.items():
+        if isinstance(plugin, _ImportedPlugin):
+            try:
+                plugin = importlib.import_module(plugin.module)
+            except Exception as exc:
+                raise PluginError(name, f"its module {plugin.module!r} cannot be imported here "
+                                        f"({exc.__class__.__name__}: {exc}); make it importable where the model "
+                                        f"is unpickled.") from None
+        plugins[name] = plugin
+    registry = default_registry() if entry_points and not plugins else Registry(plugins, entry_points=entry_points)
+    missing = [n for n in loaded if n not in registry.info]
+    if missing:
+        raise PluginError(missing[0], f"the pickled model was built with this plugin of the entry-point group "
+                                      f"{ENTRY_POINT_GROUP!r}, which is not installed here: install it.")
+    return registry
 
 
 @functools.cache
