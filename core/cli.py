@@ -26,7 +26,9 @@ scheduler), prints a summary and writes a netCDF file and a chart.
 runs a transient of a netlist or model (``--method``, ``--points``,
 ``--velocity``) and writes its coordinates and rates as CSV, netCDF
 (``.nc``) or a chart (``.png``), or prints their final values;
-``lagrangian equations SOURCE [--latex]`` prints its equations of motion.
+``lagrangian equations SOURCE [--latex]`` prints its equations of motion;
+``lagrangian convert SOURCE --out model.json`` writes a netlist or model as
+a model file (:mod:`lagrangian.modelfile`), which every command reads too.
 ``lagrangian --version`` prints the installed version.
 
 Errors are one line on standard error, ``lagrangian: error: <message>``,
@@ -310,8 +312,11 @@ def _load_model(source: str):
             imported = read_netlist_file(file)
             span = (imported.tran.start, imported.tran.stop) if imported.tran else None
             return imported.model, imported.initial, imported.velocity, span
+        if file.suffix.lower() == ".json":
+            return Model.load(file), {}, {}, None
         if file.suffix != ".py":
-            raise ModelError(f"source {path!r}: expected a netlist (.cir, .net, .sp, .spice) or a Python file (.py).")
+            raise ModelError(f"source {path!r}: expected a netlist (.cir, .net, .sp, .spice), a model file (.json) or a "
+                             f"Python file (.py).")
         spec = importlib.util.spec_from_file_location(f"_lagrangian_scene_{file.stem}", file)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
@@ -543,6 +548,9 @@ def _parser() -> _Parser:
     sim.add_argument("--velocity", action="append", type=_pairs, help="initial velocities name=value[,name=value]")
     sim.add_argument("--param", action="append", type=_pairs, help="parameter values name=value[,name=value]")
     sim.add_argument("--out", help="write the result: .csv (t, coordinates, rates), .nc (netCDF) or .png (a chart)")
+    conv = sub.add_parser("convert", help="write a netlist or model as a model file (JSON)")
+    conv.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name]")
+    conv.add_argument("--out", required=True, help="the model file to write (.json)")
     eqs = sub.add_parser("equations", help="print a model's or netlist's equations of motion")
     eqs.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name]")
     eqs.add_argument("--latex", action="store_true", help="LaTeX instead of text")
@@ -649,6 +657,22 @@ def _simulate(args) -> int:
     return 0
 
 
+def _convert(args) -> int:
+    problem = _output_problem("--out", args.out, directory=False)
+    if not problem and Path(args.out).suffix.lower() != ".json":
+        problem = f"--out {args.out!r}: a model file is JSON: give a .json file."
+    if problem:
+        return _fail(problem)
+    model = _load_model(args.source)[0]
+    try:
+        model.save(args.out)
+    except OSError as exc:
+        return _fail(_write_failure("--out", args.out, exc))
+    print(f"written: {args.out} (model {model.name!r}: {len(model.components)} components, "
+          f"coordinates {', '.join(model.coordinate_names)})")
+    return 0
+
+
 def _equations(args) -> int:
     model = _load_model(args.source)[0]
     if args.latex:
@@ -668,7 +692,7 @@ def _run(argv: list[str] | None) -> int:
         if args.command is None:
             parser.print_usage(sys.stderr)
             print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac, sweep, "
-                  "simulate, equations (see 'lagrangian --help')", file=sys.stderr)
+                  "simulate, convert, equations (see 'lagrangian --help')", file=sys.stderr)
             return EXIT_USAGE
         registry = default_registry()
         if args.command == "bench":
@@ -683,6 +707,8 @@ def _run(argv: list[str] | None) -> int:
             return _simulate(args)
         if args.command == "equations":
             return _equations(args)
+        if args.command == "convert":
+            return _convert(args)
         text = {"plugins": registry.describe, "kinds": lambda: _kinds(registry),
                 "integrators": lambda: _integrators(registry)}
         print(text[args.command]())

@@ -96,3 +96,31 @@ def test_simulate_refuses_an_output_it_cannot_write_before_running(tmp_path, cap
     assert "give a .csv, .nc or .png file" in capsys.readouterr().err
     assert main(["simulate", str(tmp_path / "missing.py")]) == 1
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_convert_writes_a_netlist_as_a_model_file_that_every_command_reads(tmp_path, capsys):
+    import lagrangian as lg
+    from lagrangian.circuits.netlist import read_netlist_file
+    from lagrangian.identity import is_zero
+
+    source = tmp_path / "rc.cir"
+    source.write_text(RC)
+    out = tmp_path / "rc.json"
+    assert main(["convert", str(source), "--out", str(out)]) == 0
+    assert f"written: {out}" in capsys.readouterr().out
+    original, loaded = read_netlist_file(source).model, lg.load(out)
+    assert loaded.coordinate_names == original.coordinate_names
+    assert all(is_zero(a - b) for a, b in zip([*original.eq.M, *original.eq.f], [*loaded.eq.M, *loaded.eq.f]))
+    table = tmp_path / "rc.csv"
+    assert main(["simulate", str(out), "--t-end", "3e-3", "--out", str(table)]) == 0
+    t, q = (pd.read_csv(table)[c].to_numpy() for c in ("t", "q_R1"))
+    assert np.max(np.abs(q - 1e-6 * 2 * (1 - np.exp(-t / 1e-3)))) < 1e-6 * 2 * 1e-7
+
+
+def test_convert_refuses_what_a_model_file_cannot_hold_by_name(tmp_path, capsys):
+    source = tmp_path / "pulse.cir"
+    source.write_text("pulsed RC\nV1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in a 1k\nC1 a 0 1u\n.tran 10u 3m\n.end\n")
+    assert main(["convert", str(source), "--out", str(tmp_path / "p.json")]) == 1
+    assert "component 'V1' (voltage_source), parameter 'E'" in capsys.readouterr().err
+    assert main(["convert", str(source), "--out", str(tmp_path / "p.txt")]) == 1
+    assert "give a .json file" in capsys.readouterr().err
