@@ -69,8 +69,9 @@ def test_the_symbolic_disc_has_the_closed_form_characteristic_polynomial():
 
 @pytest.mark.slow
 @settings(max_examples=6, deadline=None)
-@given(m=decade(0.01, 30.0), r=decade(0.003, 1.0), ratio=st.floats(0.2, 5.0))
+@given(m=decade(0.01, 30.0), r=decade(0.003, 1.0), ratio=st.one_of(st.floats(0.2, 0.9), st.floats(1.1, 5.0)))
 def test_the_upright_disc_is_stable_above_the_critical_speed_over_decades(m, r, ratio):
+    # (at the critical speed itself the lean is a double zero, which eigenvalues resolve only to √ε)
     spin = math.sqrt(ratio * G / (3 * r))  # v² = ratio · g r / 3
     at, velocity = upright(r, spin)
     lin = linearize(disc(m, r), at={k: float(v) for k, v in at.items()}, velocity=velocity)
@@ -81,9 +82,9 @@ def test_the_upright_disc_is_stable_above_the_critical_speed_over_decades(m, r, 
     big = lam[np.argsort(np.abs(lam))][-2:]
     expected = math.sqrt(abs(lean))
     assert np.allclose(np.sort(np.abs(big)), expected, rtol=1e-9)
-    if ratio > 1.05:  # above the critical speed: the lean oscillates
+    if ratio > 1:  # above the critical speed: the lean oscillates
         assert np.all(np.abs(big.real) <= 1e-9 * expected)
-    elif ratio < 0.95:  # below: it falls
+    else:  # below: it falls
         assert np.max(big.real) == pytest.approx(expected, rel=1e-9)
     # the pencil of the Laplace form has the same finite eigenvalues
     pencil = modes(lin).eigenvalues
