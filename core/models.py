@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from .base.text import as_expr
 from .model import Model
 
 __all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "loudspeaker", "rlc_ladder", "whipple_bicycle"]
@@ -198,11 +199,11 @@ def whipple_bicycle(w: Any = 1.02, c: Any = 0.08, lam: Any = None, g: Any = 9.81
     ['fork', 'frame', 'front', 'front_roll', 'front_wheel', 'g', 'ground_frame', 'rear', 'rear_roll', 'rear_wheel', 'steer']
     """
     def value(e):
-        e = sp.sympify(e)
+        e = as_expr(e, "whipple_bicycle")  # text is read as data (lagrangian.text), never run
         return (float(e) if e != 0 else 0) if e.is_number else e
 
-    lam = sp.pi / 10 if lam is None else sp.sympify(lam)
-    w, c, rR, rF = (sp.sympify(e) for e in (w, c, rR, rF))
+    lam = sp.pi / 10 if lam is None else as_expr(lam, "whipple_bicycle(lam=)")
+    w, c, rR, rF = (as_expr(e, f"whipple_bicycle({n}=)") for e, n in ((w, "w"), (c, "c"), (rR, "rR"), (rF, "rF")))
     cl, sl = sp.cos(lam), sp.sin(lam)
     # the steer axes in the ground's (x forward, y left, z up), upright: x_s = (cos λ, 0, sin λ), z_s = (−sin λ, 0, cos λ)
     R = sp.Matrix([[cl, 0, -sl], [0, 1, 0], [sl, 0, cl]])

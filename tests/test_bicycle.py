@@ -326,3 +326,14 @@ def test_parameters_given_as_symbols_take_their_values_at_run_time():
     ours = np.array([a[4], -a[6], -a[7], -a[3], -a[5], -a[8]])
     theirs = np.asarray(kane_bicycle()[2](*q, *u), dtype=float)
     assert np.max(np.abs(ours - theirs)) <= 1e-10 * (BENCH["g"] / BENCH["rR"] + sum(x * x for x in u))
+
+
+def test_text_given_for_a_parameter_is_read_as_data_never_run(tmp_path):
+    """Text for a dimension is read by lagrangian.text (``"1.02"``, ``"pi/10"``), and code in it is refused."""
+    import lagrangian as lg
+
+    assert models.whipple_bicycle(w="1.02", lam="pi/10").coordinate_names == NAMES
+    marker = tmp_path / "ran"
+    with pytest.raises(lg.ExpressionError, match=r"whipple_bicycle\(w=\)"):
+        models.whipple_bicycle(w=f"__import__('os').system('touch {marker}')")
+    assert not marker.exists()
