@@ -616,16 +616,22 @@ def _sweep(args) -> int:
     return 0
 
 
+def _out_problem(path: str, suffixes, advice: str) -> str | None:
+    """What is wrong with ``--out path`` before anything runs: a file that cannot be written, or a kind of file the
+    command does not write (its suffix not one of ``suffixes``: ``advice`` says which)."""
+    problem = _output_problem("--out", path, directory=False)
+    if not problem and Path(path).suffix.lower() not in suffixes:
+        problem = f"--out {path!r}: {advice}."
+    return problem
+
+
 def _simulate(args) -> int:
     import numpy as np
 
     kinds = {".csv": "csv", ".nc": "netCDF", ".png": "chart"}
-    if args.out:
-        problem = _output_problem("--out", args.out, directory=False)
-        if not problem and Path(args.out).suffix.lower() not in kinds:
-            problem = f"--out {args.out!r}: give a .csv, .nc or .png file."
-        if problem:
-            return _fail(problem)
+    problem = args.out and _out_problem(args.out, kinds, "give a .csv, .nc or .png file")
+    if problem:
+        return _fail(problem)
     model, initial, velocity, span = _load_model(args.source)
     t_end = args.t_end if args.t_end is not None else (span[1] if span else 10.0)
     res = model.simulate(t_end, initial={**initial, **_merged(args.initial)},
@@ -658,9 +664,7 @@ def _simulate(args) -> int:
 
 
 def _convert(args) -> int:
-    problem = _output_problem("--out", args.out, directory=False)
-    if not problem and Path(args.out).suffix.lower() != ".json":
-        problem = f"--out {args.out!r}: a model file is JSON: give a .json file."
+    problem = _out_problem(args.out, (".json",), "a model file is JSON: give a .json file")
     if problem:
         return _fail(problem)
     model = _load_model(args.source)[0]
