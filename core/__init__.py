@@ -19,6 +19,7 @@ import sys as _sys
 
 from .base.component import GROUND, Component, Contribution, Example, Load, MovingFrame, Parameter, dot, t
 from .base.domain import Context, Coordinate, Domain, DomainView, Incidence, Network, Option, coordinate, rate
+from .base.limits import limits
 from .base.linear import Linear, LinearContext, Quantity
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
@@ -83,6 +84,7 @@ def __getattr__(name: str):
 __all__ = [
     "Model",
     "load",
+    "limits",
     "Result",
     "Component",
     "Contribution",
