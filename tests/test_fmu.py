@@ -320,3 +320,81 @@ def test_a_co_simulation_fmu_steps_with_the_dop853_loop(tmp_path):
         assert worst(out, model.simulate(5.0, t_eval=out["time"], params=params, **run), names) < 1e-8
     with pytest.raises(Exception, match="not supported"):
         fmpy.simulate_fmu(str(path), fmi_type="ModelExchange")
+
+
+@pytest.mark.slow
+@needs_cc
+def test_sources_and_loads_are_inputs_that_fmpy_drives(tmp_path):
+    """A source given as a number is an FMI input: FMPy switches it between values at given times (time events of
+    its input table), and the run equals Model.simulate run piece by piece, each piece with the source's value as a
+    parameter and starting where the last one ended."""
+    model = models.loudspeaker(E=0.0)
+    path = model.to_fmu(tmp_path / "speaker.fmu")
+    assert validate_fmu(str(path)) == []
+    variables = {v.name: v for v in fmpy.read_model_description(str(path)).modelVariables}
+    assert variables["E_E"].causality == "input" and variables["E_E"].variability == "continuous"
+    assert variables["E_E"].unit == "V" and variables["R_Re"].causality == "parameter"
+    pieces = [(0.0, 0.005, 0.0), (0.005, 0.012, 2.3), (0.012, 0.02, -1.1)]
+    table = np.array([(t, value) for a, b, value in pieces for t in (a, b)], dtype=[("time", float), ("E_E", float)])
+    names = states(model)
+    out = fmpy.simulate_fmu(str(path), stop_time=0.02, output_interval=1e-4, relative_tolerance=1e-12, output=names,
+                            input=table)
+    start = dict.fromkeys(model.coordinate_names, 0.0)
+    at, rate, ran = dict(start), dict(start), []
+    for a, b, value in pieces:
+        inside = out["time"][(out["time"] > a + 1e-9) & (out["time"] < b - 1e-9)]
+        res = model.simulate((a, b), t_eval=[a, *inside, b], params={"E_E": value}, initial=at, velocity=rate,
+                             method="exact")
+        at = {n: float(res[n][-1]) for n in at}
+        rate = {n: float(res.velocity(n)[-1]) for n in rate}
+        ran.append((inside, {n: ours(res, n)[1:-1] for n in names}))
+    for n in names:
+        peak = max(np.max(np.abs(piece[n])) for _, piece in ran)
+        for inside, piece in ran:
+            theirs = out[n][np.isin(out["time"], inside)]
+            assert np.max(np.abs(theirs - piece[n]), initial=0.0) < 1e-8 * peak
+
+
+@pytest.mark.slow
+@needs_cc
+def test_a_co_simulation_fmu_holds_an_input_over_each_step(tmp_path):
+    """Co-simulation: the force FMPy sets at a communication point holds over the step, as a force given as a
+    number holds over a run (a 0.3 kg mass on a 40 N/m spring pushed by 1.7 N)."""
+    msd = lg.Model("msd")
+    msd.add("mass", "m", "p", m=0.3)
+    msd.add("spring", "k", ("ground", "p"), k=40.0)
+    msd.add("damper", "c", ("ground", "p"), c=0.5)
+    msd.add("force", "F", "p", F=0)
+    path = msd.to_fmu(tmp_path / "msd.fmu", kind="co-simulation")
+    assert validate_fmu(str(path)) == []
+    held = np.array([(0.0, 1.7), (2.0, 1.7)], dtype=[("time", float), ("F_F", float)])
+    out = fmpy.simulate_fmu(str(path), stop_time=2.0, output_interval=0.01, relative_tolerance=1e-12,
+                            output=["x_p", "x_p'"], input=held)
+    pushed = msd.simulate(2.0, t_eval=out["time"], params={"F_F": 1.7}, initial={"x_p": 0}, velocity={"x_p": 0},
+                          method="exact")
+    assert worst(out, pushed, ["x_p", "x_p'"]) < 1e-8
+
+
+@pytest.mark.slow
+@needs_cc
+def test_a_signal_that_fixes_a_coordinate_stays_a_parameter(tmp_path):
+    """In node fluxes a voltage source feeding an inductor enters through its node's flux (its integral), and a
+    prescribed motion enters with its rates: neither is an input (the FMU holds their values); a force on the same
+    model is."""
+    flux = lg.Model("flux", formulation="flux")
+    flux.add("voltage_source", "V1", ("n1", "0"), E=2.0)
+    flux.add("inductor", "L1", ("n1", "n2"), L=7e-3)  # its current is (λ_n1 − λ_n2)/L: the source's integral
+    flux.add("capacitor", "C1", ("n2", "0"), C=2.2e-6)
+    flux.add("resistor", "R1", ("n2", "0"), R=100.0)
+    moved = lg.Model("moved")
+    moved.add("mass", "m", "p", m=0.3)
+    moved.add("spring", "k", ("p", "b"), k=40.0)
+    moved.add("damper", "c", ("p", "b"), c=0.5)
+    moved.add("prescribed_motion", "x0", "b", position=0.1)
+    moved.add("force", "F", "p", F=0.2)
+    for model, inputs in ((flux, []), (moved, ["F_F"])):
+        path = model.to_fmu(tmp_path / f"{model.name}.fmu")
+        assert validate_fmu(str(path)) == []
+        variables = fmpy.read_model_description(str(path)).modelVariables
+        assert [v.name for v in variables if v.causality == "input"] == inputs
+    assert "E_V1" in {v.name for v in fmpy.read_model_description(str(tmp_path / "flux.fmu")).modelVariables}

@@ -27,6 +27,7 @@ from sympy.core.function import AppliedUndef
 from ..base.component import GROUND, t
 from ..base.domain import Context
 from ..base.units import coordinate_unit
+from ..derivation.assembly import driven
 from ..derivation.calculus import atoms_of
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -46,16 +47,12 @@ def _with_inputs(model: Model, inputs: Sequence[str] | None) -> tuple[Model, dic
     chosen = _chosen(model, inputs)
     if not chosen:  # nothing to drive: the model itself (a reduced or derived model keeps its own equations)
         return model, {}
-    twin = Model(model.name, registry=model.registry, **model._options)
-    twin._graph.declared = list(model._graph.declared)
+    twin, functions = driven(model, chosen)
     channels: dict[Any, tuple[str, int, Any]] = {}
-    for comp in model.components.values():
-        if comp.name in chosen:
-            pname, index, label = chosen[comp.name]
-            original = comp.params[pname]
-            comp, function = comp.with_input(pname, f"w_{comp.name}", index)
-            channels[function] = (label, len(channels), original if index is None else original[index])
-        twin._graph.add(comp)
+    for name in functions:  # in the model's order of components
+        pname, index, label = chosen[name]
+        original = model.components[name].params[pname]
+        channels[functions[name]] = (label, len(channels), original if index is None else original[index])
     return twin, channels
 
 

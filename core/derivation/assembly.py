@@ -24,7 +24,7 @@ from ..base.identity import is_zero
 from ..base.network import check_topology
 from ..plugin.registry import Registry
 
-__all__ = ["Assembly", "Elimination", "assemble", "refuse_eliminated"]
+__all__ = ["Assembly", "Elimination", "assemble", "driven", "refuse_eliminated"]
 
 
 @dataclass
@@ -178,6 +178,21 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     valued = None if all(view is comp for comp, view in zip(components, symbolic)) else \
         functools.partial(_views, graph, registry, options, components, None)  # (a partial, not a closure: it pickles)
     return Assembly(coordinates, views, contributions, signals, generic, values, valued, eliminated)
+
+
+def driven(model: Any, chosen: Mapping[str, tuple[str, int | None]]) -> tuple[Any, dict[str, Any]]:
+    """A copy of ``model`` (a :class:`lagrangian.Model`: the copy is built by its own type) whose components named
+    in ``chosen`` carry an input on a signal parameter, ``{name: (parameter, index or None, ...)}``
+    (:meth:`lagrangian.Component.with_input`); returns the copy and each name's input function ``w``."""
+    twin = type(model)(model.name, registry=model.registry, **model._options)
+    twin._graph.declared = list(model._graph.declared)
+    functions: dict[str, Any] = {}
+    for comp in model.components.values():
+        if comp.name in chosen:
+            pname, index = chosen[comp.name][:2]
+            comp, functions[comp.name] = comp.with_input(pname, f"w_{comp.name}", index)
+        twin._graph.add(comp)
+    return twin, functions
 
 
 def _views(graph: ComponentGraph, registry: Registry, options: Mapping[str, Any], components: list[Component],

@@ -8,7 +8,9 @@ the DOP853 loop in C that ``Model.simulate`` runs by default, at the experiment'
 - ``modelDescription.xml`` — the states (the coordinates by name, ``theta_j1``, and the rates of those with
   inertia as results name them, ``theta_j1'``; outputs, ``initial="exact"``), their derivatives
   (``der(theta_j1)``, ``der(theta_j1')``), and the parameters by their ``parameter_values`` names (tunable,
-  with units where the component declares one);
+  with units where the component declares one), except the signals of sources and loads given as numbers
+  (``E_V1``, ``F_F``), which are continuous inputs (``causality="input"``) that the importing tool may change at
+  any time (see :func:`_inputs` for which signals qualify);
 - ``binaries/<platform>/<modelIdentifier>.<so|dylib|dll>`` — built here by the C compiler models use;
 - ``sources/<modelIdentifier>.c`` — the one C file of that library, so that other platforms build it (``cc
   -shared -fPIC <id>.c -lm``; define ``FMI2_FUNCTION_PREFIX`` to prefix the fmi2 functions).
@@ -22,8 +24,9 @@ nothing but the C library and ``libm``.  Names enter the C only through
 compiled-code cache (keyed by its source), so exporting a model again compiles nothing.
 
 Refused by name (:class:`~lagrangian.ModelError`), as not built yet: constraints (loop closures,
-rolling: their consistent start is not checked by the FMU) and constraints on velocities, inputs that switch in
-time (pulses, steps: they need time events), stick–slip friction (events), and signals or loads given as Python
+rolling: their consistent start is not checked by the FMU) and constraints on velocities, signals that switch in
+time (pulses, steps: they need time events; give such a source as a number instead, and the importing tool switches
+the input), stick–slip friction (events), and signals or loads given as Python
 callables (C cannot call them).
 """
 
@@ -42,7 +45,9 @@ from pathlib import Path
 
 import sympy as sp
 
+from ..base.component import t
 from ..base.units import coordinate_unit
+from ..derivation.assembly import driven
 from ..errors import ModelError
 from .c_build import _cache, _key, _libraries, compiler
 from .c_dop853 import dop853_source
@@ -141,7 +146,8 @@ def _refuse(model, kind: str) -> None:
     if switches:
         raise ModelError(f"to_fmu: model {name!r} has inputs that switch in time ({', '.join(map(str, switches[:3]))}"
                          f"{', ...' if len(switches) > 3 else ''}), which need time events, not in FMUs yet; give "
-                         f"smooth inputs (constants, sin(t), ...) or run it with Model.simulate.")
+                         f"smooth signals (constants, sin(t), ...), or give the source a number: it is then an FMU input that the "
+                         f"importing tool switches; or run it with Model.simulate.")
     if len(eq.velocity_constraints):
         owners = sorted(set(eq.velocity_owners))
         raise ModelError(f"to_fmu: model {name!r} has constraints on velocities (nonholonomic: "
@@ -186,6 +192,7 @@ class _Variables:
         self.values = [_number(values[p], f"parameter {p!r}") for p in self.parameters]
         self.slots = [self.parameters.index(s.name) for s in self.symbols]  # the variable of each P[k]
         self.owners = [model._declared_unit(p) for p in self.parameters]
+        self.inputs = _inputs(model, self.parameters, self.owners)
 
     @staticmethod
     def _rates(eq, units):
@@ -197,6 +204,34 @@ class _Variables:
     @property
     def nx(self) -> int:
         return len(self.states)
+
+
+def _inputs(model, parameters: list[str], owners: list[tuple[str, str, str]]) -> set[str]:
+    """The parameters that are the FMU's inputs: the scalar signal of a source or load given as a number (``E`` of a
+    voltage source, ``F`` of a force, ``tau`` of a torque) that the equations read only as its present value.
+
+    That is decided on the equations of a copy of the model in which each such signal is its value plus the rate of
+    an input function ``w`` (:func:`lagrangian.derivation.assembly.driven`): an input is one whose ``w`` enters
+    only as ``ẇ``.  A prescribed motion (its rates enter too) and a source whose integral fixes a coordinate
+    (``w`` itself enters: a voltage source in node fluxes) stay tunable parameters, whose value is held."""
+    chosen = {}
+    for p, (owner, pname, _) in zip(parameters, owners):
+        comp = model.components.get(owner)
+        spec = comp.parameters.get(pname) if comp is not None else None
+        if spec is not None and spec.shape == "signal" and not isinstance(comp.params.get(pname), sp.MatrixBase):
+            chosen[owner] = (pname, None, p)
+    if not chosen:
+        return set()
+    twin, functions = driven(model, chosen)
+    g = twin.eq._generic
+    exprs = [*g["M"], *g["f"], *g["constraints"], *g["velocity_constraints"]]
+    found = set()
+    for name, w in functions.items():
+        u = sp.Dummy("u")
+        rest = [e.xreplace({sp.Derivative(w(t), t): u}) for e in exprs if e.has(w)]
+        if rest and not any(e.has(w) for e in rest):
+            found.add(chosen[name][2])
+    return found
 
 
 def _description(model, v: _Variables, guid: str, identifier: str, source_name: str, kind: str) -> str:
@@ -222,8 +257,9 @@ def _description(model, v: _Variables, guid: str, identifier: str, source_name: 
     for j, (name, value) in enumerate(zip(v.parameters, v.values)):
         owner, pname, declared = v.owners[j]
         about = f' description="{xml_text(f"{pname} of {owner}")}"' if owner != model.name else ""
-        rows.append(f'    <ScalarVariable name="{xml_text(name)}" valueReference="{2 * v.nx + j}" '
-                    f'causality="parameter" variability="tunable" initial="exact"{about}>'
+        role = ('causality="input" variability="continuous"' if name in v.inputs else
+                'causality="parameter" variability="tunable" initial="exact"')
+        rows.append(f'    <ScalarVariable name="{xml_text(name)}" valueReference="{2 * v.nx + j}" {role}{about}>'
                     f'<Real start="{value}"{unit(declared)}/></ScalarVariable>')
     unit_rows = [f'    <Unit name="{xml_text(name)}"><BaseUnit '
                  + " ".join(f'{b}="{e}"' for b, e in zip(_BASE, exps) if e) + "/></Unit>"
