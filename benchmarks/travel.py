@@ -67,6 +67,16 @@ def _errors(cls):
     return out
 
 
+#: Builders that take arguments, called as their example calls them.
+_CALLED = {
+    "coupled_tanks_modes": [("tanks", ("charge",)), ("tanks", ("flux", 2e3))],
+    "impulses": [("rhombus", (0.3, 0.25))],
+    "isolator_transmissibility": [("isolator", (0.3,))],
+    "pendulums": [("simple_pendulum", (0.8,)), ("chain", (5,))],
+    "solenoid": [("plunger", ("flux",))],
+}
+
+
 def _builders():
     """Every model the project ships to try: ``lagrangian.models``, the examples' builders, the examples' netlists."""
     out = {f"models.{name}": getattr(models, name) for name in models.__all__ if name != "rlc_ladder"}
@@ -83,6 +93,8 @@ def _builders():
             returns = str(signature.return_annotation)
             if "Model" in returns and all(p.default is not p.empty for p in signature.parameters.values()):
                 out[f"{path.stem}.{name}"] = fn
+        for name, args in _CALLED.get(path.stem, ()):  # builders the example calls with arguments
+            out[f"{path.stem}.{name}{args}"] = (lambda fn=getattr(module, name), args=args: fn(*args))
     from lagrangian.circuits.netlist import read_netlist_file
 
     for path in sorted(EXAMPLES.glob("*.cir")):

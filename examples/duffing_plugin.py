@@ -15,9 +15,17 @@ import lagrangian as lg
 
 print(lg.default_registry().describe())
 k, k3, mass = 1.0, 0.5, 1.0
-m = lg.Model("duffing")
-m.add("mass", "m", "p", m=mass)
-m.add("cubic_spring", "s", ("ground", "p"), k=k, k3=k3)
+
+
+def duffing() -> lg.Model:
+    """A mass on the plugin's cubic spring."""
+    m = lg.Model("duffing")
+    m.add("mass", "m", "p", m=mass)
+    m.add("cubic_spring", "s", ("ground", "p"), k=k, k3=k3)
+    return m
+
+
+m = duffing()
 print(m.describe())
 for A in (0.1, 1.0, 2.0):
     V = lambda x: k * x**2 / 2 + k3 * x**4 / 4  # noqa: E731

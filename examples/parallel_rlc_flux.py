@@ -13,11 +13,19 @@ import sympy as sp
 import lagrangian as lg
 
 R, L, C, W = 2.0, 1.0, 0.5, 1.2
-m = lg.Model("parallel RLC", formulation="flux")
-m.add("current_source", "I1", ("0", "n1"), I=sp.sin(W * lg.t))  # drives 1 A peak into n1
-m.add("resistor", "R1", ("n1", "0"), R=R)
-m.add("inductor", "L1", ("n1", "0"), L=L)
-m.add("capacitor", "C1", ("n1", "0"), C=C)
+
+
+def circuit() -> lg.Model:
+    """The parallel RLC in node flux linkages, driven by 1 A peak at W rad/s."""
+    m = lg.Model("parallel RLC", formulation="flux")
+    m.add("current_source", "I1", ("0", "n1"), I=sp.sin(W * lg.t))  # drives 1 A peak into n1
+    m.add("resistor", "R1", ("n1", "0"), R=R)
+    m.add("inductor", "L1", ("n1", "0"), L=L)
+    m.add("capacitor", "C1", ("n1", "0"), C=C)
+    return m
+
+
+m = circuit()
 print(m.describe())
 res = m.simulate(60, initial={"lambda_n1": 0}, velocity={"lambda_n1": 0}, points=6001)
 v = res.velocity("lambda_n1")

@@ -12,11 +12,19 @@ import sympy as sp
 
 import lagrangian as lg
 
-m = lg.Model("two-mass chain")
-m.add("mass", "m1", "a", m=1.0)
-m.add("mass", "m2", "b", m=1.0)
-m.add("spring", "k1", ("ground", "a"), k=1.0)
-m.add("spring", "k2", ("a", "b"), k=1.0)
+
+
+def chain() -> lg.Model:
+    """The chain, unit masses and stiffnesses."""
+    m = lg.Model("two-mass chain")
+    m.add("mass", "m1", "a", m=1.0)
+    m.add("mass", "m2", "b", m=1.0)
+    m.add("spring", "k1", ("ground", "a"), k=1.0)
+    m.add("spring", "k2", ("a", "b"), k=1.0)
+    return m
+
+
+m = chain()
 print(m.describe())
 
 q = [sp.Symbol(f"q_{n}", real=True) for n in m.coordinate_names]

@@ -97,6 +97,11 @@ def test_ordinary_text_reads_as_written():
     assert parse_expression("Abs(x) + ln(k) + max(x, k)", "e") == sp.Abs(x) + sp.log(k) + sp.Max(x, k)
     force = oscillator().add("force", "F", "p", F="0.5*cos(3*t)")
     assert force.F == sp.Float(0.5) * sp.cos(3 * t)
+    pulse = sp.Piecewise((0, t <= 1e-3), (2.5, (sp.Mod(t, 0.02) < 0.01) & ~(t > 1)), (x, True))
+    assert parse_expression("Piecewise((0, t <= 1e-3), (2.5, (Mod(t, 0.02) < 0.01) & ~(t > 1)), (x, True))",
+                            "e") == pulse
+    assert parse_expression("Piecewise((1, (t >= 2) | (t < 1)), (0, True))", "e") == \
+        sp.Piecewise((1, (t >= 2) | (t < 1)), (0, True))
 
 
 @pytest.mark.parametrize("text, why", [
@@ -115,6 +120,13 @@ def test_ordinary_text_reads_as_written():
     ("'text'", "not a number"),
     ("", "empty"),
     ("1 +", "cannot read"),
+    ("Piecewise(1, 2)", "takes pairs"),
+    ("Piecewise((1, t == 2))", "'t == 2' is not a condition"),
+    ("Piecewise((1, 0 < t < 3))", "is not a condition"),
+    ("Piecewise((1, t < 2 and t > 1))", "is not a condition"),
+    ("Piecewise((1, __import__('os')))", "is not a condition"),
+    ("Piecewise((open('x'), True))", "'open' is not a function"),
+    ("Piecewise((1, t > 1), (2, t < 3), key=0)", "takes pairs"),
 ])
 def test_what_an_expression_may_not_hold_is_named(text, why):
     with pytest.raises(lg.ExpressionError, match=why):

@@ -161,6 +161,9 @@ class _Printer(StrPrinter):
     def _print_Derivative(self, expr):
         return self.writer.state(expr)
 
+    def _print_Piecewise(self, expr):
+        return "Piecewise(" + ", ".join(f"({self._print(e)}, {self._print(c)})" for e, c in expr.args) + ")"
+
     def _print_Function(self, expr):
         name = type(expr).__name__
         if FUNCTIONS.get(name) is not type(expr):

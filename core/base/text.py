@@ -4,8 +4,10 @@ Parameters, momenta, impulses and quantities may be given as strings
 (``"0.3"``, ``"k*x**2/2"``, ``"1e-3*sin(2*pi*50*t)"``).  They come from
 users, files and colleagues' netlists, so they are *data*: this module
 reads them with Python's parser into a syntax tree and builds the SymPy
-expression from a whitelist — numbers, names, ``+ - * / **``, unary signs
-and calls of the functions in :data:`FUNCTIONS`.  Nothing in the text is
+expression from a whitelist — numbers, names, ``+ - * / **``, unary signs,
+calls of the functions in :data:`FUNCTIONS`, and ``Piecewise((value,
+condition), ...)`` whose conditions compare expressions (``< <= > >=``),
+combined with ``& | ~`` and ``True`` (as SymPy writes a pulse).  Nothing in the text is
 evaluated by Python (no ``eval``, no ``sympify`` of the string), and sizes
 are bounded: the text's length, its nesting, and powers of numbers whose
 value would not fit in a float.
@@ -45,9 +47,14 @@ FUNCTIONS: dict[str, Any] = {
     **{name: getattr(sp, name) for name in (
         "sin", "cos", "tan", "cot", "sec", "csc", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
         "asinh", "acosh", "atanh", "exp", "log", "sqrt", "Abs", "sign", "floor", "ceiling", "Heaviside",
-        "Min", "Max", "erf", "erfc")},
+        "Min", "Max", "erf", "erfc", "Mod")},
     "abs": sp.Abs, "ln": sp.log, "min": sp.Min, "max": sp.Max,
 }
+
+#: Comparisons a condition of ``Piecewise`` may make, and how conditions combine (``&``, ``|``, ``~``, as SymPy
+#: writes them).
+_COMPARE = {ast.Lt: sp.StrictLessThan, ast.LtE: sp.LessThan, ast.Gt: sp.StrictGreaterThan, ast.GtE: sp.GreaterThan}
+_LOGIC = {ast.BitAnd: sp.And, ast.BitOr: sp.Or}
 
 #: The time symbol (``lagrangian.t``; SymPy symbols of one name and assumptions are one symbol).
 _TIME = sp.Symbol("t", real=True)
@@ -78,7 +85,7 @@ def parse_expression(text: str, what: str, *, names: Mapping[str, sp.Basic] | No
     except (SyntaxError, ValueError, MemoryError, RecursionError) as exc:
         detail = exc.msg if isinstance(exc, SyntaxError) else type(exc).__name__
         raise ExpressionError(f"{what}: cannot read {_short(text)} as an expression ({detail}).") from None
-    return _Reader(what, dict(names or {})).read(tree.body, 0)
+    return _Reader(what, dict(names or {}), text.strip()).read(tree.body, 0)
 
 
 def as_expr(value: Any, what: str, *, names: Mapping[str, sp.Basic] | None = None) -> sp.Expr:
@@ -135,8 +142,8 @@ def _short(text: str, width: int = 60) -> str:
 
 
 class _Reader:
-    def __init__(self, what: str, names: dict):
-        self.what, self.names = what, names
+    def __init__(self, what: str, names: dict, source: str = ""):
+        self.what, self.names, self.source = what, names, source
 
     def refuse(self, message: str):
         raise ExpressionError(f"{self.what}: {message}; write numbers, names, + - * / ** and known functions only.")
@@ -148,8 +155,10 @@ class _Reader:
             value = node.value
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 self.refuse(f"{value!r} is not a number")
-            if isinstance(value, float) and not math.isfinite(value):
-                raise ExpressionError(f"{self.what}: the number {value!r} is not finite.")
+            if isinstance(value, float) and not math.isfinite(value):  # 1e400: Python reads it as inf
+                written = ast.get_source_segment(self.source, node) or repr(value)
+                raise ExpressionError(f"{self.what}: the number {_short(written, 40)} is not finite: it is beyond a "
+                                      f"float's range (±1.8e308); write a smaller number, or the value in larger units.")
             return sp.Integer(value) if isinstance(value, int) else sp.Float(value)
         if isinstance(node, ast.Name):
             if node.id in self.names:
@@ -167,8 +176,13 @@ class _Reader:
         if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
             a, b = self.read(node.left, depth + 1), self.read(node.right, depth + 1)
             return _BINARY[type(node.op)](a, b)
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.BitXor):  # 2^10: Python's exclusive or
+            self.refuse(f"'^' is not a power in an expression ({_short(_unparsed(node))}): write ** for a power, "
+                        f"as in {_short(_unparsed(node).replace(' ^ ', '**'))}")
         if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
             return self.power(self.read(node.left, depth + 1), self.read(node.right, depth + 1))
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "Piecewise":
+            return self.piecewise(node, depth)
         if isinstance(node, ast.Call):
             func = node.func.id if isinstance(node.func, ast.Name) else None
             if func is None or func not in FUNCTIONS:
@@ -190,6 +204,33 @@ class _Reader:
                 raise ExpressionError(f"{self.what}: {func}({', '.join(map(str, args))}) is beyond a float's range.")
             return value
         self.refuse(f"{_short(_unparsed(node))} is not allowed")
+
+    def piecewise(self, node: ast.Call, depth: int) -> sp.Expr:
+        """``Piecewise((value, condition), ...)``: each argument a pair, the conditions read by :meth:`condition`."""
+        pairs = node.args
+        if node.keywords or not pairs or not all(isinstance(a, ast.Tuple) and len(a.elts) == 2 for a in pairs):
+            self.refuse("Piecewise() takes pairs (value, condition), as Piecewise((0, t < 1), (1, True))")
+        pieces = [(self.read(a.elts[0], depth + 2), self.condition(a.elts[1], depth + 2)) for a in pairs]
+        try:
+            return sp.Piecewise(*pieces)
+        except (TypeError, ValueError) as exc:
+            raise ExpressionError(f"{self.what}: Piecewise() cannot take these pieces ({exc}).") from None
+
+    def condition(self, node: ast.AST, depth: int) -> sp.Basic:
+        """A condition of ``Piecewise``: ``True``, ``False``, one comparison, or conditions joined by ``& | ~``."""
+        if depth > MAX_DEPTH:
+            raise ExpressionError(f"{self.what}: the expression nests deeper than {MAX_DEPTH} levels.")
+        if isinstance(node, ast.Constant) and isinstance(node.value, bool):
+            return sp.true if node.value else sp.false
+        if isinstance(node, ast.Compare) and len(node.ops) == 1 and type(node.ops[0]) in _COMPARE:
+            left, right = self.read(node.left, depth + 1), self.read(node.comparators[0], depth + 1)
+            return _COMPARE[type(node.ops[0])](left, right)
+        if isinstance(node, ast.BinOp) and type(node.op) in _LOGIC:
+            return _LOGIC[type(node.op)](self.condition(node.left, depth + 1), self.condition(node.right, depth + 1))
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Invert):
+            return sp.Not(self.condition(node.operand, depth + 1))
+        self.refuse(f"{_short(_unparsed(node))} is not a condition (one comparison with < <= > >=, True, or "
+                    f"conditions joined by & | ~)")
 
     def power(self, base: sp.Expr, exponent: sp.Expr) -> sp.Expr:
         """``base**exponent``; numbers only when the value fits a float (``9**9**9`` is refused, not computed)."""
