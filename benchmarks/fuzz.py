@@ -2,7 +2,7 @@
 
 Each case is drawn from a seeded generator of structured random input
 (``random.Random`` seeded with ``"<seed>:<index>"``, so a case is
-reproduced from its seed and index alone) in one of three families:
+reproduced from its seed and index alone) in one of four families:
 
 - ``model``: a model built through the public API (``Model(name, **options)``
   and ``model.add(kind, name, nodes, **params)``), starting from the example
@@ -22,6 +22,11 @@ reproduced from its seed and index alone) in one of three families:
   expressions, metacharacters, very long lines), then a short run of what
   was read, its netlist written back and read again, and rarely that
   netlist run in ngspice.
+- ``sizes``: sizes and exponents input can ask for: frequency grids
+  (``frequency.decades``, ``frequency.sweep``, a netlist's ``.ac`` line)
+  with counts over decades up to 1e15 and non-counts, unit strings with
+  towers of powers and numbers beyond a float (through ``add``,
+  ``initial`` and ``params``), netlists of up to 250,000 elements.
 - ``signal``: expression text from a small grammar (known and unknown
   functions, singular points, huge numbers, payloads) read by
   ``lagrangian.text`` and used as a force or source in a short run and a
@@ -99,8 +104,8 @@ def lib(name: str):
     raise ModuleNotFoundError(f"no module of the library provides {name!r} (tried {', '.join(MODULES[name])})")
 
 
-FAMILIES = ("model", "netlist", "signal")
-WEIGHTS = (0.55, 0.33, 0.12)
+FAMILIES = ("model", "netlist", "signal", "sizes")
+WEIGHTS = (0.5, 0.3, 0.12, 0.08)
 
 # --------------------------------------------------------------------------------------------------
 # Untrusted text: metacharacters and payloads.  ``M`` is the marker path each payload tries to create.
@@ -750,7 +755,39 @@ def draw_signal(rng: random.Random, m: str, *, heavy: bool = True) -> dict:
             "t_end": rng.choice([0.1, 0.5, 1.0]), "netlist": rng.random() < 0.5}
 
 
-DRAW = {"model": draw_model, "netlist": draw_netlist, "signal": draw_signal}
+def _count(rng: random.Random) -> Any:
+    """A count as input gives it: ordinary, over decades up to 1e15, or not a count at all."""
+    return rng.choice([rng.randint(1, 200), int(10 ** rng.uniform(0, 15)), 10 ** rng.uniform(0, 15), 0, -3,
+                       "1e12", float("nan"), float("inf"), True, 2**70])
+
+
+def unit_text(rng: random.Random) -> str:
+    """A value with a unit, whose number may be a tower of powers or beyond a float."""
+    exponent = rng.choice(["9", "9^9", "9^9^9", "10^10^10", "2**64", "(-2)^0.5", "-400", "1024", "1025", "0.5",
+                           "3**3**3", f"{rng.randint(-5, 5)}"])
+    number = rng.choice(["1", "1e400", "1e308", "0.3", "-2", "1e-320", "10"])
+    unit = rng.choice(["kg", "m", "N/m", "kg*m^2", "mH", "V", "1/s", "kΩ"])
+    op = rng.choice(["^", "**"])
+    return rng.choice([f"{number} {unit}*{rng.choice(['9', '10'])}{op}{exponent}", f"{number} {unit}",
+                       f"{number}{op}{exponent} {unit}", f"{number} {unit}{op}{exponent}"])
+
+
+def draw_sizes(rng: random.Random, m: str, *, heavy: bool = True) -> dict:
+    """Sizes and exponents from input: frequency grids (API, ``.ac`` lines), unit strings (``add``, ``initial``,
+    ``params``), netlists of many elements."""
+    where = rng.choice(["decades", "sweep", "ac-line", "units-add", "units-initial", "units-params", "elements"])
+    case = {"family": "sizes", "marker": m, "where": where}
+    if where in ("decades", "sweep", "ac-line"):
+        case.update(points=_jsonable(_count(rng)), kind=rng.choice(["dec", "oct", "lin", "log", "dec"]),
+                    start=rng.choice([1e-3, 1.0, 10.0, 0.0, -1.0]), stop=rng.choice([1e6, 1e3, 1e300, 2.0]))
+    elif where.startswith("units"):
+        case["text"] = unit_text(rng)
+    else:
+        case["count"] = rng.choice([10, 300, 3000, 250_000])
+    return case
+
+
+DRAW = {"model": draw_model, "netlist": draw_netlist, "signal": draw_signal, "sizes": draw_sizes}
 
 
 def draw_case(seed: int, index: int, workdir: str, *, heavy: bool = True) -> dict:
@@ -891,7 +928,9 @@ def _coord_text(text: Any, model) -> Any:
 
 #: The evaluation budget of every run, as a service running models it did not write would set it: a legitimate
 #: run of 3e8 evaluations (a 1e-12 kg mass on a 137 N/m spring for 0.7 s) takes minutes, and is refused at its pace.
-BUDGET = 1e7
+#: A run stepped in Python (Radau, LSODA) pays up to about 0.1 ms per evaluation with its Jacobians, so the budget
+#: keeps every legal run within the case's time limit: what still passes the limit is a hang of the library's own.
+BUDGET = 1e5
 
 
 def simulate(model, action: dict, stats: Stats):
@@ -970,14 +1009,47 @@ def run_signal(case: dict, stats: Stats) -> None:
         if _attempt(stats, "add", model.add, kind, "S", nodes, **{pname: text}) is None:
             return
     res = _attempt(stats, "simulate", model.simulate, case["t_end"], points=5, method=case["method"],
-                   compiled=case["compiled"], initial={model.coordinate_names[0]: 0.1})
+                   compiled=case["compiled"], initial={model.coordinate_names[0]: 0.1}, max_evaluations=BUDGET)
     if where == "quantity" and res is not None:
         _attempt(stats, "quantity", res.quantity, text)
     if case["netlist"] and where in ("voltage", "current"):
         _attempt(stats, "netlist", lib("spice").netlist, model, t_end=case["t_end"])
 
 
-RUN = {"model": run_model, "netlist": run_netlist, "signal": run_signal}
+def run_sizes(case: dict, stats: Stats) -> None:
+    import lagrangian as lg
+    from lagrangian import frequency
+
+    read_netlist = lib("netlist").read_netlist
+    where = case["where"]
+    if where == "decades":
+        _attempt(stats, "decades", frequency.decades, case["start"] or 1.0, case["stop"], decode(case["points"]))
+    elif where == "sweep":
+        _attempt(stats, "sweep", frequency.sweep, case["kind"], decode(case["points"]), case["start"], case["stop"])
+    elif where == "ac-line":
+        points = decode(case["points"])
+        deck = (f"sizes\nV1 in 0 DC 0 AC 1\nR1 in out 1k\nC1 out 0 1u\n.ac {case['kind']} {points} "
+                f"{case['start']:g} {case['stop']:g}\n.end\n")
+        net = _attempt(stats, "read", read_netlist, deck)
+        if net is not None and net.ac is not None:
+            _attempt(stats, "ac", net.frequency_response)
+    elif where == "elements":
+        lines = ["many", "V1 a 0 DC 1", *(f"R{i} a 0 1k" for i in range(case["count"])), ".tran 1u 10u", ".end"]
+        net = _attempt(stats, "read", read_netlist, "\n".join(lines))
+        if net is not None and case["count"] <= 300:
+            _attempt(stats, "simulate", net.simulate, 1e-5, points=3, max_evaluations=BUDGET)
+    else:
+        model = lg.Model("units")
+        given = case["text"] if where == "units-add" else 0.3
+        if _attempt(stats, "add", model.add, "mass", "m", "p", m=given) is None:
+            return
+        model.add("spring", "k", ("ground", "p"), k=40.0)
+        run = {"units-initial": {"initial": {"x_p": case["text"]}}, "units-params": {"params": {"m_m": case["text"]}},
+               "units-add": {}}[where]
+        _attempt(stats, "simulate", model.simulate, 0.1, points=3, max_evaluations=BUDGET, **run)
+
+
+RUN = {"model": run_model, "netlist": run_netlist, "signal": run_signal, "sizes": run_sizes}
 
 
 class Hang(BaseException):
@@ -1051,7 +1123,15 @@ def check(case: dict, limit: float) -> tuple[dict | None, Stats]:
 _WORKER: dict[str, Any] = {}
 
 
+#: Address space of a worker: an allocation beyond it is a MemoryError, counted as unexpected (a size the library
+#: did not bound), not a machine brought down.
+WORKER_MEMORY = 6 * 2**30
+
+
 def _init_worker(workdir: str, heavy: bool) -> None:
+    import resource
+
+    resource.setrlimit(resource.RLIMIT_AS, (WORKER_MEMORY, resource.getrlimit(resource.RLIMIT_AS)[1]))
     os.dup2(2, 1)  # anything a library prints goes to stderr: stdout is the report's
     logging.getLogger("lagrangian").setLevel(logging.ERROR)
     logging.getLogger("PySpice").setLevel(logging.CRITICAL)
