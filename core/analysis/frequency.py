@@ -42,14 +42,17 @@ C*s/(C*L*s**2 + C*R*s + 1)
 
 from __future__ import annotations
 
+import decimal
 import math
-from collections.abc import Sequence
+import numbers
+from collections.abc import Iterator, Mapping, Sequence, Set
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import sympy as sp
 
+from ..base.limits import refuse
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from . import control as _control
@@ -80,30 +83,72 @@ def sweep(kind: str, points: int, start: float, stop: float) -> np.ndarray:
     ``floor(points × decades)`` equal ratios from ``start`` to ``stop``, both included; for ``"oct"``, the ratio
     ``2^(1/points)`` from ``start`` while not past ``stop``; for ``"lin"``, ``points`` equally spaced.
 
+    A grid of more than :data:`lagrangian.limits.grid_points <lagrangian.limits>` frequencies is refused before it
+    is made (:func:`sweep_size`).
+
     >>> sweep("dec", 7, 3, 20e3)[:3].round(4).tolist()    # 26 steps of (20000/3)^(1/26)
     [3.0, 4.2092, 5.9057]
     >>> sweep("lin", 3, 10, 30).tolist()
     [10.0, 20.0, 30.0]
     """
-    try:
-        start, stop = float(start), float(stop)
-        whole = int(points) if float(points) == int(points) else None
-    except (TypeError, ValueError, OverflowError):
-        raise ModelError(f"a sweep takes a count and two frequencies, got {points!r}, {start!r}, {stop!r}.") from None
+    size = sweep_size(kind, points, start, stop)
+    whole, start, stop = _count(points, f"a {kind} sweep"), float(start), float(stop)
+    if kind == "lin":
+        return np.linspace(start, stop, size)
+    if kind == "oct":  # a ratio of 2^(1/points) from start, up to stop
+        return start * 2.0 ** (np.arange(size) / whole)
+    if size == 1:
+        return np.array([start])
+    return start * np.exp(math.log(stop / start) * np.arange(size) / (size - 1))
+
+
+def sweep_size(kind: str, points: Any, start: Any, stop: Any, what: str | None = None) -> int:
+    """How many frequencies :func:`sweep` gives for these arguments, which are checked as it checks them; a grid of
+    more than :data:`lagrangian.limits.grid_points <lagrangian.limits>` is refused (``what`` names the request in
+    the message; by default the sweep).
+
+    >>> sweep_size("dec", 10, 1, 1e6), sweep_size("oct", 2, 1, 8), sweep_size("lin", 5, 1, 2)
+    (61, 7, 5)
+    """
     if kind not in ("dec", "oct", "lin"):
         raise ModelError(f"a sweep is 'dec', 'oct' or 'lin', not {kind!r}.")
-    if not (0 < start <= stop < math.inf) or whole is None or whole < 1 or (kind != "lin" and start == stop):
-        raise ModelError(f"a {kind} sweep needs 0 < start < stop (finite) and a whole number of points ≥ 1, "
-                         f"got {start!r}, {stop!r}, {points!r}.")
+    per = {"dec": " per decade", "oct": " per octave", "lin": ""}[kind]
+    what = what or f"a {kind} sweep of {points!r:.30} points{per} from {start!r:.30} to {stop!r:.30} Hz"
+    whole = _count(points, what)
+    ends = []
+    for end in (start, stop):
+        if isinstance(end, (bool, np.bool_, str, bytes)) or not isinstance(end, numbers.Real):
+            raise ModelError(f"{what}: the start and stop frequencies are numbers of Hz, got {end!r:.40} of type "
+                             f"{type(end).__name__}.")
+        try:
+            ends.append(float(end))
+        except OverflowError:  # an int beyond a float
+            ends.append(math.inf)
+    start, stop = ends
+    if not (0 < start <= stop < math.inf) or (kind != "lin" and start == stop):
+        raise ModelError(f"{what}: a {kind} sweep needs 0 < start {'≤' if kind == 'lin' else '<'} stop, both finite, "
+                         f"got start={start!r}, stop={stop!r}.")
     if kind == "lin":
-        return np.linspace(start, stop, whole) if whole > 1 else np.array([start])
-    span = math.log(stop / start)
-    steps = int(math.floor(whole * span / math.log(10.0 if kind == "dec" else 2.0) + 1e-9))
-    if kind == "oct":  # a ratio of 2^(1/points) from start, up to stop
-        return start * 2.0 ** (np.arange(steps + 1) / whole)
-    if steps < 1:
-        return np.array([start])
-    return start * np.exp(span * np.arange(steps + 1) / steps)
+        refuse(what, whole, "grid_points")
+        return whole
+    steps = whole * math.log(stop / start) / math.log(10.0 if kind == "dec" else 2.0) + 1e-9  # inf for 10**400
+    refuse(what, math.floor(steps) + 1 if math.isfinite(steps) else steps, "grid_points")
+    return max(int(math.floor(steps)), 0) + 1
+
+
+def _count(points: Any, what: str) -> int:
+    """``points`` as a whole number ≥ 1 (an int, or a float with a whole value: ``1e3``); bools, text, fractions,
+    nan and infinities are refused, naming ``what``."""
+    whole = None
+    if isinstance(points, numbers.Integral) and not isinstance(points, (bool, np.bool_)):
+        whole = int(points)
+    elif isinstance(points, numbers.Real) and not isinstance(points, (bool, np.bool_)):
+        value = float(points)
+        whole = int(value) if math.isfinite(value) and value == int(value) else None
+    if whole is None or whole < 1:
+        raise ModelError(f"{what}: the number of points must be a whole number ≥ 1, got {points!r:.40} of type "
+                         f"{type(points).__name__} (e.g. 20).")
+    return whole
 
 
 # ---------------------------------------------------------------------------
@@ -496,9 +541,7 @@ def frequency_response(system: Model | LinearModel, frequencies: Any, *, inputs:
                        outputs: Sequence[Any] | None = None, **kwargs: Any) -> FrequencyResponse:
     """``H(j 2π f)`` at ``frequencies`` (Hz) for every input and output (see :func:`linearize` for both and for
     ``kwargs``)."""
-    f = np.atleast_1d(np.asarray(frequencies, dtype=float)) if not isinstance(frequencies, str) else None
-    if f is None or f.ndim != 1 or not len(f) or not np.all(np.isfinite(f)) or np.any(f < 0):
-        raise ModelError(f"frequencies are a 1-D sequence of finite, non-negative numbers (Hz), got {frequencies!r:.80}.")
+    f = _frequencies(frequencies)
     lin = _linear(system, inputs, outputs, kwargs)
     H = _solve(lin, 2j * np.pi * f)
     notes = []
@@ -507,3 +550,53 @@ def frequency_response(system: Model | LinearModel, frequencies: Any, *, inputs:
         notes.append(f"not finite at {len(bad)} frequencies (a pole on the grid, first at {bad[0]:g} Hz)")
     return FrequencyResponse(lin.model, f, list(lin.inputs), list(lin.outputs), np.moveaxis(H, 0, -1), notes,
                              dict(lin.units))
+
+
+def _frequencies(frequencies: Any) -> np.ndarray:
+    """``frequencies`` (Hz) as a 1-D float array: one number or a sequence (a list, a tuple, an array) of real,
+    finite numbers ≥ 0 (0 Hz is DC).  Anything else is a :class:`~lagrangian.ModelError` saying what is wrong with
+    it: text, a mapping or a set (no order), an iterator (give a list), bools, complex numbers (frequencies are real:
+    ``H`` is evaluated at ``s = j 2π f``)."""
+    shown = f"{frequencies!r:.80}"
+    fix = "give a list or array of real numbers ≥ 0 (Hz), such as decades(1, 1e6, 20) or [0, 50, 1e3]"
+    if frequencies is None or isinstance(frequencies, (str, bytes, bytearray, Mapping, Set)):
+        what = "nothing" if frequencies is None else f"a {type(frequencies).__name__}"
+        raise ModelError(f"frequencies must be numbers of Hz, got {what} ({shown}): {fix}.")
+    if isinstance(frequencies, Iterator):  # read once, perhaps without end: never drawn from here
+        raise ModelError(f"frequencies must be a sequence, got an iterator ({shown}): give list(...) of it, or {fix}.")
+    try:
+        given = np.asarray(frequencies)
+    except (TypeError, ValueError, OverflowError) as exc:  # ragged lists, objects NumPy cannot hold
+        raise ModelError(f"frequencies must be a 1-D sequence of numbers of Hz, got {shown} ({type(exc).__name__}): "
+                         f"{fix}.") from None
+    if given.ndim > 1:
+        raise ModelError(f"frequencies must be a 1-D sequence of numbers of Hz, got an array of shape {given.shape}: "
+                         f"{fix}.")
+    kind = given.dtype.kind
+    if kind == "O":  # Python objects: each must be a real number (a Fraction, a SymPy number, a Decimal)
+        items = given.ravel().tolist()
+        bad = next((x for x in items if isinstance(x, (bool, np.bool_))
+                    or not isinstance(x, (numbers.Real, decimal.Decimal))), None)
+        if bad is not None or not items:
+            kind = "c" if isinstance(bad, numbers.Complex) and not isinstance(bad, (bool, np.bool_)) else "?"
+        else:
+            try:
+                given = np.array([float(x) for x in items], dtype=float)
+            except (TypeError, ValueError, OverflowError):  # a SymPy symbol, an int beyond a float
+                kind = "?"
+            else:
+                kind = "f"
+    if kind == "c":
+        raise ModelError(f"frequencies must be real numbers of Hz, got complex values ({shown}): the response is "
+                         f"evaluated at s = j·2π·f, so give f (real, ≥ 0), not s.")
+    if kind == "b":
+        raise ModelError(f"frequencies must be numbers of Hz, got bools ({shown}): {fix}.")
+    if kind not in "iuf":
+        raise ModelError(f"frequencies must be real numbers of Hz, got {shown}: {fix}.")
+    f = np.atleast_1d(given.astype(float))
+    if not f.size:
+        raise ModelError(f"frequencies must hold at least one frequency, got {shown}: {fix}.")
+    if not np.all(np.isfinite(f)) or np.any(f < 0):
+        bad = f[~(np.isfinite(f) & (f >= 0))][0]
+        raise ModelError(f"frequencies must be finite and ≥ 0 Hz, got {bad!r} in {shown}: {fix}.")
+    return f

@@ -56,6 +56,8 @@ True
 
 from __future__ import annotations
 
+import math
+import numbers
 import re
 import warnings
 from collections.abc import Mapping, Sequence
@@ -65,6 +67,8 @@ import numpy as np
 import sympy as sp
 
 from ..base import display
+from ..base.arguments import check_grid
+from ..base.limits import refuse
 from ..base.component import t
 from .derived import DerivedModel
 from ..derivation.equations import Equations, _is_zero
@@ -132,6 +136,9 @@ class Scene:
             raise ModelError("a scene needs at least one output (a coordinate name, 'E', 'T[m1]', an expression...).")
         if not (isinstance(tol, (int, float)) and 0 < tol < 1):
             raise ModelError(f"tol must be a number between 0 and 1, got {tol!r}.")
+        if t_eval is None and isinstance(points, numbers.Real) and not isinstance(points, (bool, np.bool_)) and (
+                isinstance(points, numbers.Integral) or math.isfinite(points)):
+            refuse("a scene's output times (points=)", points, "grid_points")  # before any work; the rest: check_grid
         # a model of point masses or rotors is pruned by its graph first: what the outputs cannot reach is never derived
         self.pruned = prune(model, outputs, events)
         self.full_model = model
@@ -145,7 +152,7 @@ class Scene:
         self.initial = dict(initial or {})
         self.velocity = dict(velocity or {})
         self.params = dict(params or {})
-        self.grid = np.linspace(*self.span, points) if t_eval is None else np.asarray(t_eval, dtype=float)
+        self.grid = check_grid(self.span, points, None) if t_eval is None else np.asarray(t_eval, dtype=float)
         if not any(reduce is v for v in (True, False)) and reduce != "auto":
             raise ModelError(f"reduce must be 'auto', True or False, not {reduce!r}.")
         self.reduce = reduce

@@ -23,6 +23,7 @@ Bounds are process-wide settings (like NumPy's print options): set them before s
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, fields, replace
 
@@ -43,6 +44,9 @@ class Limits:
     netlist_elements: int = 200_000
     #: the largest exponent a unit string or parameter text may raise to (``9^9^9`` is refused)
     exponent: int = 1024
+    #: bytes of compiled libraries kept in the cache directory (``lagrangian cache``): beyond it, the least
+    #: recently used are deleted after each build (never one this process uses); they are rebuilt when needed
+    cache_bytes: int = 2 * 2**30
 
     def __call__(self, **changes: int) -> contextlib.AbstractContextManager[Limits]:
         """A context manager that sets ``changes`` for the block and restores the bounds after it."""
@@ -86,7 +90,11 @@ def refuse(what: str, size: float, bound: str) -> None:
     most = getattr(limits, bound)
     if not size <= most:  # also refuses nan
         unit = {"grid_points": "points", "file_bytes": "bytes", "netlist_elements": "elements",
-                "exponent": "as exponent"}[bound]
-        raise ModelError(f"{what} asks for {size:.6g} {unit}, beyond lagrangian.limits.{bound} = {most}; raise it "
+                "exponent": "as exponent", "cache_bytes": "bytes"}[bound]
+        try:
+            shown = f"{size:.6g}"
+        except OverflowError:  # an int beyond a float (10**400 points): shown by its number of digits
+            shown = f"about 1e{int(abs(size).bit_length() * math.log10(2))}"
+        raise ModelError(f"{what} asks for {shown} {unit}, beyond lagrangian.limits.{bound} = {most}; raise it "
                          f"with lagrangian.limits.{bound} = ... (or `with lagrangian.limits({bound}=...):`) if this "
                          f"is intended.")

@@ -34,7 +34,7 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..analysis.frequency import frequency_response
+from ..analysis.frequency import frequency_response, sweep_size
 from ..base import display
 from ..base.component import t
 from ..errors import ModelError
@@ -198,6 +198,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
             raise ModelError(f"{name} must be a positive frequency in Hz, got {value!r}.")
     if not start < stop or not isinstance(points, int) or isinstance(points, bool) or points < 1:
         raise ModelError(f"need start < stop and a whole number of points ≥ 1, got {start!r}, {stop!r}, {points!r}.")
+    sweep_size(sweep, points, start, stop)  # ngspice would make the grid too: refused here when beyond the bound
     net = netlist(circuit, params=params, t_end=1.0)
     element = next(name for name, owner in net.elements.items() if owner == input)
     subs = {sym: sp.Float(v) for sym, v in circuit._values(params or {}).items()}

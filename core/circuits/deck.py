@@ -14,13 +14,15 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from typing import Any
 
 import numpy as np
 
-from ..analysis.frequency import sweep
+from ..analysis.frequency import sweep, sweep_size
+from ..base.limits import refuse
 from ..errors import ModelError
 
 #: What the reader understands, quoted in its error messages.
@@ -107,7 +109,10 @@ class Transient:
         >>> Transient(0.25, 1.0).times
         array([0.  , 0.25, 0.5 , 0.75, 1.  ])
         """
-        n = int(np.floor((self.stop - self.start) / self.step * (1 + 1e-12)))
+        steps = (self.stop - self.start) / self.step * (1 + 1e-12)
+        refuse(f"the output grid of '.tran {self.step:g} {self.stop:g}' (give simulate() points= for fewer times)",
+               steps + 1, "grid_points")
+        n = int(np.floor(steps))
         grid = self.start + self.step * np.arange(n + 1)
         if abs(self.stop - grid[-1]) <= 1e-9 * self.step:
             grid[-1] = self.stop  # 1e-5 · 3000 is 0.030000000000000002: the last point is the stop, not past it
@@ -167,28 +172,53 @@ class _Parsed:
         return any(e.ic is not None for e in self.elements)
 
 
-def _logical_lines(text: str) -> tuple[str, list[tuple[int, str]]]:
-    """The title and the (line number, text) of each logical line: comments removed, continuations joined."""
-    physical = text.splitlines()
-    first = next((i for i, line in enumerate(physical) if line.strip()), len(physical))
-    title = physical[first].strip() if first < len(physical) else ""
-    lines: list[list] = []
-    for number, raw in enumerate(physical[first + 1 :], start=first + 2):
+#: What ``str.splitlines`` splits at: the lines are cut one at a time (:func:`_physical_lines`).
+_LINE_BREAK = re.compile(r"\r\n|[\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]")
+
+
+def _physical_lines(text: str) -> Iterator[str]:
+    """The lines of ``text``, as ``text.splitlines()`` gives them, one at a time: a deck of millions of lines is
+    refused at its element bound without first becoming a list of millions of strings."""
+    start = 0
+    for match in _LINE_BREAK.finditer(text):
+        yield text[start : match.start()]
+        start = match.end()
+    if start < len(text):
+        yield text[start:]
+
+
+def _logical_lines(text: str) -> tuple[str, Iterator[tuple[int, str]]]:
+    """The title and the (line number, text) of each logical line, read as they are asked for: comments removed,
+    continuations joined."""
+    physical = enumerate(_physical_lines(text), start=1)
+    title = next((raw.strip() for _, raw in physical if raw.strip()), "")
+    return title, _joined(physical)
+
+
+def _joined(physical: Iterator[tuple[int, str]]) -> Iterator[tuple[int, str]]:
+    pending: tuple[int, list[str]] | None = None  # a line and its continuations, joined once (not re-copied per '+')
+    for number, raw in physical:
         line = raw.strip()
         if not line or line.startswith("*"):
             continue
         line = re.split(r";|\s\$\s|\s\$$", line, maxsplit=1)[0].strip()
         if line.startswith("+"):
-            if not lines:
+            if pending is None:
                 raise ModelError(f"netlist line {number}: a continuation line ('+') with no line before it to continue.")
-            lines[-1][1] += " " + line[1:].strip()
+            pending[1].append(line[1:].strip())
             continue
         if line:
-            lines.append([number, line])
-    return title, [(n, s) for n, s in lines]
+            if pending is not None:
+                yield pending[0], " ".join(pending[1])
+            pending = (number, [line])
+    if pending is not None:
+        yield pending[0], " ".join(pending[1])
 
 
 def _parse(text: str) -> _Parsed:
+    """The deck of ``text``; a :class:`ModelError` naming the line for what is wrong or unsupported, for more elements
+    than ``lagrangian.limits.netlist_elements`` (at the first element beyond it) and for two ``K`` lines coupling
+    the same pair of inductors."""
     title, lines = _logical_lines(text)
     deck = _Parsed(title=title)
     seen: dict[str, _Element] = {}
@@ -202,6 +232,8 @@ def _parse(text: str) -> _Parsed:
                 break
             _directive(deck, number, head, tokens[1:])
             continue
+        refuse(f"netlist line {number} ({tokens[0]}): the netlist, at this element,", len(deck.elements) + 1,
+               "netlist_elements")
         element = _element(number, tokens)
         other = seen.get(element.name.lower())
         if other is not None:
@@ -212,6 +244,7 @@ def _parse(text: str) -> _Parsed:
         seen[element.name.lower()] = element
         deck.elements.append(element)
     inductors = {e.name.lower(): e.name for e in deck.elements if e.letter == "l"}
+    couplings: dict[frozenset[str], _Element] = {}  # by the unordered pair of inductors: duplicates found in one pass
     for element in deck.elements:
         if element.letter != "k":
             continue
@@ -220,11 +253,29 @@ def _parse(text: str) -> _Parsed:
             if ref.lower() not in inductors:
                 raise ModelError(
                     f"{element.where()}: couples {ref!r}, which is not an inductor of this netlist "
-                    f"(inductors: {', '.join(inductors.values()) or 'none'})."
+                    f"(inductors: {_some(list(inductors.values()))})."
                 )
             resolved.append(inductors[ref.lower()])
         element.refs = tuple(resolved)
+        pair = frozenset(resolved)
+        first = couplings.get(pair)
+        if first is not None and len(pair) == 2:  # an inductor coupled with itself: the coupling's own error says so
+            raise ModelError(
+                f"{element.where()}: couplings {first.name!r} and {element.name!r} both couple "
+                f"{' and '.join(sorted(pair))} ({first.name} is on line {first.line}): give one coupling per pair of "
+                f"inductors; remove one of the K lines."
+            )
+        couplings.setdefault(pair, element)
     return deck
+
+
+def _some(names: list[str], shown: int = 10) -> str:
+    """``names`` joined, the first ``shown`` of a long list and how many there are."""
+    if not names:
+        return "none"
+    if len(names) <= shown:
+        return ", ".join(names)
+    return f"{', '.join(names[:shown])}, ... ({len(names)} in all)"
 
 
 def _number(token: str, where: str, what: str) -> float:
@@ -371,6 +422,8 @@ def _directive(deck: _Parsed, number: int, head: str, tokens: list[str]) -> None
         if tokens[0].lower() != "lin" and start == stop:
             raise ModelError(f"{where}: a dec or oct sweep needs fstart < fstop, got {' '.join(tokens)!r}. "
                              f"Supported: {SUPPORTED}.")
+        # the grid's size is checked here, before anything reads the deck further (6e8 frequencies: 24 GB)
+        sweep_size(tokens[0].lower(), int(count), start, stop, f"{where}: '.ac {' '.join(tokens)}'")
         deck.ac = ACSweep(tokens[0].lower(), int(count), start, stop)
     elif head == ".ic":
         i = 0
