@@ -224,11 +224,12 @@ class ElectricalDomain(Domain):
                 coord = Coordinate.named(f"q_{chord}", f"charge through {comp.kind} {chord} (loop {path})")
                 view.coordinates.append(coord)
                 chords[chord] = coord.function
-            for key in by_key:
-                view.branch[key] = sp.Integer(0)
+            terms: dict[str, list[sp.Expr]] = {key: [] for key in by_key}
             for chord, loop in loops.items():
                 for key, sign in loop:
-                    view.branch[key] += sign * chords[chord]
+                    terms[key].append(sign * chords[chord])
+            for key in by_key:  # one sum each: adding term by term made a branch in n loops cost n² (a source feeding
+                view.branch[key] = sp.Add(*terms[key])  # 10⁴ elements in parallel: minutes)
         else:
             drops: dict[str, sp.Expr] = {}
             for u, v, key, data in network.graph.edges(keys=True, data=True):

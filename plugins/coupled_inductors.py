@@ -148,6 +148,15 @@ class Coupling(Component):
         pair = [ctx.components.get(n) for n in self.inductor_names]
         if any(c is None or c.kind != "inductor" for c in pair):
             return None
+        # a second coupling of the same pair is refused here, from the couplings that name the first inductor (a
+        # look-up), not after the symbolic path has compared every coupling's group with every other's
+        same = [c for c in ctx.naming(self.inductor_names[0])
+                if isinstance(c, Coupling) and set(c.inductor_names) == set(self.inductor_names)]
+        if len(same) > 1:
+            raise ModelError(
+                f"couplings {same[0].name!r} and {same[1].name!r} both couple {' and '.join(sorted(self.inductor_names))}: "
+                f"give one coupling per pair of inductors."
+            )
         if any(isinstance(c, Coupling) and c is not self for n in self.inductor_names for c in ctx.naming(n)):
             return None
         k, L1, L2 = ctx.number(self, "k"), ctx.number(pair[0], "L"), ctx.number(pair[1], "L")

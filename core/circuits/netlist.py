@@ -40,6 +40,14 @@ sources, switches, transmission lines, PWL/EXP/SFFM/AM waveforms,
 with a :class:`~lagrangian.errors.ModelError` naming the line and the
 element, and listing what is supported.
 
+Sizes are bounded by :data:`lagrangian.limits`: a file (or text) of more
+than ``limits.file_bytes`` bytes is refused, a file after reading one byte
+past the bound; a deck of more than ``limits.netlist_elements`` elements is
+refused while it is parsed, at the first element beyond the bound; each with
+a :class:`~lagrangian.errors.ModelError` naming the size, the bound and how
+to raise it.  A file that is not UTF-8 text is refused naming the file and
+the line, and two ``K`` lines coupling the same pair of inductors naming both.
+
 Conventions (those of ``lagrangian.plugins.circuits``, which follow SPICE):
 ``V n+ n- E`` makes ``v(n+) − v(n−) = E``; ``I n+ n- I`` drives ``I`` from
 ``n+`` through the source to ``n−``; an element's current flows from its
@@ -120,6 +128,7 @@ Transient(step=1e-05, stop=0.002, start=0.0, max_step=None, uic=True)
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -131,6 +140,7 @@ import sympy as sp
 from ..analysis.frequency import FrequencyResponse, frequency_response
 from ..base.component import GROUND, t
 from ..base.domain import Context
+from ..base.limits import limits, refuse
 from ..errors import LagrangianError, ModelError, ParameterError, warn
 from ..model import Model
 from ..numerics.simulation import Result
@@ -253,14 +263,60 @@ class ImportedNetlist:
 
 
 def read_netlist_file(path: str | Path, **kwargs: Any) -> ImportedNetlist:
-    """:func:`read_netlist` of the text of the file at ``path`` (keywords as for :func:`read_netlist`)."""
+    """:func:`read_netlist` of the text of the file at ``path`` (keywords as for :func:`read_netlist`).
+
+    The file is read as UTF-8 text (an initial byte-order mark is skipped), at most ``lagrangian.limits.file_bytes``
+    of it: a larger file (or an endless one, ``/dev/zero``) is refused after reading one byte past the bound, and
+    one that is not text (bytes that are not UTF-8, or NUL bytes) is refused naming the file and the offending
+    line, both with a :class:`~lagrangian.errors.ModelError`.
+    """
     path = Path(path)
+    shown = str(path)
+    bound, size = limits.file_bytes, 0
     try:
-        text = path.read_text()
+        with path.open("rb") as fh:
+            data = fh.read(bound + 1)  # a file that grows, a device or a pipe: never more than one byte past the bound
+            if len(data) > bound:
+                size = os.fstat(fh.fileno()).st_size  # a regular file's size; 0 for a device or a pipe
     except OSError as exc:
-        raise ModelError(f"cannot read the netlist file {str(path)!r}: {exc.strerror or exc}.") from None
+        raise ModelError(f"cannot read the netlist file {shown!r}: {exc.strerror or exc}.") from None
+    if len(data) > bound:
+        if size > bound:
+            refuse(f"netlist file {shown!r}", size, "file_bytes")
+        refuse(f"netlist file {shown!r} (not a regular file; it went on past {bound} bytes)", len(data), "file_bytes")
+    text = _decoded(data, shown)
     kwargs.setdefault("name", path.stem)
     return read_netlist(text, **kwargs)
+
+
+def _decoded(data: bytes, shown: str) -> str:
+    """The UTF-8 text of the netlist file ``shown``'s bytes ``data``; a :class:`ModelError` naming the file and the
+    line for bytes that are not UTF-8 text (the error the ``scene`` command gave, now the reader's own)."""
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        skipped = len(data) - len(exc.object)  # the byte-order mark, if any: offsets are counted in the file
+        line = exc.object.count(b"\n", 0, exc.start) + 1
+        raise ModelError(
+            f"netlist file {shown!r} is not a text file: byte {exc.object[exc.start]:#04x} at offset "
+            f"{exc.start + skipped} (line {line}) is not UTF-8 ({exc.reason}); give a SPICE netlist saved as UTF-8 "
+            f"(or ASCII) text."
+        ) from None
+    nul = text.find("\x00")
+    if nul >= 0:
+        raise ModelError(
+            f"netlist file {shown!r} is not a text file: it holds a NUL byte (line {text.count(chr(10), 0, nul) + 1}); "
+            f"give a SPICE netlist saved as UTF-8 (or ASCII) text."
+        )
+    return text
+
+
+def _text_bytes(text: str) -> int:
+    """The size of ``text`` in UTF-8 bytes, counted without encoding it whole (ASCII text: its length)."""
+    if text.isascii():
+        return len(text)
+    step = 1 << 20
+    return sum(len(text[i : i + step].encode("utf-8", "surrogatepass")) for i in range(0, len(text), step))
 
 
 def read_netlist(
@@ -271,10 +327,13 @@ def read_netlist(
     ``name`` names the model (the title by default); ``formulation`` is the
     circuit formulation (``"charge"`` or ``"flux"``); ``registry`` selects
     the plugins.  Errors in the text raise :class:`~lagrangian.errors.ModelError`
-    naming the line.
+    naming the line; so do text of more than ``lagrangian.limits.file_bytes``
+    bytes (in UTF-8) and more than ``lagrangian.limits.netlist_elements``
+    elements.
     """
     if not isinstance(text, str):
         raise ModelError(f"read_netlist expects the netlist text as a string, got {type(text).__name__}.")
+    refuse(f"netlist text {name!r}" if name else "netlist text", _text_bytes(text), "file_bytes")
     deck = _parse(text)
     model = Model(name or deck.title or "netlist", registry=registry, formulation=formulation)
     for element in deck.elements:
