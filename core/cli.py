@@ -29,6 +29,7 @@ runs a transient of a netlist or model (``--method``, ``--points``,
 ``lagrangian equations SOURCE [--latex]`` prints its equations of motion;
 ``lagrangian convert SOURCE --out model.json`` writes a netlist or model as
 a model file (:mod:`lagrangian.modelfile`), which every command reads too.
+``lagrangian cache [--clear]`` shows the compiled-code cache (or empties it).
 ``lagrangian --version`` prints the installed version.
 
 Errors are one line on standard error, ``lagrangian: error: <message>``,
@@ -36,9 +37,11 @@ naming the option or the input at fault and what would fix it; warnings the
 library raises during a command (:class:`~lagrangian.InitialConditionWarning`,
 ``EnergyDriftWarning``, ``StiffnessWarning``, ``NetlistWarning``...) are one
 line each, ``lagrangian: warning: <message>``.  Option values are checked
-before anything runs: counts are whole numbers (``--points`` at least 2,
-``--repeat`` at least 1), times, step sizes and tolerances finite and
-positive (tolerances below 1), method names registered integrators.
+before anything runs: counts are whole numbers, written ``1000`` or ``1e3``
+(``--points`` at least 2, and for ``scene`` at most
+``lagrangian.limits.grid_points``; ``--repeat`` at least 1), times, step
+sizes and tolerances finite and positive (tolerances below 1), method names
+registered integrators.
 
 Exit status:
 
@@ -73,6 +76,8 @@ from .circuits.ac import compare_ac_with_ngspice
 from .circuits.netlist import read_netlist_file
 from .plugin.registry import default_registry
 from .analysis.scene import Scene
+from .base.limits import refuse
+from .numerics.c_build import cache_usage, clear_cache
 
 __all__ = ["main"]
 
@@ -111,14 +116,22 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 # ---------------------------------------------------------------------------
 
 
-def _whole(minimum: int, what: str):
+def _whole(minimum: int, what: str, bound: str | None = None):
+    """A whole number of at least ``minimum``, written ``1000`` or ``1e3``; with ``bound`` (a field of
+    :data:`lagrangian.limits`), at most that bound."""
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
-            value = None
+            number = _number(text, -math.inf)  # 1e3; 2.5, nan, inf and 1e400 are no whole numbers
+            value = int(number) if number is not None and number == int(number) else None
         if value is None or value < minimum:
             raise argparse.ArgumentTypeError(f"expected a whole number of at least {minimum} ({what}), got {text!r}")
+        if bound is not None:
+            try:
+                refuse(f"{text.strip()} ({what})", value, bound)
+            except ModelError as exc:
+                raise argparse.ArgumentTypeError(str(exc)) from None
         return value
 
     return parse
@@ -511,8 +524,8 @@ def _parser() -> _Parser:
     scene.add_argument("--initial", action="append", type=_pairs, help="initial coordinates name=value[,name=value]")
     scene.add_argument("--velocity", action="append", type=_pairs, help="initial velocities name=value[,name=value]")
     scene.add_argument("--param", action="append", type=_pairs, help="parameter values name=value[,name=value]")
-    scene.add_argument("--points", type=_whole(2, "output times from the start to the end time"), default=1001,
-                       help="output times, at least 2 (default 1001)")
+    scene.add_argument("--points", type=_whole(2, "output times from the start to the end time", "grid_points"),
+                       default=1001, help="output times, at least 2 (default 1001)")
     scene.add_argument("--method", type=_methods(("auto", "exact"), single=True), default="DOP853",
                        help="integrator for nonlinear parts (default DOP853; see 'lagrangian integrators')")
     scene.add_argument("--reduce", choices=("auto", "always", "never"), default="auto",
@@ -579,6 +592,8 @@ def _parser() -> _Parser:
     sw.add_argument("--address", help="a Dask scheduler, tcp://host:8786 (default: a local cluster, one worker per core)")
     sw.add_argument("--serial", action="store_true", help="run here, without Dask")
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    cache = sub.add_parser("cache", help="show the compiled-code cache (directory, files, size) or clear it")
+    cache.add_argument("--clear", action="store_true", help="delete the cached libraries (rebuilt when needed)")
     return parser
 
 
@@ -677,6 +692,25 @@ def _convert(args) -> int:
     return 0
 
 
+def _cache(args) -> int:
+    """``lagrangian cache [--clear]``: the compiled-code cache (see :mod:`lagrangian.numerics.c_build`)."""
+    if args.clear:
+        done = clear_cache()
+        if not done["directory"].is_dir():
+            print(f"{done['directory']}: nothing to clear (no such directory)")
+            return 0
+        left = f"; {done['left']} files left (a build running now, or not the cache's)" if done["left"] else ""
+        print(f"{done['directory']}: removed {done['files']} files ({done['bytes'] / 2**20:.1f} MiB){left}")
+        return 0
+    usage = cache_usage()
+    print(f"directory: {usage['directory']}{'' if usage['exists'] else ' (not made yet)'}\n"
+          f"files: {usage['files']} ({usage['libraries']} libraries)\nsize: {usage['bytes'] / 2**20:.1f} MiB "
+          f"(bound {usage['bound'] / 2**20:.1f} MiB: lagrangian.limits.cache_bytes)")
+    if usage["problem"]:
+        print(f"not used: {usage['problem']}; compiled code goes to a private directory of each process instead")
+    return 0
+
+
 def _equations(args) -> int:
     model = _load_model(args.source)[0]
     if args.latex:
@@ -696,7 +730,7 @@ def _run(argv: list[str] | None) -> int:
         if args.command is None:
             parser.print_usage(sys.stderr)
             print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac, sweep, "
-                  "simulate, convert, equations (see 'lagrangian --help')", file=sys.stderr)
+                  "simulate, convert, equations, cache (see 'lagrangian --help')", file=sys.stderr)
             return EXIT_USAGE
         registry = default_registry()
         if args.command == "bench":
@@ -713,6 +747,8 @@ def _run(argv: list[str] | None) -> int:
             return _equations(args)
         if args.command == "convert":
             return _convert(args)
+        if args.command == "cache":
+            return _cache(args)
         text = {"plugins": registry.describe, "kinds": lambda: _kinds(registry),
                 "integrators": lambda: _integrators(registry)}
         print(text[args.command]())

@@ -215,7 +215,8 @@ def test_no_command_prints_usage_and_exits_2(ran):
     assert proc.returncode == 2
     assert proc.stdout == ""
     assert proc.stderr.startswith("usage: lagrangian ")
-    assert "{plugins,kinds,integrators,bench,scene,ac,simulate,convert,equations,sweep}" in " ".join(proc.stderr.split())
+    assert "{plugins,kinds,integrators,bench,scene,ac,simulate,convert,equations,sweep,cache}" in " ".join(
+        proc.stderr.split())
     assert proc.stderr.splitlines()[-1].startswith("lagrangian: error: no command given")
 
 

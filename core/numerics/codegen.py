@@ -89,6 +89,8 @@ from .c_build import (
     _key,
     _libraries,
     _log,
+    _present,
+    _runtime_library,
     _settings,  # noqa: F401 - the settings, under their old name too
     cache_dir,
     compiler,
@@ -119,7 +121,8 @@ KINDS = ("native", "tape", "auto")
 
 def compile_model(numeric, kind: str = "native") -> tuple[CompiledModel | None, str | None]:
     """``(CompiledModel, note)`` for ``numeric``, or ``(None, reason)`` when it cannot be compiled here; the note
-    is ``None`` unless a private directory stood in for an untrusted cache directory (see :func:`cache_dir`).
+    is ``None`` unless a private directory stood in for a cache directory that is untrusted (see
+    :func:`cache_dir`) or cannot be written (read-only, full).
 
     ``kind``: ``"native"`` — the model's tapes printed as C and compiled
     into a library of its own (from the cache when built before; else a C
@@ -149,7 +152,7 @@ def compile_model(numeric, kind: str = "native") -> tuple[CompiledModel | None, 
         libraries = {"runtime": ("runtime-" + _key(runtime, cc), runtime)}
         if source is not None:
             key = _key(source, cc)
-            if kind == "native" or (directory / f"{key}.so").exists():
+            if kind == "native" or _present(directory, key):
                 libraries["model"] = (key, source)
         try:
             built = _libraries(directory, libraries, cc)
@@ -160,10 +163,11 @@ def compile_model(numeric, kind: str = "native") -> tuple[CompiledModel | None, 
         _log.info(note)
         return None, note
     name = "model" if "model" in built else "runtime"
-    lib, from_cache = built[name]
+    lib, from_cache, path = built[name].lib, built[name].from_cache, built[name].path
+    cache_note = cache_note or built[name].note or built["runtime"].note  # a cache that could not be written
     try:
-        compiled = CompiledModel(numeric, built["runtime"][0], lib if name == "model" else None, libraries[name][0],
-                                 directory / f"{libraries[name][0]}.so", from_cache=from_cache, codegen_seconds=codegen_s,
+        compiled = CompiledModel(numeric, built["runtime"].lib, lib if name == "model" else None, libraries[name][0],
+                                 path, from_cache=from_cache, codegen_seconds=codegen_s,
                                  build_seconds=time.perf_counter() - start)
     except AttributeError as exc:  # a library without the functions it should have: not ours, or damaged
         note = (f"compiled code not used (the library in {directory} lacks {exc}; delete it to rebuild): the NumPy "
@@ -209,7 +213,7 @@ def run_program(program: Program, inputs) -> np.ndarray:
     >>> out.round(12).tolist()                         # (the Python reference when there is no C compiler)
     [[1.0, 0.125], [1.0, 8.0]]
     """
-    lib = ctypes.CDLL(str(runtime()))
+    lib = _runtime_library().lib
     rows = np.atleast_2d(np.asarray(inputs, dtype=float))
     if rows.shape[1] != program.n_inputs:
         raise ModelError(f"run_program: the tape has {program.n_inputs} inputs, the rows have {rows.shape[1]}.")

@@ -22,21 +22,18 @@ recorded with its message and does not stop the others.
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import json
 import math
 import threading
 import uuid
 from collections import OrderedDict
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import sympy as sp
 
 from ..base.component import t as time_symbol
 from ..errors import ModelError
-from .c_build import _cache, _key, _libraries, _write_atomic, compiler
+from .c_build import _cache, _key, _libraries, _shipped, check_key, compiler
 from .c_source import _runtime_source, _Unavailable, parametric_source
 from .codegen import _prog
 from .tape import Program, TapeError, record
@@ -155,10 +152,10 @@ def compile_form(eq, values: dict, *, name: str, outputs: dict[str, sp.Expr] | N
     runtime_source = _runtime_source()
     wanted = {"runtime": ("runtime-" + _key(runtime_source, cc), runtime_source), "model": (_key(source, cc), source)}
     try:
-        _libraries(directory, wanted, cc)
+        built = _libraries(directory, wanted, cc)
     except (_Unavailable, OSError) as exc:
         raise ModelError(f"model {name!r} could not be compiled for a sweep: {exc}.") from None
-    libraries = {k: Library(key, text, (directory / f"{key}.so").read_bytes()) for k, (key, text) in wanted.items()}
+    libraries = {k: Library(key, text, built[k].data) for k, (key, text) in wanted.items()}  # the bytes loaded here
     return CompiledForm(
         name=name, coordinates=tuple(eq.names), inertial=tuple(eq.inertial), first=tuple(eq.first_order),
         m=int(math.isqrt(len(eq.generic()["A"]))), parameters=tuple(s.name for s in parameters),
@@ -216,16 +213,14 @@ class _Bound:
 
 
 def _load(library: Library) -> ctypes.CDLL:
-    """``library`` in this process: from this machine's cache, else from the bytes shipped (written to the cache
-    first), else compiled here from its source."""
+    """``library`` in this process: from this machine's cache (when sound: its digest the one recorded), else from
+    the bytes shipped (stored in the cache first), else compiled here from its source.  Its key is checked before
+    any path is made from it (:func:`~lagrangian.numerics.c_build.check_key`)."""
+    check_key(library.key)
     directory, _ = _cache()
-    path = directory / f"{library.key}.so"
     try:
-        if not path.exists() and library.data is not None:
-            directory.mkdir(parents=True, exist_ok=True)
-            _install(directory, library)
-        return ctypes.CDLL(str(path))
-    except OSError:  # not loadable here (another platform): compile the source with this machine's compiler
+        return _shipped(library.key, library.source, library.data)
+    except (OSError, ValueError):  # not loadable here (another platform): compile the source with this machine's cc
         cc = compiler()
         if cc is None:
             raise ModelError(f"the compiled form's library {library.key} does not load on this machine and no C compiler "
@@ -235,13 +230,6 @@ def _load(library: Library) -> ctypes.CDLL:
             return _libraries(directory, {"lib": (key, library.source)}, cc)["lib"][0]
         except _Unavailable as exc:
             raise ModelError(f"the compiled form's library could not be built on this machine: {exc}.") from None
-
-
-def _install(directory: Path, library: Library) -> None:
-    _write_atomic(directory, f"{library.key}.c", library.source.encode())
-    _write_atomic(directory, f"{library.key}.so", library.data)
-    manifest = {"sha256": hashlib.sha256(library.data).hexdigest(), "shipped": True}
-    _write_atomic(directory, f"{library.key}.json", json.dumps(manifest).encode())
 
 
 _BOUND: OrderedDict[str, _Bound] = OrderedDict()

@@ -765,7 +765,7 @@ def export(model, path, kind: str = "model-exchange", *, initial=None, velocity=
     directory, _ = _cache()
     key = "fmu-" + _key(source, cc)
     try:
-        _libraries(directory, {"fmu": (key, source)}, cc)
+        binary = _libraries(directory, {"fmu": (key, source)}, cc)["fmu"].data  # the bytes checked and loaded
     except (_Unavailable, OSError) as exc:
         raise ModelError(f"to_fmu: the FMU's binary could not be built in {directory}: {exc}.") from None
     platform, suffix = _platform()
@@ -781,7 +781,7 @@ def export(model, path, kind: str = "model-exchange", *, initial=None, velocity=
     try:
         with os.fdopen(fd, "wb") as fh, zipfile.ZipFile(fh, "w", zipfile.ZIP_DEFLATED) as archive:
             archive.writestr("modelDescription.xml", description)
-            archive.write(directory / f"{key}.so", f"binaries/{platform}/{identifier}{suffix}")
+            archive.writestr(f"binaries/{platform}/{identifier}{suffix}", binary)
             archive.writestr(f"sources/{source_name}", source)
         os.replace(tmp, target)
     except BaseException:
