@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 import re
 from dataclasses import replace
@@ -45,6 +46,17 @@ _log = logging.getLogger("lagrangian")
 
 class NodeNameWarning(UserWarning):
     """A node only one component touches has a name a slip away from another node's (see ``Model``)."""
+
+
+def _unchanged_while_running(method: Callable) -> Callable:
+    """``method``, refused when the model changed while it ran (:meth:`.ComponentGraph.unchanged`)."""
+
+    @functools.wraps(method)
+    def run(self, *args: Any, **kwargs: Any) -> Any:
+        with self._graph.unchanged(self.name, method.__name__):
+            return method(self, *args, **kwargs)
+
+    return run
 
 
 def _shown(value: Any) -> str:
@@ -525,6 +537,7 @@ class Model:
             self._numeric[key] = NumericModel(self.eq, values, self.assembly.signals)
         return self._numeric[key]
 
+    @_unchanged_while_running
     def simulate(
         self,
         t_end: float | tuple[float, float] = 10.0,

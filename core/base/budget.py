@@ -34,6 +34,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from ..errors import _unpickled_error
+
 __all__ = ["within", "interruptible", "BudgetExceeded", "DEFAULT_SECONDS"]
 
 #: The default budget of a symbolic solve, in seconds of wall time.
@@ -41,11 +43,24 @@ DEFAULT_SECONDS = 20.0
 
 
 class BudgetExceeded(Exception):
-    """A bounded call did not finish within its budget (internal: callers raise their own error with advice)."""
+    """A bounded call did not finish within its budget (internal: callers raise their own error with advice).
+
+    It pickles with its message and ``seconds`` (its ``__init__`` takes the seconds, not the message it builds:
+    unpickling restores both without calling it again), so it crosses a process boundary as itself — a process
+    pool's worker returns it, rather than breaking the pool.
+
+    >>> import pickle
+    >>> back = pickle.loads(pickle.dumps(BudgetExceeded(0.5)))
+    >>> back.seconds, str(back)
+    (0.5, 'the call did not finish within its budget of 0.5 s')
+    """
 
     def __init__(self, seconds: float):
         super().__init__(f"the call did not finish within its budget of {seconds:g} s")
         self.seconds = seconds
+
+    def __reduce__(self):
+        return _unpickled_error, (type(self), self.args, self.__dict__)
 
 
 def _child(fd: int, fn, args, kwargs) -> None:  # pragma: no cover - runs in the forked child

@@ -39,7 +39,7 @@ _CHECKS = {
     "positive": (lambda v: v > 0, "must be positive"),
     "nonnegative": (lambda v: v >= 0, "must be zero or positive"),
     "nonzero": (lambda v: v != 0, "must not be zero"),
-    "real": (lambda v: True, ""),
+    "real": (lambda v: True, "must be real"),
 }
 
 
@@ -262,7 +262,11 @@ def check_value(expr: Any, check: str, component: str, name: str) -> None:
         "real": lambda: expr.is_real,
     }[check]()
     if verdict is False:
-        raise ParameterError(component, name, f"{rule}, but {expr} is declared otherwise.")
+        if check == "real" or expr.is_real is False:  # (queried only here: the rule's own verdict came first)
+            raise ParameterError(component, name, f"{expr} is never a real number (a root or logarithm of a quantity "
+                                                  f"always negative, as sqrt(-1 - x**2)): give a real expression.")
+        raise ParameterError(component, name, f"{rule}, but {expr} is declared otherwise (by the assumptions of "
+                                              f"its symbols).")
 
 
 #: Assumptions of the symbol standing for a number, from the parameter's check.
@@ -759,6 +763,11 @@ class Component:
         """Python callables standing behind the component's signal parameters (of time; a load's of the state too,
         marked by their ``state``)."""
         return {v.function: v.func for v in self.params.values() if isinstance(v, _CallableSignal)}
+
+    def signal_owners(self) -> dict[str, tuple[str, str]]:
+        """The names of the undefined functions standing for this component's Python callables → ``(component,
+        parameter)``."""
+        return {v.function.__name__: (self.name, p) for p, v in self.params.items() if isinstance(v, _CallableSignal)}
 
     def state_callables(self) -> list[sp.Function]:
         """The undefined functions standing for this component's callables of ``(t, q, v)``."""

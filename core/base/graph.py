@@ -7,7 +7,8 @@ attach to the model as a whole.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import contextlib
+from collections.abc import Iterable, Iterator
 from typing import Any
 
 import networkx as nx
@@ -26,9 +27,15 @@ class ComponentGraph:
     'ground'
     """
 
+    #: Bumped by every change (a component added, a node declared): a run compares it before and after, and so
+    #: notices a model changed while it ran (a signal's callable adding a component).  A class attribute too, for a
+    #: graph unpickled from before it was kept.
+    version: int = 0
+
     def __init__(self) -> None:
         self.components: dict[str, Component] = {}
         self.declared: list[str] = []
+        self.version = 0
 
     @staticmethod
     def normalize_node(node: Any) -> str:
@@ -41,6 +48,7 @@ class ComponentGraph:
         name = self.normalize_node(node)
         if name not in self.declared and name != GROUND:
             self.declared.append(name)
+            self.version += 1
         return name
 
     def add(self, component: Component) -> None:
@@ -62,6 +70,33 @@ class ComponentGraph:
                 f"{', '.join(other.nodes) or '(global)'}: give the new {component.kind} another name."
             )
         self.components[component.name] = component
+        self.version += 1
+
+    @contextlib.contextmanager
+    def unchanged(self, model: str, run: str) -> Iterator[None]:
+        """Refuse with a :class:`ModelError` a graph changed within the block — a run (``run`` of ``model``) during
+        which code it called (a signal's or load's Python callable) added a component or declared a node: the run
+        used the equations from before the change, and its result would describe a model that no longer exists.
+        An error the block raised after such a change is chained to the refusal."""
+        before, components, nodes = self.version, set(self.components), set(self.declared)
+        try:
+            yield
+        except Exception as exc:
+            if self.version != before:
+                raise self._changed(model, run, components, nodes) from exc
+            raise
+        if self.version != before:
+            raise self._changed(model, run, components, nodes)
+
+    def _changed(self, model: str, run: str, components: set[str], nodes: set[str]) -> ModelError:
+        added = [f"component {n!r} (a {c.kind})" for n, c in self.components.items() if n not in components]
+        declared = [f"node {n!r}" for n in self.declared if n not in nodes]
+        return ModelError(
+            f"model {model!r} was changed during {run}: {', '.join(added + declared) or 'its components'} added "
+            f"while it ran, by code the run called (a signal's or load's Python callable). The run integrated the "
+            f"equations from before the change, so its result is discarded; the model now holds the change. Build "
+            f"the model completely before {run}, and let callables only compute values."
+        )
 
     def nodes(self) -> list[str]:
         """All nodes in order of first use, ground first."""

@@ -24,7 +24,22 @@ from ..base.identity import is_zero
 from ..base.network import check_topology
 from ..plugin.registry import Registry
 
-__all__ = ["Assembly", "Elimination", "assemble", "driven", "refuse_eliminated"]
+__all__ = ["Assembly", "Elimination", "Signals", "assemble", "driven", "refuse_eliminated"]
+
+
+class Signals(dict):
+    """The Python callables standing behind signal parameters, by their undefined functions (what the equations
+    hold), and ``owners``: each function's name → ``(component, parameter)``, so that what a callable does wrong is
+    told as a :class:`ParameterError` naming them.
+
+    >>> s = Signals({}, owners={"F_F": ("F", "F")})
+    >>> s.owners["F_F"], dict(s)
+    (('F', 'F'), {})
+    """
+
+    def __init__(self, *args: Any, owners: Mapping[str, tuple[str, str]] | None = None, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self.owners = dict(owners or getattr(args[0] if args else None, "owners", None) or {})
 
 
 @dataclass
@@ -140,9 +155,10 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
             coordinates.append(c)
 
     allowed = {c.function.func for c in coordinates} | {u for comp in components for u in comp.inputs()}
-    signals: dict[sp.Function, Any] = {}
+    signals = Signals()  # (and whose each one is: errors name the component and parameter)
     for comp in components:
         signals.update(comp.signals())
+        signals.owners.update(comp.signal_owners())
     # a load's callable of (t, q, v): its function applied to t, every coordinate and every rate
     names = [c.name for c in coordinates]
     state_args = (t, *[c.function for c in coordinates], *[sp.Derivative(c.function, t) for c in coordinates])

@@ -15,7 +15,7 @@ from .c_dop853 import dop853_source
 from .tape import OPS, Program, TapeError, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
-CODEGEN_VERSION = "6"
+CODEGEN_VERSION = "7"
 
 
 class _Unavailable(Exception):
@@ -186,7 +186,7 @@ _HEADER = """#include <math.h>
 # library (sizes as constants, which the C compiler folds into the loops).
 _SOLVE = r"""
 /* LU with partial pivoting, in place; b becomes the solution. 0: solved, 1: singular, 2: not finite. */
-static int lu_solve(int nm, double *A, double *b) {
+static int lu_core(int nm, double *A, double *b) {
     double amax = 0.0;
     for (int i = 0; i < nm * nm; i++) {
         double a = fabs(A[i]);
@@ -235,6 +235,50 @@ static int lu_solve(int nm, double *A, double *b) {
     return 0;
 }
 
+/* The unknowns of the constraints (the last nc of the nm: their multipliers) scaled by powers of two, D A D y = D b
+   and u = D y, so that each constraint's row (and the multiplier's column) is as large as the largest entry of the
+   rest of A: a constraint written with a factor 1e-9 or 1e30 is the same constraint, and the singularity test
+   (pivots against nm eps max|A|) judges its solve alike.  The powers of two scale exactly.  s: nc factors. */
+static void balance(int nm, int nc, double *A, double *b, double *s) {
+    const int k = nm - nc;
+    double mu = 0.0;
+    for (int i = 0; i < k; i++)
+        for (int j = 0; j < k; j++) { const double a = fabs(A[i * nm + j]); if (a > mu) mu = a; }
+    int emu = 0;
+    frexp(mu, &emu);
+    for (int r = 0; r < nc; r++) {
+        double row = 0.0;
+        for (int j = 0; j < nm; j++) { const double a = fabs(A[(k + r) * nm + j]); if (a > row) row = a; }
+        s[r] = 1.0;
+        if (mu > 0.0 && mu <= DBL_MAX && row > 0.0 && row <= DBL_MAX) {
+            int er = 0;
+            frexp(row, &er);
+            int e = emu - er;
+            s[r] = ldexp(1.0, e > 1000 ? 1000 : e < -1000 ? -1000 : e);
+        }
+    }
+    for (int r = 0; r < nc; r++) {
+        const double f = s[r];
+        if (f == 1.0) continue;
+        for (int j = 0; j < nm; j++) A[(k + r) * nm + j] *= f;
+        for (int i = 0; i < nm; i++) A[i * nm + k + r] *= f;
+        b[k + r] *= f;
+    }
+}
+
+/* A u = b solved in place (b becomes u), the last nc unknowns being multipliers of constraints (balance). */
+static int lu_solve(int nm, int nc, double *A, double *b) {
+    if (nc <= 0 || nc >= nm) return lu_core(nm, A, b);
+    double s_stack[64];
+    double *s = nc <= 64 ? s_stack : malloc((size_t)nc * sizeof(double));
+    if (!s) return 2;
+    balance(nm, nc, A, b, s);
+    const int rc = lu_core(nm, A, b);
+    if (!rc) for (int r = 0; r < nc; r++) b[nm - nc + r] *= s[r];
+    if (s != s_stack) free(s);
+    return rc;
+}
+
 /* dy/dt from the solution u = b of A u = b at y = (q, q'_inertial). 0: fine, 2: not finite. */
 static int state_rate(int nq, int ni, int nf, const int *inertial, const int *first, const double *y, const double *b,
                       double *dy) {
@@ -260,7 +304,7 @@ int lg_rhs(const void *ctx, double t, const double *y, double *dy) {
     if (!A) return 2;
     double *b = A + NM * NM;
     matrix_terms(ctx, t, y, y + NQ, A, b);
-    int rc = lu_solve(NM, A, b);
+    int rc = lu_solve(NM, NM - NI - NF, A, b);
     if (!rc) rc = state_rate(NQ, NI, NF, INERTIAL, FIRST, y, b, dy);
     RELEASE(A);
     return rc;
@@ -358,7 +402,7 @@ int lg_tape_rhs(const void *ctx, double t, const double *y, double *dy) {
     SCRATCH(o, nm * nm + nm + 1);
     if (!o) return 2;
     int rc = run_on(&m->matrix, t, y, m->nq, y + m->nq, m->ni, o);
-    if (!rc) rc = lu_solve(nm, o, o + nm * nm);
+    if (!rc) rc = lu_solve(nm, nm - m->ni - m->nf, o, o + nm * nm);
     if (!rc) rc = state_rate(m->nq, m->ni, m->nf, m->inertial, m->first, y, o + nm * nm, dy);
     RELEASE(o);
     return rc;

@@ -20,9 +20,10 @@ import sympy as sp
 from .codegen import compile_model
 from .result import Result
 from ..base.component import StateCall, refuse_unpicklable, t
-from ..derivation.assembly import refuse_eliminated
+from ..derivation.assembly import Signals, refuse_eliminated
 from ..derivation.equations import Equations
-from ..errors import ExpressionError, LagrangianError, ModelError, NumericalError, SingularMassMatrixError, UnknownNameError
+from ..errors import (ExpressionError, LagrangianError, ModelError, NumericalError, ParameterError,
+                      SingularMassMatrixError, UnknownNameError)
 from ..errors import warn as _warn
 from ..base.switching import switching_times
 from ..base.text import as_expr, parse_expression
@@ -40,34 +41,63 @@ class InitialConditionWarning(UserWarning):
     """Some initial conditions were not given and default to zero."""
 
 
-def _checked_signal(name: str, fn: Callable) -> Callable:
+def _checked_signal(name: str, fn: Callable, owner: tuple[str, str] | None = None) -> Callable:
     """A user's callable signal, whose value must be one number per time (a scalar, or an array shaped as ``t``);
     a load's callable of the state is called with ``(t, q, v)`` (:class:`~lagrangian.base.component.StateCall`),
-    one state at a time."""
+    one state at a time.  ``owner``, the ``(component, parameter)`` it was given for, makes what it does wrong a
+    :class:`ParameterError` naming them."""
     if isinstance(fn, StateCall):
-        return _checked_state(name, fn)
+        return _checked_state(name, fn, owner)
 
     def signal(time):
-        value = _called(fn, f"the signal {name}(t)", time)
+        value = _called(fn, f"the signal {name}(t)", time, owner=owner)
+        text = _text_in(value)
+        if text:
+            raise _refused(owner, f"the signal {name}(t), a Python callable, returned {value!r:.60} ({text}) at "
+                                  f"t={time!r:.30}: it must return a number (an int, a float or an array of them, one "
+                                  f"per time), not text.")
         try:
             if value is None:
                 raise TypeError
             out = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
-            raise ModelError(f"the signal {name}(t), a Python callable, returned {value!r:.60} at t={time!r:.30}: it must "
-                             f"return a number.") from None
+            raise _refused(owner, f"the signal {name}(t), a Python callable, returned {value!r:.60} at "
+                                  f"t={time!r:.30}: it must return a number.") from None
         if out.shape not in ((), np.shape(time)):
-            raise ModelError(f"the signal {name}(t), a Python callable, returned an array of shape {out.shape} at "
-                             f"t={time!r:.30}: it must return one number per time.")
+            raise _refused(owner, f"the signal {name}(t), a Python callable, returned an array of shape {out.shape} "
+                                  f"at t={time!r:.30}: it must return one number per time.")
         if not np.all(np.isfinite(out)):
-            raise ModelError(f"the signal {name}(t), a Python callable, returned {value!r:.60} at t={time!r:.30}: it must "
-                             f"return a finite number.")
+            raise _refused(owner, f"the signal {name}(t), a Python callable, returned {value!r:.60} at "
+                                  f"t={time!r:.30}: it must return a finite number.")
         return out
 
     return signal
 
 
-def _called(fn: Callable, what: str, time, *args) -> Any:
+def _refused(owner: tuple[str, str] | None, message: str) -> ModelError:
+    """The error for what a user's callable did: a :class:`ParameterError` naming the component and parameter it
+    was given for, where known (a :class:`ModelError` otherwise)."""
+    return ParameterError(*owner, message) if owner else ModelError(message)
+
+
+def _text_in(value: Any) -> str | None:
+    """What kind of text ``value`` is or holds (``"a str"``, ``"an array of <U1"``) where a number was wanted —
+    which NumPy would read as one (``float("1")``) — or None."""
+    if isinstance(value, (str, bytes, bytearray)):
+        return f"a {type(value).__name__}"
+    if isinstance(value, (list, tuple, np.ndarray)):
+        try:
+            kind = np.asarray(value)
+        except Exception:  # noqa: BLE001 - ragged or odd: refused as not a number by the caller
+            return None
+        if kind.dtype.kind in "SUV":
+            return f"an array of {kind.dtype}"
+        if kind.dtype.kind == "O" and any(isinstance(x, (str, bytes, bytearray)) for x in kind.flat):
+            return "a sequence holding text"
+    return None
+
+
+def _called(fn: Callable, what: str, time, *args, owner: tuple[str, str] | None = None) -> Any:
     """``fn(time, *args)``; an exception the user's callable raises is told as a :class:`ModelError` naming it and
     the time (the original chained), so that a run, a deck or an export ends with the project's error."""
     try:
@@ -75,23 +105,25 @@ def _called(fn: Callable, what: str, time, *args) -> Any:
     except LagrangianError:
         raise
     except Exception as exc:
-        raise ModelError(f"{what}, a Python callable, raised {type(exc).__name__}: {str(exc)[:200]} at "
-                         f"t={time!r:.30}; make it return a finite number for every time of the run.") from exc
+        raise _refused(owner, f"{what}, a Python callable, raised {type(exc).__name__}: {str(exc)[:200]} at "
+                              f"t={time!r:.30}; make it return a finite number for every time of the run.") from exc
 
 
-def _checked_state(name: str, call: StateCall) -> Callable:
+def _checked_state(name: str, call: StateCall, owner: tuple[str, str] | None = None) -> Callable:
     """A load's callable ``f(t, q, v)``: called once per state (many states are taken one at a time), its value
     one finite number."""
 
     def one(time, args):
-        value = _called(call, f"the load {name}(t, q, v)", time, *args)
+        value = _called(call, f"the load {name}(t, q, v)", time, *args, owner=owner)
+        text = _text_in(value)
         try:
-            out = float(value)  # None, text and arrays are refused here
+            out = np.nan if text else float(value)  # None and arrays are refused here, text above
         except (TypeError, ValueError):
             out = np.nan
         if not np.isfinite(out):
-            raise ModelError(f"the load {name}(t, q, v), a Python callable, returned {value!r:.60} at t={time!r:.30}: it "
-                             f"must return one finite number.")
+            raise _refused(owner, f"the load {name}(t, q, v), a Python callable, returned {value!r:.60}"
+                                  f"{f' ({text})' if text else ''} at t={time!r:.30}: it must return one finite "
+                                  f"number{', not text' if text else ''}.")
         return out
 
     def signal(time, *args):
@@ -127,6 +159,35 @@ def _scipy(part: str) -> Any:
 
 
 _EPS = np.finfo(float).eps
+
+
+def constraint_scales(A: np.ndarray, multipliers: int) -> np.ndarray:
+    """Powers of two ``d`` (one per unknown, for one matrix or a stack of them) that scale the last ``multipliers``
+    unknowns of ``A u = b`` — the constraints' multipliers — so that each constraint's row of ``A`` (and its
+    multiplier's column) is as large as the largest entry of the rest of ``A``; the other unknowns' factors are 1.
+
+    The solve is then ``(D A D) y = D b``, ``u = D y``: a constraint written with a factor of 1e-9 or 1e30 is the same
+    constraint, and the singularity test (pivots against ``size·eps·max|A|``) judges its solve as it does the
+    factor 1's, where unscaled it called 1e-9 and 1e15 singular.  Powers of two scale exactly; compiled code's solve
+    (``balance`` in :mod:`lagrangian.numerics.c_source`) takes the same factors.
+
+    >>> A = np.array([[0.3, 0.0, -1e-9], [0.0, 0.5, 1e-9], [1e-9, -1e-9, 0.0]])
+    >>> d = constraint_scales(A, 1)
+    >>> d.tolist() == [1.0, 1.0, 2.0 ** 29], bool(np.linalg.cond(A) > 1e15), bool(np.linalg.cond(A * np.outer(d, d)) < 10)
+    (True, True, True)
+    """
+    d = np.ones(A.shape[:-1])
+    size = A.shape[-1]
+    k = size - multipliers
+    if multipliers <= 0 or k <= 0:
+        return d
+    with np.errstate(all="ignore"):
+        mu = np.max(np.abs(A[..., :k, :k]), axis=(-2, -1))[..., None]
+        row = np.max(np.abs(A[..., k:, :]), axis=-1)
+        ok = (mu > 0) & (mu <= np.finfo(float).max) & (row > 0) & (row <= np.finfo(float).max)
+        e = np.frexp(np.where(ok, mu, 1.0))[1] - np.frexp(np.where(ok, row, 1.0))[1]
+    d[..., k:] = np.ldexp(1.0, np.clip(np.where(ok, e, 0), -1000, 1000))
+    return d
 #: Integers beyond this are not exact in a float; beyond 2**63 NumPy holds them as Python objects, which its
 #: functions refuse (``np.tan(10**30)`` is a TypeError).
 _EXACT = 2**53
@@ -151,7 +212,9 @@ def _lambdify(args, exprs, signals):
                          "zoo or nan, whatever the state): a component's energy or force is infinite everywhere, "
                          "such as one joining a node to itself. Check the components' nodes and parameters.")
     special = [_scipy("special")] if any(e.has(sp.erf, sp.erfc) for e in every) else []
-    modules = [{f.__name__: _checked_signal(f.__name__, fn) for f, fn in signals.items()}, *special, "numpy"]
+    owners = getattr(signals, "owners", {})
+    modules = [{f.__name__: _checked_signal(f.__name__, fn, owners.get(f.__name__)) for f, fn in signals.items()},
+               *special, "numpy"]
     return sp.lambdify(args, _floated(exprs), modules=modules, cse=True)
 
 
@@ -200,7 +263,7 @@ class NumericModel:
         self.n = len(q)
         self.nI = len(eq.inertial)
         self.values = dict(values)
-        self.signals = dict(signals)
+        self.signals = Signals(signals)  # (with whose each callable is, where the assembly says)
         self._builds: dict[str, Any] = {}  # kind → lagrangian.codegen.CompiledModel (or None: cannot), see compile()
         self._mode = "auto"  # what compile() builds when a method with a compiled loop asks (use_compiled sets it)
         self.python_only = False  # compiled=False was asked (use_compiled sets it)
@@ -310,16 +373,25 @@ class NumericModel:
             raise NumericalError(_not_finite(time, np.concatenate([qv, vI]), "not a real number")) from None
         if A.size and np.all(np.isfinite(A)):
             # LU with partial pivoting, and compiled code's rule for a singular matrix: a pivot at most
-            # size·eps·max|A| (a mass of 1e-141 next to one of 1 is none, whatever the rounding leaves)
+            # size·eps·max|A| (a mass of 1e-141 next to one of 1 is none, whatever the rounding leaves), judged with
+            # the constraints' rows scaled as the rest of A (constraint_scales): the scale a constraint is written
+            # in decides nothing
+            d = constraint_scales(A, self._multipliers(A.shape[0]))
+            S = A * d[:, None] * d[None, :]
             lapack = _scipy("lapack")
-            lu, piv, _ = lapack["getrf"](A)
-            if not np.min(np.abs(np.diagonal(lu))) > A.shape[0] * _EPS * np.max(np.abs(A)):
+            lu, piv, _ = lapack["getrf"](S)
+            if not np.min(np.abs(np.diagonal(lu))) > S.shape[0] * _EPS * np.max(np.abs(S)):
                 raise SingularMassMatrixError(self._singular_message(time, A, qv))
-            return lapack["getrs"](lu, piv, b)[0]
+            return d * lapack["getrs"](lu, piv, d * b)[0]
         try:
             return np.linalg.solve(A, b)
         except np.linalg.LinAlgError:
             raise SingularMassMatrixError(self._singular_message(time, A, qv)) from None
+
+    def _multipliers(self, size: int) -> int:
+        """How many of the ``size`` unknowns of the solve are constraints' multipliers (the last ones; 0 when the
+        matrix is the mass matrix alone)."""
+        return max(0, size - self.nI - len(self.eq.first_order))
 
     def _singular_message(self, time: float, A: np.ndarray, q: np.ndarray | None = None) -> str:
         """Which case a singular solve ``A u = b`` is, at whose fault, and what to do.
@@ -336,12 +408,19 @@ class NumericModel:
         nI, nF, m = len(eq.inertial), len(eq.first_order), len(eq.multipliers)
         if A.shape[0] == nI + nF + m:
             names = [eq.names[i] for i in eq.inertial + eq.first_order] + [f"multiplier {k}" for k in range(m)]
+            d = constraint_scales(A, m)  # the matrix the solve judged: constraints' rows scaled as the rest
+            A = A * d[:, None] * d[None, :]
         else:  # the mass matrix of all the coordinates
             names, nI, nF, m = list(eq.names)[: A.shape[0]], A.shape[0], 0, 0
         _, s, vt = np.linalg.svd(A)
         null = vt[-1]
         involved = [n for n, w in zip(names, null) if abs(w) > 1e-8] or names
         coords = [n for n in involved if not n.startswith("multiplier")]
+        if not coords:  # only multipliers: name the coordinates their constraints hold, never no one
+            rows = [nI + nF + k for k in range(m) if f"multiplier {k}" in involved]
+            coords = [n for j, n in enumerate(names[: nI + nF]) if any(A[r, j] != 0 for r in rows)] \
+                or names[: nI + nF] or list(eq.names)
+            involved = coords
         at = ""
         if q is not None and len(q) == len(eq.names):
             at = " at " + ", ".join(f"{n} = {float(x):.6g}" for n, x in zip(eq.names, q))
@@ -429,7 +508,8 @@ class NumericModel:
                 continue
             if A.shape[0] != size:  # the caller's matrix is M alone: the same coordinates, no multipliers
                 A = A[:size, :size]
-            sv = np.linalg.svd(A, compute_uv=False)
+            d = constraint_scales(A, self._multipliers(A.shape[0]))
+            sv = np.linalg.svd(A * d[:, None] * d[None, :], compute_uv=False)
             if sv[-1] > 1e-10 * sv[0]:
                 return False
             seen += 1
@@ -465,10 +545,12 @@ class NumericModel:
         out = [np.broadcast_to(np.asarray(e, dtype=float), (N,)) for e in self._flat_fn(times, Y[:n], Y[n:])]
         A = np.stack(out[: m * m], axis=-1).reshape(N, m, m)
         b = np.stack(out[m * m :], axis=-1)
+        d = constraint_scales(A, self._multipliers(m))
+        S = A * d[..., :, None] * d[..., None, :]
         try:
-            u = np.linalg.solve(A, b[..., None])[..., 0]
+            u = d * np.linalg.solve(S, (d * b)[..., None])[..., 0]
         except np.linalg.LinAlgError:
-            k = next(i for i in range(N) if np.linalg.matrix_rank(A[i]) < m)
+            k = next(i for i in range(N) if np.linalg.matrix_rank(S[i]) < m)
             raise SingularMassMatrixError(self._singular_message(times[k], A[k], Y[:n, k])) from None
         v[self.eq.first_order] = u[:, self.nI : self.nI + len(self.eq.first_order)].T
         return v
@@ -593,23 +675,40 @@ def check_start(numeric: NumericModel, model: str, t0: float, y0: np.ndarray, *,
     subs = {s: sp.Float(x) for s, x in numeric.values.items()}
     v0, _ = numeric.velocities(t0, y0)
     point = {**dict(zip(q, y0[: numeric.n])), **dict(zip(v, v0)), t: t0}
+
+    def sizes(jacobian: sp.Matrix) -> list[float]:
+        """The largest entry of each constraint's gradient at the start (1 where it is zero or cannot be had): what
+        its violation is measured against, so that a constraint written as ``1e-12·(x_a − x_b)`` or
+        ``1e30·(x_a − x_b)`` is held to the same distance from the start as ``x_a − x_b`` is."""
+        out = []
+        for k in range(jacobian.rows):
+            try:
+                big = max((abs(float(g.xreplace(point))) for g in jacobian.row(k) if g != 0), default=0.0)
+            except (TypeError, ValueError, ArithmeticError):
+                big = 0.0
+            out.append(big if 0.0 < big < np.inf else 1.0)
+        return out
+
     if len(eq.velocity_constraints):  # nonholonomic: the start's rates must satisfy them
         c = generic["velocity_constraints"].xreplace(subs)
-        gaps = [abs(float(e.xreplace(point))) for e in c]
+        raw = [abs(float(e.xreplace(point))) for e in c]
+        gaps = [g / size for g, size in zip(raw, sizes(c.jacobian(v)))]
         held = sorted({o for o, g in zip(eq.velocity_owners, gaps) if g > tol})
         if held:
             raise ModelError(
                 f"the initial rates of model {model!r} violate the constraints on velocities of "
-                f"{', '.join(map(repr, held))} (|c| = {max(gaps):.3g}): give rates that satisfy "
+                f"{', '.join(map(repr, held))} (|c| = {max(raw):.3g}): give rates that satisfy "
                 f"{'; '.join(f'{eq.display(e)} = 0' for e, g in zip(c, gaps) if g > tol)}.")
     if not len(eq.constraints):
         return
     Phi = generic["constraints"].xreplace(subs)
-    rate = Phi.jacobian(q) * sp.Matrix(v) + Phi.diff(t)
-    gaps = [max(abs(float(a.xreplace(point))), abs(float(b.xreplace(point)))) for a, b in zip(Phi, rate)]
+    J = Phi.jacobian(q)
+    rate = J * sp.Matrix(v) + Phi.diff(t)
+    gaps = [max(abs(float(a.xreplace(point))), abs(float(b.xreplace(point)))) / size
+            for a, b, size in zip(Phi, rate, sizes(J))]
     gap = max(abs(float(e.xreplace(point))) for e in Phi)
     gap_rate = max(abs(float(e.xreplace(point))) for e in rate)
-    if gap > tol or gap_rate > tol:
+    if max(gaps) > tol:
         owners = getattr(eq, "constraint_owners", [None] * len(gaps))
         held = sorted({owner for owner, g in zip(owners, gaps) if owner and g > tol})
         what = "its kinematic loops" if not held else (

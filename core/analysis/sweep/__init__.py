@@ -56,7 +56,7 @@ from ..frequency import frequency_response
 from .dataset import DONE, FAILED, NOT_RUN, dataset, describe, plot
 from .designs import Distribution, LogUniform, Normal, Samples, Uniform, design, parse_axis
 from .designs import design as make_design
-from .execute import SERIAL, connected, execute, local_client, local_cluster, shutdown, workers
+from .execute import SERIAL, check_address, connected, execute, local_client, local_cluster, shutdown, workers
 from .plan import plan
 
 __all__ = ["sweep", "response", "Uniform", "LogUniform", "Normal", "Distribution", "design", "parse_axis", "plot", "describe",
@@ -170,6 +170,8 @@ def sweep(model: Model, params: Mapping[str, Any], *, design: str | None = None,
         raise ModelError(f"sweep: the first argument is a lagrangian.Model, not {type(model).__name__}.")
     if isinstance(energy_tol, bool) or not isinstance(energy_tol, (int, float)) or not energy_tol > 0:
         raise ModelError(f"sweep: energy_tol is a positive number (a relative drift), got {energy_tol!r:.40}.")
+    if address is not None:
+        check_address(address)  # before anything is planned or compiled
     samples_ = make_design(params, kind=design, samples=samples, seed=seed)
     count = samples_.count
     if analysis is not None:

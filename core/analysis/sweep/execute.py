@@ -40,7 +40,7 @@ from typing import Any
 
 from ...errors import ModelError
 
-__all__ = ["SERIAL", "Outcome", "connected", "execute", "local_client", "local_cluster", "shutdown", "workers"]
+__all__ = ["SERIAL", "Outcome", "check_address", "connected", "execute", "local_client", "local_cluster", "shutdown", "workers"]
 
 #: ``client=SERIAL`` runs every block in this process, in order, without Dask.
 SERIAL = "serial"
@@ -158,6 +158,70 @@ class _Progress:
             sys.stderr.flush()
 
 
+#: The schemes of the communication backends ``distributed`` ships (``distributed.comm.registry``): TCP, TLS, UCX,
+#: WebSockets, and a scheduler in this process (``inproc``); a backend another package registers is taken too.
+SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+#: The forms of a scheduler's address, as a refusal lists them.
+ADDRESS_FORMS = ("'tcp://host:port' (also tls://, ucx://, ws://, wss://), 'inproc://...' (a scheduler in this "
+                 "process) or 'host:port' (TCP)")
+
+
+def check_address(address: Any) -> str:
+    """``address``, a Dask scheduler's address in a form ``distributed`` connects to — ``scheme://host:port`` with a
+    scheme of its communication backends, ``inproc://...``, or ``host:port`` (TCP) — or a :class:`ModelError`
+    naming it and the accepted forms (``distributed`` itself would raise its own ``ValueError``, or try to resolve
+    the text as a host name).
+
+    >>> check_address("tcp://10.0.0.5:8786"), check_address("localhost:8786"), check_address("tcp://[::1]:8786")
+    ('tcp://10.0.0.5:8786', 'localhost:8786', 'tcp://[::1]:8786')
+    >>> check_address("file:///x")
+    Traceback (most recent call last):
+    ...
+    lagrangian.errors.ModelError: sweep: address='file:///x' is not a Dask scheduler's address (its scheme 'file' is none of distributed's: inproc, tcp, ...); give 'tcp://host:port' (also tls://, ...) or 'host:port' (TCP), such as 'tcp://10.0.0.5:8786'.
+    """
+    def refuse(why: str) -> ModelError:
+        return ModelError(f"sweep: address={address!r:.80} is not a Dask scheduler's address ({why}); give "
+                          f"{ADDRESS_FORMS}, such as 'tcp://10.0.0.5:8786'.")
+
+    if not isinstance(address, str):
+        raise refuse(f"not text but a value of type {type(address).__name__}")
+    if not address or any(ch.isspace() or not ch.isprintable() for ch in address):
+        raise refuse("empty, or holding spaces or control characters")
+    scheme, sep, where = address.partition("://")
+    if not sep:
+        scheme, where = "tcp", address
+    known = set(SCHEMES)
+    try:  # the backends registered where this runs (a package may add one)
+        from distributed.comm.registry import backends
+
+        known |= set(backends)
+    except Exception:  # noqa: BLE001 - distributed missing or changed: its own schemes stand
+        pass
+    if scheme not in known:
+        raise refuse(f"its scheme {scheme!r} is none of distributed's: {', '.join(sorted(known))}")
+    if scheme == "inproc":
+        if not where:
+            raise refuse("nothing after 'inproc://'")
+        return address
+    if where.startswith("["):  # an IPv6 address: [::1]:8786
+        host, close, rest = where[1:].partition("]")
+        port = rest[1:] if close and rest.startswith(":") else ""
+        ok_host = bool(host) and all(ch in "0123456789abcdefABCDEF:." for ch in host)
+    else:
+        host, colon, port = where.rpartition(":")
+        if not colon:
+            host, port = where, ""
+        ok_host = bool(host) and all(ch.isalnum() or ch in ".-_" for ch in host)
+    if not ok_host:
+        raise refuse(f"no host name or IP address before the port in {where!r}" if not host else
+                     f"{host!r} is not a host name or IP address")
+    if not port:
+        raise refuse(f"no port after the host {host!r}: write host:port, such as {host}:8786")
+    if not port.isdigit() or not 0 < int(port) < 65536:
+        raise refuse(f"the port {port!r} is not a number from 1 to 65535")
+    return address
+
+
 def _connect(client: Any, address: str | None):
     """``(client, close)``: the client to run on and whether this call opened it (and must close it)."""
     if client is not None and address is not None:
@@ -165,9 +229,7 @@ def _connect(client: Any, address: str | None):
     if client == SERIAL:
         return SERIAL, False
     if address is not None:
-        if not isinstance(address, str) or "://" not in address:
-            raise ModelError(f"sweep: address= is a Dask scheduler's address such as 'tcp://10.0.0.5:8786', got "
-                             f"{address!r:.80}.")
+        check_address(address)
         from distributed import Client
 
         try:
@@ -175,6 +237,9 @@ def _connect(client: Any, address: str | None):
         except OSError as exc:
             raise ModelError(f"sweep: no Dask scheduler answers at {address} ({exc}); start one with `dask scheduler` "
                              f"and workers with `dask worker {address}`.") from None
+        except (ValueError, TypeError) as exc:  # what distributed refuses that check_address let through
+            raise ModelError(f"sweep: address={address!r:.80} is refused by distributed ({type(exc).__name__}: "
+                             f"{str(exc)[:200]}); give {ADDRESS_FORMS}, such as 'tcp://10.0.0.5:8786'.") from None
     if client is None:
         return local_client(), False
     if not hasattr(client, "submit") or not hasattr(client, "scatter"):
