@@ -178,3 +178,21 @@ def test_a_script_without_the_main_guard_is_told_what_to_do(tmp_path):
     assert proc.returncode == 1
     last = proc.stderr.strip().splitlines()[-1]
     assert last.startswith("lagrangian.errors.ModelError") and 'if __name__ == "__main__":' in last
+
+
+def final_angle(model, values):
+    res = model.simulate(1.0, params=values, initial={"theta_j1": 0.4, "theta_j2": 0.0},
+                         velocity={"theta_j1": 0.0, "theta_j2": 0.0}, rtol=1e-10, atol=1e-12, points=2)
+    return {"theta_end": float(res["theta_j1"][-1])}
+
+
+def test_a_model_simulated_here_is_swept_with_an_analysis_on_the_cluster():
+    """Once simulated, a model holds compiled code (ctypes pointers); it still travels to the workers (rebuilt there
+    from the cache, never pickled as machine code), and their analysis equals this process's."""
+    model = models.double_pendulum(0.3, 0.2)
+    model.simulate(0.1, initial={"theta_j1": 0.4}, velocity={"theta_j1": 0.0})  # now it holds compiled code
+    values = {"m_m1": [0.3, 0.7, 1.9]}
+    ds = sweep(model, values, analysis=final_angle, chunk=1, progress=False)
+    assert (ds.status == DONE).all(), ds.error.values
+    here = [final_angle(model, {"m_m1": m})["theta_end"] for m in values["m_m1"]]
+    assert np.allclose(ds.theta_end.values, here, rtol=1e-12, atol=1e-14)
