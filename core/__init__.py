@@ -46,7 +46,8 @@ MODULES = {
     "derivation": ("assembly", "derive", "equations"),
     "numerics": ("tape", "codegen", "simulation", "events", "integrate", "compiled_loops", "linear", "bench", "ensemble",
                  "result"),
-    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating", "sweep", "stick_slip"),
+    "analysis": ("routh", "impulse", "scene", "derived", "frequency", "linearize", "operating", "sweep", "stick_slip",
+                 "fitting"),
     "circuits": ("analogy", "spice", "netlist", "compare", "ac"),
 }
 _WHERE = {name: f"{__name__}.{layer}.{name}" for layer, names in MODULES.items() for name in names}
@@ -76,15 +77,25 @@ _Alias._specs = {}
 _sys.meta_path.append(_Alias())
 
 
+#: Names of the package that live in a module imported when first asked for.
+_LAZY = {"fit": "fitting", "Fit": "fitting", "FrequencyData": "fitting", "TimeSeries": "fitting"}
+
+
 def __getattr__(name: str):
     if name in _WHERE:
         return _importlib.import_module(f"{__name__}.{name}")
+    if name in _LAZY:
+        return getattr(_importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "Model",
     "load",
     "limits",
+    "fit",
+    "Fit",
+    "FrequencyData",
+    "TimeSeries",
     "Result",
     "Component",
     "Contribution",
