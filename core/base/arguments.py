@@ -15,6 +15,7 @@ array([0. , 0.5, 1. ])
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 import os
@@ -77,6 +78,8 @@ def check_grid(bounds: tuple[float, float], points: Any, t_eval: Any, states: in
         if not isinstance(points, numbers.Integral) or isinstance(points, bool) or points < 1:
             raise ModelError(f"points must be a positive whole number of output times, got {points!r}: e.g. points=1001.")
         _fits(int(points), states, "points")
+        if points <= _EVEN_KEPT:
+            return _even(float(bounds[0]), float(bounds[1]), int(points)).copy()
         return np.linspace(*bounds, int(points))
     if isinstance(t_eval, (str, bytes, Mapping)) or callable(t_eval):
         raise ModelError(f"t_eval must be a sequence of times, got one of type {_kind(t_eval)}.")
@@ -101,8 +104,21 @@ def check_grid(bounds: tuple[float, float], points: Any, t_eval: Any, states: in
     return np.clip(times, *bounds)
 
 
+#: Evenly spaced grids of at most this many times are kept (:func:`_even`) for runs repeated over one span.
+_EVEN_KEPT = 10_000
+
+
+@functools.lru_cache(maxsize=8)
+def _even(t0: float, t1: float, points: int) -> np.ndarray:
+    """``np.linspace(t0, t1, points)``, kept read-only for the next run over the same span (callers copy it)."""
+    grid = np.linspace(t0, t1, points)
+    grid.setflags(write=False)
+    return grid
+
+
+@functools.lru_cache(maxsize=1)
 def _memory() -> float:
-    """Bytes of physical memory (inf where the platform does not say)."""
+    """Bytes of physical memory (inf where the platform does not say; read once)."""
     try:
         return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX

@@ -7,9 +7,11 @@ them; each falls back to its Python sibling (``DOP853_scipy``, ``RK45``,
 ``rk4``, ``verlet``) when the model cannot be compiled, with a note except
 for ``DOP853``, whose loop in C is how it runs, not what was asked.
 
-A whole run's loop runs on a thread of its own, watched from the caller's
-(:func:`_watched`): progress is reported, Ctrl-C stops it, and
-``max_evaluations`` bounds it, as for a run stepped in Python.
+A whole run's loop is watched (:func:`_watched`): progress is reported, Ctrl-C
+stops it, and ``max_evaluations`` bounds it, as for a run stepped in Python.
+A long run (or one asked for its progress) runs on a thread of its own,
+watched from the caller's; a short one on the caller's, no thread started,
+under a deadline past which it goes to a thread of its own.
 
 Runs with events (:mod:`lagrangian.numerics.events`) take the same C steps
 one at a time: ``DOP853`` and ``dopri5_c`` through
@@ -23,7 +25,9 @@ from __future__ import annotations
 import functools
 import logging
 import math
+import os
 import threading
+import time
 
 import numpy as np
 
@@ -48,9 +52,96 @@ def _compiled_or_note(problem, name: str, sibling) -> tuple[CompiledModel | None
 
 #: Seconds between two looks at a loop in C that runs on its own thread (progress, an interrupt).
 POLL = 0.05
+#: A loop in C runs first on the caller's thread, no thread started (a thread's start and join cost a warm run of a
+#: few steps ten times its C, more on a busy machine): one still running after SHORT seconds is stopped there and run
+#: again from its start on a thread of its own, watched as :func:`_watched` says.  Ctrl-C (or another signal whose
+#: handler raises) during those first SHORT seconds takes effect once they are over.
+SHORT = 0.02
+#: A fixed-step loop in C known to need more evaluations than this goes to its own thread at once.
+SHORT_EVALUATIONS = 20_000
+#: Kinds of run (model name and size, method, time span, tolerance or step) found long: the next one goes straight to
+#: a thread of its own.  A hint only (a wrong one costs a thread's start), kept for at most _LONG_KEPT kinds.
+_LONG: dict[tuple, None] = {}
+_LONG_KEPT = 256
 
 
-def _watched(run, problem):
+class _Deadlines:
+    """The process's one thread that stops loops in C run on their caller's thread once they pass their deadline
+    (it sets ``watch[1]``, as Ctrl-C does for a loop on a thread of its own).  Started on first use; while no such
+    loop runs it waits on a condition (no polling), and while one runs it wakes at that loop's deadline only.  An
+    entry left behind (an interrupt between a loop's return and its removal) is dropped at its deadline."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition(threading.Lock())
+        self._runs: dict[int, tuple[float, np.ndarray]] = {}
+        self._thread: threading.Thread | None = None
+        self._due = math.inf  # the deadline the thread waits for (inf: idle)
+
+    def add(self, watch: np.ndarray, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        with self._cond:
+            self._runs[id(watch)] = (deadline, watch)
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._loop, name="lagrangian-deadlines", daemon=True)
+                self._thread.start()
+            elif deadline < self._due:
+                self._cond.notify()
+
+    def remove(self, watch: np.ndarray) -> None:
+        with self._cond:
+            self._runs.pop(id(watch), None)
+
+    def _loop(self) -> None:
+        with self._cond:
+            while True:
+                now = time.monotonic()
+                for key, (deadline, watch) in list(self._runs.items()):
+                    if deadline <= now:
+                        watch[1] = 1.0  # the loop stops after its current step
+                        del self._runs[key]
+                self._due = min((d for d, _ in self._runs.values()), default=math.inf)
+                self._cond.wait(None if self._due == math.inf else self._due - now)
+
+
+_DEADLINES = _Deadlines()
+if hasattr(os, "register_at_fork"):  # a forked child has no such thread, and perhaps a lock held at the fork
+    os.register_at_fork(after_in_child=_DEADLINES.__init__)
+
+
+def _watched(run, problem, key=None, expected: float = 0.0):
+    """``run(watch=...)``, a loop in C, interruptible (Ctrl-C) and watched (progress) as a run stepped in Python is.
+
+    A run asked for its ``progress``, one known to be long (``expected`` evaluations beyond
+    :data:`SHORT_EVALUATIONS`, or a run of this ``key`` of a model of this name stopped at its deadline before) runs
+    on a thread of its own (:func:`_on_thread`).  Any other runs on the caller's thread with no thread started: a call
+    from the main thread with a deadline of :data:`SHORT` seconds, past which it is stopped and run again from its
+    start on a thread of its own (the same steps, so the same numbers); a call from another thread without one
+    (Python delivers signals to the main thread only, so no interrupt can reach it there)."""
+    if getattr(problem, "_report", None) is not None or expected > SHORT_EVALUATIONS:
+        return _on_thread(run, problem)
+    if threading.current_thread() is not threading.main_thread():
+        return run(watch=None)
+    if key is not None:
+        key = (getattr(problem, "name", None), getattr(problem, "dim", None), *key)
+        if key in _LONG:
+            return _on_thread(run, problem)
+    watch = np.zeros(2)
+    _DEADLINES.add(watch, SHORT)
+    try:
+        out = run(watch=watch)
+    finally:
+        _DEADLINES.remove(watch)
+    if not watch[1]:
+        return out
+    # past its deadline (or, rarely, stopped just as it ended): from the start, where Ctrl-C can stop it
+    if key is not None:
+        if len(_LONG) >= _LONG_KEPT:
+            del _LONG[next(iter(_LONG))]  # the oldest
+        _LONG[key] = None
+    return _on_thread(run, problem)
+
+
+def _on_thread(run, problem):
     """``run(watch=...)`` (a loop in C) on a thread of its own, while this one reports its progress and, on an
     interrupt (Ctrl-C), asks it to stop and raises ``KeyboardInterrupt`` once it has: a long run in C stays as
     interruptible, and as watched, as one stepped in Python.  The loop needs no Python (ctypes releases the GIL)."""
@@ -253,7 +344,8 @@ class CompiledDormandPrince(Integrator):
         pace = getattr(problem, "_pace", None)
         run = functools.partial(compiled.dopri5, t_span, y0, t_eval, rtol=rtol, atol=atol, max_step=max_step,
                                 first_step=first_step, variant=self.variant, budget=pace[4] if pace else 0.0)
-        Y, nfev, nstep, status, message, reached = _watched(run, problem)
+        key = (self.name, float(t_span[0]), float(t_span[1]), float(rtol))  # runs alike in length, as a hint
+        Y, nfev, nstep, status, message, reached = _watched(run, problem, key)
         if status == 6:  # judged on its pace in C, refused as in Python
             raise problem.pace_error(reached, nfev, nfev * (t_span[1] - t_span[0]) / (reached - t_span[0]))
         problem.nfev += nfev
@@ -346,7 +438,8 @@ class CompiledFixedStep(FixedStepIntegrator):
             raise IntegrationError(
                 f"{self.name}: {N} steps of {h:.3g} over [{t0:g}, {t1:g}] need {needed} evaluations, more than the "
                 f"run's budget (max_evaluations={pace[4]:.3g}): take a longer step= or allow more evaluations.")
-        Y, nfev, message = _watched(functools.partial(compiled.fixed, self.method, t0, h, N, y0, t_eval), problem)
+        Y, nfev, message = _watched(functools.partial(compiled.fixed, self.method, t0, h, N, y0, t_eval), problem,
+                                    (self.name, t0, t1, h), expected=needed)
         problem.nfev += nfev
         problem.report(t1)
         done = np.all(np.isfinite(Y), axis=0)

@@ -48,9 +48,10 @@ import numpy as np
 from ..errors import IntegrationError, ModelError, closest, warn
 from ..plugin.contracts import KINDS, RESERVED, Integrator, Solution, integrator_problem, resolve
 from .auto import STIFFNESS_RATIO, Choice, choose
+from .codegen import CompiledModel
 from .events import solve as solve_with_events
 from .fixed_step import FixedStepIntegrator, Stepper, _missing_step
-from .problem import Problem, Spectrum, Structure
+from .problem import Problem, Spectrum, Structure, _forget_oldest
 from .simulation import Result
 
 __all__ = [
@@ -159,7 +160,7 @@ def integrate(
     if integrator.kind == "fixed-step" and options.get("step") is None:
         raise _missing_step(name, problem, t_span[0], y0)
     start = problem.rhs(t_span[0], y0)  # fail early, with a clear message, on a singular start
-    if not np.all(np.isfinite(start)):
+    if not np.isfinite(start).all():
         names = problem.names
         bad = [f"{names[i]}'" if i < problem.n else f"{names[problem.inertial[i - problem.n]]}''"
                for i in np.flatnonzero(~np.isfinite(start))]
@@ -168,7 +169,7 @@ def integrate(
             f"{start[~np.isfinite(start)][0]}): the start is a singular configuration of some component "
             f"(e.g. a 2-D spring or damper of zero length). Start elsewhere."
         )
-    stiff_note = _stiffness_note(problem, integrator, t_span, y0, model)
+    stiff_note = _stiffness_note_once(problem, integrator, t_span, y0, model)
     if stiff_note:
         notes = [*notes, "WARNING: " + stiff_note]
         warn(stiff_note, StiffnessWarning)
@@ -205,7 +206,7 @@ def integrate(
             else _fixed_step_advice(problem, integrator, t_span[0], y0, sol.step)
         )
         raise IntegrationError(f"{name} failed on model {model!r} at t={end:g}: {sol.message}. {advice}")
-    if (sol_t.size != t_eval.size and not (occurrences and sol.status == 0)) or not np.all(np.isfinite(sol_y)):
+    if (sol_t.size != t_eval.size and not (occurrences and sol.status == 0)) or not np.isfinite(sol_y).all():
         bad = int(np.argmax(~np.all(np.isfinite(sol_y), axis=0))) if sol_y.size else 0
         at = sol_t[bad] if sol_t.size else t_span[0]
         raise IntegrationError(f"the solution of model {model!r} by {name} became non-finite at t={at:g}.")
@@ -213,15 +214,15 @@ def integrate(
     n = problem.n
     v = numeric.velocities_many(sol_t, sol_y)
     q = sol_y[:n]
-    T, V, D = numeric.energies(sol_t, q, v)
+    T, V, D, h = _energies(numeric, sol_t, q, v)
     all_notes = [*notes, *sol.notes]
     acted = any(getattr(e, "action", None) is not None for e in events) and bool(occurrences)
     if acted:  # an action changed the state: the energy of the model alone need not be kept
         all_notes.append("energy not checked: event actions changed the state")
     if problem._conservative[0] and sol_t.size > 1 and not acted:
-        _explosion_check(problem, integrator, sol_t, q, v, T, V, model)
+        _explosion_check(problem, integrator, sol_t, q, v, T, V, model, h)
     if problem._conservative[0] and sol_t.size > 1 and energy_tol is not False and not acted:
-        all_notes.append(_energy_check(problem, integrator, sol_t, q, v, T, V, options, energy_tol, model))
+        all_notes.append(_energy_check(problem, integrator, sol_t, q, v, T, V, options, energy_tol, model, h))
     return Result(
         evaluator=numeric.evaluate,
         t=sol_t,
@@ -291,6 +292,32 @@ def _solve_pieces(integrator, problem: Problem, t_span, y0: np.ndarray, t_eval: 
     return Solution(np.concatenate(ts), np.concatenate(ys, axis=1), nfev, 0, "", notes, None)
 
 
+#: How many outcomes of the stiffness check a problem keeps (:func:`_stiffness_note_once`).
+STIFFNESS_NOTES_KEPT = 16
+_UNKNOWN = object()
+
+
+def _stiffness_note_once(problem: Problem, integrator, t_span, y0, model) -> str | None:
+    """:func:`_stiffness_note`, kept on the problem (the model with its parameter values) for the next run of the same
+    method from the same start over the same span, which a fit makes thousands of times: it then costs a look-up.
+    A refusal is not kept (it is raised again, the spectrum behind it kept by :meth:`Problem.spectrum`)."""
+    kept = getattr(problem, "_stiffness_notes", None)
+    if kept is None:
+        return _stiffness_note(problem, integrator, t_span, y0, model)
+    y0 = np.asarray(y0, dtype=float)
+    key = (getattr(integrator, "name", None), getattr(integrator, "kind", None),
+           bool(getattr(integrator, "implicit", False)), bool(getattr(integrator, "stiff", False)), float(t_span[0]),
+           float(t_span[1]), y0.tobytes(), model, id(getattr(problem.numeric, "_fast", None)),
+           (STIFFNESS_CHECK_DIM, STIFFNESS_CHECK_STEPS, STIFFNESS_REFUSE_STEPS, STIFF_DECAY_REFUSE_STEPS))
+    note = kept.get(key, _UNKNOWN)
+    if note is not _UNKNOWN:
+        return note
+    note = _stiffness_note(problem, integrator, t_span, y0, model)
+    _forget_oldest(kept, STIFFNESS_NOTES_KEPT)
+    kept[key] = note
+    return note
+
+
 def _stiffness_note(problem: Problem, integrator, t_span, y0, model) -> str | None:
     """Why an explicit adaptive method will crawl on this model (its linearization at the start is stiff), or
     ``None``: explicit methods need steps of about ``1/|λ|max``, so a span of many slow time scales takes
@@ -331,19 +358,34 @@ def _stiffness_note(problem: Problem, integrator, t_span, y0, model) -> str | No
             f"(which picks an implicit method here) or method='Radau'.")
 
 
-def _drift(problem, t, q, v, T, V):
-    """The Jacobi integral along a run, its scale and its largest change relative to that scale."""
-    h = problem.jacobi(t, q, v)
-    scale = max(abs(h[0]), float(np.max(np.abs(T))), float(np.max(np.abs(V))), np.finfo(float).tiny)
-    return h, scale, float(np.max(np.abs(h - h[0])) / scale)
+def _energies(numeric, t: np.ndarray, q: np.ndarray, v: np.ndarray):
+    """``T``, ``V``, ``D`` along a run and, where compiled code evaluates them, the Jacobi integral too (its fourth
+    column of the same call, which :meth:`Problem.jacobi` would make again), else ``None``."""
+    fast = getattr(numeric, "_fast", None)
+    if fast is not None and t.ndim == 1 and isinstance(fast, CompiledModel):
+        out = fast._energies(t, q, v)
+        return out[:, 0].copy(), out[:, 1].copy(), out[:, 2].copy(), out[:, 3].copy()
+    T, V, D = numeric.energies(t, q, v)
+    return T, V, D, None
 
 
-def _explosion_check(problem, integrator, t, q, v, T, V, model) -> None:
+_TINY = np.finfo(float).tiny
+
+
+def _drift(problem, t, q, v, T, V, h=None):
+    """The Jacobi integral along a run (``h`` when it is known), its scale and its largest change relative to that
+    scale."""
+    h = problem.jacobi(t, q, v) if h is None else h
+    scale = max(abs(h[0]), float(np.abs(T).max()), float(np.abs(V).max()), _TINY)
+    return h, scale, float(np.abs(h - h[0]).max() / scale)
+
+
+def _explosion_check(problem, integrator, t, q, v, T, V, model, jacobi=None) -> None:
     """A fixed-step explicit run of a conservative model whose energy left its start by more than its size there:
     an :class:`IntegrationError` (the states are not a solution), whatever ``energy_tol`` says."""
     if integrator.kind == "adaptive" or integrator.implicit:
         return
-    h, scale, _ = _drift(problem, t, q, v, T, V)
+    h, scale, _ = _drift(problem, t, q, v, T, V, jacobi)
     # against the energy at the start (the run's own scale when the start has none): a run that gained or lost
     # more than that passed a singularity or went unstable
     start = max(abs(h[0]), abs(float(T[0])), abs(float(V[0])))
@@ -359,8 +401,8 @@ def _explosion_check(problem, integrator, t, q, v, T, V, model) -> None:
         )
 
 
-def _energy_check(problem, integrator, t, q, v, T, V, options, energy_tol, model) -> str:
-    h, scale, drift = _drift(problem, t, q, v, T, V)
+def _energy_check(problem, integrator, t, q, v, T, V, options, energy_tol, model, jacobi=None) -> str:
+    h, scale, drift = _drift(problem, t, q, v, T, V, jacobi)
     if energy_tol is None:
         energy_tol = max(1e-6, 1e3 * float(options.get("rtol", 0.0))) if integrator.kind == "adaptive" else 1e-2
     note = f"energy (Jacobi integral) kept to {drift:.2e} relative over the run (tolerance {energy_tol:.1e})"

@@ -132,6 +132,10 @@ class Spectrum:
     def nonzero(self) -> np.ndarray:
         return self.eigenvalues[~self.zero]
 
+    def copy(self) -> "Spectrum":
+        """The same spectrum with arrays of its own."""
+        return Spectrum(self.eigenvalues.copy(), self.zero.copy(), self.scale, self.error)
+
     @property
     def rho(self) -> float:
         mags = np.abs(self.nonzero)
@@ -152,6 +156,8 @@ MAX_EVALUATIONS = 1e9
 #: seconds in all says so once (:class:`SlowRunWarning`): it is not stuck, and the warning says how long it will be.
 LONG_RUN = 60.0
 LONG_RUN_AFTER = 2.0
+#: How many spectra a problem keeps (:meth:`Problem.spectrum`): those of the starts of the last few runs.
+SPECTRA_KEPT = 16
 
 
 class SlowRunWarning(UserWarning):
@@ -212,6 +218,10 @@ class Problem:
         #: ``(a, b)`` while an adaptive run restarted at switching times integrates the piece between them: times
         #: are read inside it (:func:`inside`)
         self.window: tuple[float, float] | None = None
+        #: spectra at starts seen (:meth:`spectrum`), by (t, y's bytes, the evaluator's id), oldest first
+        self._spectra: dict[tuple[float, bytes, int], Spectrum] = {}
+        #: outcomes of the stiffness check before a run (:func:`lagrangian.integrate._stiffness_note_once`)
+        self._stiffness_notes: dict[tuple, str | None] = {}
 
     # -- every method -----------------------------------------------------------
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
@@ -333,6 +343,22 @@ class Problem:
         y = np.asarray(y, dtype=float)
         if self.dim == 0:
             return Spectrum(np.zeros(0, dtype=complex), np.zeros(0, dtype=bool), 0.0, 0.0)
+        # a pure function of (t, y) and the evaluator of the right-hand side (compiled or NumPy: the same equations,
+        # perhaps not the same last bits) outside a run: kept for the next call, which a fit makes with the same start
+        quiet = self._report is None and self._pace is None and self.window is None
+        if not quiet:
+            return self._spectrum(t, y)
+        kept = self._spectra
+        hit = kept.get((float(t), y.tobytes(), id(getattr(self.numeric, "_fast", None))))
+        if hit is not None:
+            return hit.copy()
+        spec = self._spectrum(t, y)
+        _forget_oldest(kept, SPECTRA_KEPT)
+        # (the evaluator after the run: an unpickled model's deferred one has put the built one in its place)
+        kept[(float(t), y.tobytes(), id(getattr(self.numeric, "_fast", None)))] = spec.copy()
+        return spec
+
+    def _spectrum(self, t: float, y: np.ndarray) -> Spectrum:
         J = self._central_jacobian(t, y)
         J2 = self._central_jacobian(t, y, 2.0)
         if not (np.all(np.isfinite(J)) and np.all(np.isfinite(J2))):
@@ -600,6 +626,16 @@ class Problem:
         if fast is not None and t.ndim == 1:
             return fast.jacobi(t, q, v)
         return np.broadcast_to(np.asarray(self._jacobi_fn(t, q, v), dtype=float), t.shape).copy()
+
+
+def _forget_oldest(kept: dict, most: int) -> None:
+    """Make room in ``kept`` (oldest first) for one more entry of at most ``most``; safe when another thread that
+    shares the model does the same."""
+    while len(kept) >= most:
+        try:
+            kept.pop(next(iter(kept)), None)
+        except (StopIteration, RuntimeError):  # emptied or changed by another thread meanwhile
+            break
 
 
 def _dependence(exprs, symbols) -> set:
