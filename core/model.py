@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import functools
 import logging
 import re
 from dataclasses import replace
@@ -30,7 +29,7 @@ from .derivation.equations import Equations
 from .base import display, modelfile
 from .base.latex import to_latex
 from .errors import LagrangianError, ModelError, ParameterError, UnknownNameError, closest, warn
-from .base.graph import ComponentGraph
+from .base.graph import ComponentGraph, unchanged_while_running as _unchanged_while_running
 from .base.units import is_quantity, split, to_si
 from .plugin.registry import Registry, default_registry
 from .numerics.simulation import NumericModel, Result, check_start, initial_state
@@ -39,6 +38,7 @@ from .numerics.events import Event
 from .numerics.events import check as check_events
 from .numerics.linear import prepared, simulate_exact, state_space
 from .numerics.fmu import export as export_fmu
+from .numerics import sensitivity as _sensitivity
 
 __all__ = ["Model"]
 
@@ -46,17 +46,6 @@ _log = logging.getLogger("lagrangian")
 
 class NodeNameWarning(UserWarning):
     """A node only one component touches has a name a slip away from another node's (see ``Model``)."""
-
-
-def _unchanged_while_running(method: Callable) -> Callable:
-    """``method``, refused when the model changed while it ran (:meth:`.ComponentGraph.unchanged`)."""
-
-    @functools.wraps(method)
-    def run(self, *args: Any, **kwargs: Any) -> Any:
-        with self._graph.unchanged(self.name, method.__name__):
-            return method(self, *args, **kwargs)
-
-    return run
 
 
 def _shown(value: Any) -> str:
@@ -488,11 +477,12 @@ class Model:
                                  f"got {params[k]!r:.40}: give it in units that keep it finite.") from None
             values.update(dict.fromkeys(needed.get(k, []) + valued.get(k, []), value))
         self._check_overrides({s: values[s] for k in params for s in valued.get(k, [])})
-        subs = {s: sp.Float(v) for s, v in values.items()}
+        subs = None  # (built when a parameter is an expression of others: most models have none)
         for comp in self._graph.components.values():
             for pname, spec in comp.parameters.items():
                 value = comp.params.get(pname)
                 if isinstance(value, sp.Expr) and value.free_symbols - {t}:
+                    subs = subs or {s: sp.Float(v) for s, v in values.items()}
                     check_value(value.xreplace(subs), spec.check, comp.name, pname)
         return values
 
@@ -557,6 +547,7 @@ class Model:
         compiled: bool | str = "auto",
         events: Sequence[Event] = (),
         max_evaluations: float | None = None,
+        sensitivities: Sequence[str] = (),
         **options: Any,
     ) -> Result:
         """Integrate the equations of motion with a registered method, or solve them exactly.
@@ -609,6 +600,10 @@ class Model:
         in ``Result.events`` (see :mod:`lagrangian.numerics.events`).  Every
         adaptive and fixed-step method takes them; ``method="exact"`` does
         not.
+
+        ``sensitivities`` names parameters (of :attr:`parameter_values`, or symbolic ones) and initial values (``"x_p"``,
+        ``"x_p'"``) whose forward sensitivities are integrated with the state: ``res.sensitivity("x_p", "k_k1")`` is
+        ``∂x_p(t)/∂k_k1`` (adaptive methods; no constraints or events: :mod:`lagrangian.numerics.sensitivity`).
 
         ``method="auto"`` picks one from the model's properties — exact for
         a linear time-invariant model, an implicit method for a stiff one
@@ -675,6 +670,8 @@ class Model:
         if run.events and method == "exact":
             raise ModelError("method='exact' solves the whole span at once and takes no events: use an adaptive "
                              "method (DOP853, RK45, Radau) or method='auto'.")
+        if _sensitivity.asked(sensitivities):
+            return _sensitivity.simulate(self, run, sensitivities)
         if method == "auto" and st is not None:
             try:
                 res = simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,

@@ -8,7 +8,8 @@ attach to the model as a whole.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterable, Iterator
+import functools
+from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
 import networkx as nx
@@ -16,7 +17,7 @@ import networkx as nx
 from .component import GROUND, GROUND_ALIASES, Component
 from ..errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, TopologyError, UnknownNodeError
 
-__all__ = ["ComponentGraph"]
+__all__ = ["ComponentGraph", "unchanged_while_running"]
 
 
 class ComponentGraph:
@@ -160,3 +161,15 @@ class ComponentGraph:
                 key = comp.name if i == 0 else f"{comp.name}#{i}"
                 g.add_edge(a, b, key=key, a=a, b=b, component=comp)
         return g
+
+
+def unchanged_while_running(method: Callable) -> Callable:
+    """``method`` of a model (an object holding its graph as ``_graph`` and its ``name``), refused when the model
+    changed while it ran (:meth:`ComponentGraph.unchanged`)."""
+
+    @functools.wraps(method)
+    def run(self, *args: Any, **kwargs: Any) -> Any:
+        with self._graph.unchanged(self.name, method.__name__):
+            return method(self, *args, **kwargs)
+
+    return run

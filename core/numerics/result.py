@@ -31,6 +31,10 @@ class Result:
     well a conservative model kept its energy.  ``events`` lists the events
     that occurred (:class:`~lagrangian.numerics.events.Occurrence`: name,
     time, state), when the run was given any.
+    ``sensitivities`` holds the forward sensitivities a run was asked for (``simulate(..., sensitivities=[...])``,
+    :mod:`lagrangian.numerics.sensitivity`): for each name (a parameter, or an initial value), the derivative of each
+    coordinate (``"x_p"``) and rate (``"x_p'"``) with respect to it, over ``t`` — read with :meth:`sensitivity`,
+    listed by :attr:`sensitivity_names`.
     ``res["x_cart"]`` is the same as ``res.q["x_cart"]``.  ``derived`` maps each
     coordinate a constraint eliminated (``eliminate=``) to its function
     ``x(t)``: no coordinate of the run, ``res["x"]`` and ``res.velocity("x")``
@@ -61,6 +65,7 @@ class Result:
     step: float | None = None
     events: list = field(default_factory=list)
     derived: dict[str, Any] = field(default_factory=dict)
+    sensitivities: dict[str, dict[str, np.ndarray]] = field(default_factory=dict, repr=False)
 
     def __repr__(self) -> str:
         span = f"[{self.t[0]:g}, {self.t[-1]:g}]" if len(self.t) else "[]"
@@ -81,6 +86,8 @@ class Result:
             rows.append(["started at zero", display.short(self.defaulted)])
         if self.events:
             rows.append(["events", display.short([f"{e.name} at {e.time:.6g}" for e in self.events])])
+        if self.sensitivities:
+            rows.append(["sensitivities to", display.short(self.sensitivity_names)])
         return rows
 
     def _repr_html_(self) -> str:
@@ -118,6 +125,26 @@ class Result:
             f = self.derived[name]
             return self.quantity(f.diff(f.args[0]))
         raise UnknownNameError("coordinate", name, [*self.v, *self.derived])
+
+    @property
+    def sensitivity_names(self) -> list[str]:
+        """What the run computed the sensitivities to (``simulate(..., sensitivities=[...])``), in the order asked:
+        parameters by name, coordinates for their initial values, ``"x_p'"`` for an initial rate; ``[]`` for none."""
+        return list(self.sensitivities)
+
+    def sensitivity(self, name: str, wrt: str) -> np.ndarray:
+        """``∂name(t)/∂wrt`` over :attr:`t`: ``name`` a coordinate (``"x_p"``) or its rate (``"x_p'"``), ``wrt`` one of
+        :attr:`sensitivity_names` — a parameter, or a coordinate (``x_p(0)``) or its rate (``x_p'`` for ``ẋ_p(0)``).
+        :class:`UnknownNameError` for a name the run did not compute, listing those it did."""
+        if not self.sensitivities:
+            raise ModelError(f"this run of {self.model!r} computed no sensitivities: ask for them with "
+                             f"simulate(..., sensitivities=[...]), naming parameters or initial values.")
+        if wrt not in self.sensitivities:
+            raise UnknownNameError("sensitivity of this run", wrt, self.sensitivities)
+        series = self.sensitivities[wrt]
+        if name not in series:
+            raise UnknownNameError("coordinate or rate", name, series)
+        return series[name]
 
     def quantity(self, expr: Any) -> np.ndarray:
         """Any expression in the coordinates ``q(t)``, their rates and ``t``, evaluated along the result.
