@@ -131,3 +131,60 @@ def test_bad_requests_are_refused_by_name():
         lg.fit(speaker(), [1, 2], ["R_Re"])
     with pytest.raises(lg.NumericalError, match="did not converge.*stopped at"):
         lg.fit(speaker(), data, list(TRUTH)[:2] + ["m_m"], max_nfev=1)
+
+
+def oscillator(m=0.3, k=40.0, c=0.5):
+    model = lg.Model("oscillator")
+    model.add("mass", "m", "p", m=m)
+    model.add("spring", "k", ("ground", "p"), k=k)
+    model.add("damper", "c", ("ground", "p"), c=c)
+    return model
+
+
+def decay(t, m=0.3, k=40.0, c=0.5, x0=0.01):
+    """The closed form of the damped oscillator released from x0 at rest."""
+    wn, zeta = math.sqrt(k / m), c / (2 * math.sqrt(k * m))
+    wd = wn * math.sqrt(1 - zeta**2)
+    return x0 * np.exp(-zeta * wn * t) * (np.cos(wd * t) + zeta * wn / wd * np.sin(wd * t))
+
+
+def test_a_damped_oscillator_from_a_noisy_record_of_its_decay():
+    """The record is the closed form plus 0.5 % noise; the fit from 25 % off finds k and c within their intervals,
+    and the start x(0) too when asked."""
+    rng = np.random.default_rng(8)
+    t = np.linspace(0, 3, 301)
+    x = decay(t) + 0.005 * 0.01 * rng.normal(size=t.size)
+    data = lg.TimeSeries(t, {"x_p": x}, initial={"x_p": 0.0125}, velocity={"x_p": 0.0})
+    result = lg.fit(oscillator(k=50.0, c=0.4), data, ["k_k", "c_c", "x_p"])
+    bounds = result.interval(3.0)
+    for name, true in (("k_k", 40.0), ("c_c", 0.5), ("x_p", 0.01)):
+        assert abs(result.values[name] / true - 1) < 1e-2, (name, result.values[name])
+        assert bounds[name][0] <= true <= bounds[name][1], (name, bounds[name])
+    assert result.undetermined == []
+
+
+def test_a_dataframe_of_measurements_fits_as_a_time_series():
+    pd = pytest.importorskip("pandas")
+    t = np.linspace(0, 2, 201)
+    frame = pd.DataFrame({"x_p": decay(t)}, index=t)
+    data = lg.TimeSeries.from_table(frame, initial={"x_p": 0.01}, velocity={"x_p": 0.0})
+    result = lg.fit(oscillator(k=44.0), data, ["k_k"])
+    assert result.values["k_k"] == pytest.approx(40.0, rel=1e-6)
+
+
+def test_mass_spring_and_damper_alone_are_not_determined_by_a_free_decay_only_their_ratios():
+    """A free decay fixes k/m and c/m only: scaling m, k and c together changes nothing, and the fit says so."""
+    t = np.linspace(0, 2, 201)
+    data = lg.TimeSeries(t, {"x_p": decay(t)}, initial={"x_p": 0.01}, velocity={"x_p": 0.0})
+    result = lg.fit(oscillator(m=0.35), data, ["m_m", "k_k", "c_c"])
+    assert result.undetermined == ["the data do not determine m_m, k_k, c_c separately: scaling m_m by λ, k_k by λ, "
+                                   "c_c by λ leaves every prediction unchanged."]
+    assert result.determined == ["k_k/m_m", "c_c/m_m"]
+    v = result.values
+    assert v["k_k"] / v["m_m"] == pytest.approx(40 / 0.3, rel=1e-6)
+
+
+def test_an_unknown_output_is_refused_by_name():
+    data = lg.TimeSeries([0, 1, 2], {"y_q": [0, 1, 2]})
+    with pytest.raises(lg.UnknownNameError, match="y_q"):
+        lg.fit(oscillator(), data, ["k_k"])

@@ -283,7 +283,8 @@ class Fit:
         for n in self.names:
             v, e = self.values[n], self.stderr[n]
             if v > 0 and math.isfinite(e):
-                out[n] = (v * math.exp(-sigmas * e / v), v * math.exp(sigmas * e / v))
+                spread = min(sigmas * e / v, 700.0)  # (beyond: the interval is every positive value a float holds)
+                out[n] = (v * math.exp(-spread), v * math.exp(spread))
             else:
                 out[n] = (v - sigmas * e, v + sigmas * e)
         return out
@@ -346,6 +347,13 @@ class Fit:
 
 # -- fitting ----------------------------------------------------------------------------------------------------------
 
+def _window(data: TimeSeries, share: float) -> TimeSeries:
+    """``data`` over the first ``share`` of its span (at least 10 points)."""
+    keep = max(int(np.searchsorted(data.t, data.t[0] + share * (data.t[-1] - data.t[0]), side="right")), 10)
+    return TimeSeries(data.t[:keep], {k: v[:keep] for k, v in data.outputs.items()}, initial=data.initial,
+                      velocity=data.velocity, model=data.model, weight=data.weight, name=data.name)
+
+
 def _null_directions(J: np.ndarray, names: list[str]) -> tuple[list[str], list[str]]:
     """The directions (in log-parameters) the data cannot see, in words, and the monomials the data determine."""
     if J.size == 0:
@@ -377,12 +385,16 @@ def _null_directions(J: np.ndarray, names: list[str]) -> tuple[list[str], list[s
 
 def fit(model: Model, data: Any, params: Sequence[str], *, start: Mapping[str, float] | None = None,
         bounds: Mapping[str, tuple[float, float]] | None = None, rtol: float = 1e-10, atol: float = 1e-13,
-        max_nfev: int = 200, ftol: float = 1e-12, **simulate: Any) -> Fit:
+        max_nfev: int = 200, ftol: float = 1e-12, windows: int = 4, **simulate: Any) -> Fit:
     """Fit ``params`` of ``model`` to ``data`` (see the module's text): a :class:`FrequencyData`, a
     :class:`TimeSeries`, a pandas DataFrame or xarray Dataset of outputs over time, or a list of them (experiments
     sharing the parameters).  ``start``: starting values (default the model's values); ``bounds``: ``(low, high)``
     by name (positive bounds, and by default a positive value's, fit ``log θ``); ``rtol``/``atol``: the runs'
-    tolerances; ``max_nfev``, ``ftol``: SciPy's; other keywords go to each run of a time series.
+    tolerances; ``max_nfev``, ``ftol``: SciPy's; other keywords go to each run of a time series.  ``windows``: a
+    time series is fitted first over the first ``1/2^(windows-1)`` of its span, then over twice as much, and so on
+    to the whole, each fit starting where the last ended — an oscillation's phase over a long record makes its
+    least-squares surface rugged far from the answer, and a short record's is smooth (frequency data are fitted
+    at once).
 
     Raises :class:`~lagrangian.NumericalError` when the optimizer does not converge (it never returns the start as
     an answer), naming its reason and where it stopped."""
@@ -412,6 +424,17 @@ def fit(model: Model, data: Any, params: Sequence[str], *, start: Mapping[str, f
     for n, lo, hi, x in zip(names, low, high, x0):
         if not lo < hi or not lo <= x <= hi:
             raise ModelError(f"parameter {n!r}: its start {x:g} must lie within its bounds ({lo:g}, {hi:g}).")
+    if not isinstance(windows, int) or isinstance(windows, bool) or not 1 <= windows <= 16:
+        raise ModelError(f"windows must be a whole number from 1 to 16, got {windows!r:.40}.")
+    if windows > 1 and any(isinstance(e, TimeSeries) and e.t.size >= 40 for e in experiments):
+        for k in range(windows - 1, 0, -1):
+            part = [_window(e, 2.0**-k) if isinstance(e, TimeSeries) else e for e in experiments]
+            try:
+                start = fit(model, part, names, start=start, bounds=bounds, rtol=rtol, atol=atol, max_nfev=max_nfev,
+                            ftol=ftol, windows=1, **simulate).values
+            except NumericalError:  # (a window it cannot settle: the next, longer one starts from where it was)
+                continue
+        x0 = np.array([float(start.get(n, known.get(n, 0.0))) for n in names])
     parts = [(_Frequency(e, e.model or model, names) if isinstance(e, FrequencyData) else
               _Time(e, e.model or model, names, dict(rtol=rtol, atol=atol, **simulate))) for e in experiments]
     failed: list[str] = []
