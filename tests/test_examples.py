@@ -147,3 +147,11 @@ def test_travel_pickles_saves_exports_and_converts_the_double_pendulum(run, tmp_
     assert fmu < 1e-7 and bode < 1e-12
     assert (tmp_path / "double_pendulum.fmu").stat().st_size > 1000
     assert (tmp_path / "travel.png").stat().st_size > 10_000
+
+
+def test_fit_loudspeaker_flags_the_free_air_ambiguity_and_recovers_the_truth_with_an_added_mass(run, tmp_path):
+    out = run("fit_loudspeaker.py", "--out", str(tmp_path / "fit.png"), cwd=tmp_path)
+    assert "do not determine Bl_coil, m_m, k_k, c_c separately" in out.split("free air and +10 g:")[0]
+    verdicts = re.findall(r"fitted \S+ \((\S+) off\), in its 3σ interval: (\w+)", out)
+    assert len(verdicts) == 6 and all(v == "True" and float(off) < 1e-2 for off, v in verdicts)
+    assert (tmp_path / "fit.png").read_bytes().startswith(b"\x89PNG")
