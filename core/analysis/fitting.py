@@ -6,7 +6,8 @@ matches one or more experiments:
 - :class:`FrequencyData` — a measured complex frequency response of one input to one output (a transfer function
   ``output/input``, or with ``impedance=True`` its inverse ``input/output``: a loudspeaker's electrical impedance
   ``E / i``).  The model's response and its exact derivatives by the parameters come from a linearization in which
-  the fitted parameters are symbols (:func:`lagrangian.frequency.linearize`), differentiated symbolically once;
+  the fitted parameters are symbols, differentiated symbolically once
+  (:class:`~lagrangian.analysis.parametric.ParametricResponse`);
 - :class:`TimeSeries` — measured outputs over time (coordinates ``"x_p"`` and rates ``"x_p'"``).  The model's run
   and its exact Jacobian come from one :meth:`~lagrangian.Model.simulate` with ``sensitivities=`` (the forward
   sensitivity equations integrated with the states).
@@ -46,11 +47,10 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..errors import ModelError, NumericalError, UnknownNameError
 from ..model import Model
-from .linearize import linearize
+from .parametric import ParametricResponse
 
 __all__ = ["fit", "Fit", "FrequencyData", "TimeSeries"]
 
@@ -151,63 +151,18 @@ def _weight(weight: Any, name: str) -> None:
 # -- each experiment's predictions and their derivatives ----------------------------------------------------------------
 
 class _Frequency:
-    """A :class:`FrequencyData`'s model response ``H(jω; θ)`` and ``∂H/∂θ`` from a linearization whose fitted
-    parameters are symbols (the matrices and their derivatives turned into NumPy functions once)."""
+    """A :class:`FrequencyData`'s model response ``H(jω; θ)`` and ``∂H/∂θ``
+    (:class:`~lagrangian.analysis.parametric.ParametricResponse`), as relative residuals."""
 
     def __init__(self, data: FrequencyData, model: Model, names: list[str]):
         self.data = data
-        symbols = [sp.Symbol(f"theta{i}", real=True) for i in range(len(names))]
-        lin = linearize(model, inputs=[data.input], outputs=[data.output], params=dict(zip(names, symbols)),
-                        symbolic=True)
-        n, m = len(lin.coordinates), lin.Phi.shape[0]
-        z = sp.zeros
-        parts = {"M": lin.M, "C": lin.C, "K": lin.K, "Phi": lin.Phi, "Phi_v": lin.rate_rows(), "Bi": lin.Bi,
-                 "Di": lin.Di}
-        parts.update({f"B{k}": b for k, b in enumerate(lin.B)})
-        parts.update({f"Cq{k}": c for k, c in enumerate(lin.Cq)})
-        parts.update({f"D{k}": d for k, d in enumerate(lin.D)})
-        self.shape = (n, m, len(lin.B), len(lin.Cq), len(lin.D))
-        flat = {key: sp.Matrix(value) if value is not None else z(0, 0) for key, value in parts.items()}
-        self.value = {k: sp.lambdify([symbols], v, "numpy") for k, v in flat.items()}
-        self.slope = [{k: sp.lambdify([symbols], v.diff(s), "numpy") for k, v in flat.items()} for s in symbols]
-
-    @staticmethod
-    def _response(parts: Mapping[str, np.ndarray], s: np.ndarray, shape) -> tuple[np.ndarray, np.ndarray]:
-        """``(G(s), rhs(s), out(s), direct(s))`` stacked over ``s``: ``G X = rhs``, ``y = out·X + direct``."""
-        n, m, nb, nc, nd = shape
-        A = parts["M"] * s[:, None, None] ** 2 + parts["C"] * s[:, None, None] + parts["K"]
-        G = np.zeros((s.size, n + m, n + m), dtype=complex)
-        G[:, :n, :n] = A
-        if m:
-            G[:, :n, n:] = -parts["Phi"].T
-            G[:, n:, :n] = parts["Phi"] + parts["Phi_v"] * s[:, None, None]
-        rhs = np.zeros((s.size, n + m), dtype=complex)
-        rhs[:, :n] = sum(parts[f"B{k}"][:, 0] * s[:, None] ** k for k in range(nb)) + parts["Bi"][:, 0] / s[:, None]
-        out = np.zeros((s.size, n + m), dtype=complex)
-        out[:, :n] = sum(parts[f"Cq{k}"][0] * s[:, None] ** k for k in range(nc))
-        direct = (sum(parts[f"D{k}"][0, 0] * s ** (k + 1) for k in range(nd)) if nd else 0) + parts["Di"][0, 0] / s
-        return G, rhs, out, direct
+        self.response = ParametricResponse(model, [data.input], [data.output], names)
 
     def predict(self, theta: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """The model's values at the data's frequencies and, with ``jacobian``, their derivatives by ``θ``
         (frequencies × parameters)."""
-        s = 2j * np.pi * self.data.frequencies
-        parts = {k: np.asarray(f(theta), dtype=float) for k, f in self.value.items()}
-        G, rhs, out, direct = self._response(parts, s, self.shape)
-        try:
-            X = np.linalg.solve(G, rhs[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            raise NumericalError(f"{self.data.name}: the model's response is singular at these parameter values "
-                                 f"({', '.join(f'{v:.4g}' for v in theta)}).") from None
-        H = np.einsum("fi,fi->f", out, X) + direct
-        J = None
-        if jacobian:
-            J = np.empty((s.size, theta.size), dtype=complex)
-            for j, slope in enumerate(self.slope):
-                dparts = {k: np.asarray(f(theta), dtype=float) for k, f in slope.items()}
-                dG, drhs, dout, ddirect = self._response(dparts, s, self.shape)
-                dX = np.linalg.solve(G, (drhs - np.einsum("fij,fj->fi", dG, X))[..., None])[..., 0]
-                J[:, j] = np.einsum("fi,fi->f", dout, X) + np.einsum("fi,fi->f", out, dX) + ddirect
+        H, dH = self.response.evaluate(theta, self.data.frequencies, jacobian)
+        H, J = H[0, 0], (dH[:, 0, 0].T if dH is not None else None)
         if self.data.impedance:  # the data are input/output = 1/H
             if J is not None:
                 J = -J / H[:, None] ** 2

@@ -59,6 +59,7 @@ from . import control as _control
 from .linearize import LinearModel, linearize, s
 from .laplace import _solve
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
+from .parametric import ParametricResponse
 from .speeds import SpeedSweep, speed_sweep
 
 __all__ = ["FrequencyResponse", "Modes", "SpeedSweep", "TransferFunction", "decades", "frequency_response",
@@ -427,6 +428,16 @@ class FrequencyResponse:
     notes: list[str] = field(default_factory=list)
     #: units of the inputs and outputs by label (``""`` where unknown)
     units: dict[str, str] = field(default_factory=dict)
+    #: ``∂H/∂p`` by parameter name (outputs × inputs × frequencies), when asked for (``sensitivities=``)
+    sensitivities: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def sensitivity(self, wrt: str, output: Any = None, input: str | None = None) -> np.ndarray:
+        """``∂H[output, input]/∂wrt`` over the frequencies (the only output and input when not named)."""
+        if wrt not in self.sensitivities:
+            raise UnknownNameError("sensitivity", wrt, self.sensitivities)
+        o = self._index(self.outputs, self.outputs[0] if output is None and len(self.outputs) == 1 else output, "output")
+        i = self._index(self.inputs, self.inputs[0] if input is None and len(self.inputs) == 1 else input, "input")
+        return self.sensitivities[wrt][o, i]
 
     def unit(self, output: Any, input: str) -> str:
         """The unit of ``H[output, input]`` (``"V/A"``, ``"m/N"``, ``"V/V"``), or ``""`` when either is unknown."""
@@ -538,10 +549,28 @@ class FrequencyResponse:
 
 
 def frequency_response(system: Model | LinearModel, frequencies: Any, *, inputs: Sequence[str] | None = None,
-                       outputs: Sequence[Any] | None = None, **kwargs: Any) -> FrequencyResponse:
+                       outputs: Sequence[Any] | None = None, sensitivities: Sequence[str] | None = None,
+                       **kwargs: Any) -> FrequencyResponse:
     """``H(j 2π f)`` at ``frequencies`` (Hz) for every input and output (see :func:`linearize` for both and for
-    ``kwargs``)."""
+    ``kwargs``).  ``sensitivities``: parameter names (as in ``parameter_values``) whose exact derivatives
+    ``∂H/∂p`` the response carries too (:meth:`FrequencyResponse.sensitivity`; a model about rest with its own
+    values: :class:`~lagrangian.analysis.parametric.ParametricResponse`)."""
     f = _frequencies(frequencies)
+    if sensitivities:
+        if not isinstance(system, Model) or kwargs:
+            raise ModelError("sensitivities= takes a Model (not a linearization) at rest with its own parameter "
+                             "values: give other values to the model itself.")
+        unknown = [n for n in sensitivities if n not in system.parameter_values]
+        if unknown:
+            raise UnknownNameError("parameter", unknown[0], system.parameter_values)
+        if np.any(f <= 0):
+            raise ModelError("sensitivities= needs positive frequencies (a response's derivative at 0 Hz may hold 1/s).")
+        names = list(dict.fromkeys(sensitivities))
+        parametric = ParametricResponse(system, inputs, outputs, names)
+        _, dH = parametric.evaluate([system.parameter_values[n] for n in names], f)
+        out = frequency_response(system, f, inputs=inputs, outputs=outputs)
+        out.sensitivities = {n: dH[j] for j, n in enumerate(names)}
+        return out
     lin = _linear(system, inputs, outputs, kwargs)
     H = _solve(lin, 2j * np.pi * f)
     notes = []
