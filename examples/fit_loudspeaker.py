@@ -1,5 +1,5 @@
 """Thiele–Small parameters of a loudspeaker, fitted to its measured impedance.
-========================================================================
+===========================================================================
 
 A driver's six parameters (Re, Le, Bl, the moving mass Mms, the suspension's stiffness k = 1/Cms and its
 damping Rms) are what one measures it for.  Its electrical impedance
