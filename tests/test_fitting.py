@@ -48,7 +48,7 @@ def test_thiele_small_parameters_from_free_air_and_added_mass_curves():
     for name, true in TRUTH.items():
         assert abs(result.values[name] / true - 1) < 1e-2, (name, result.values[name])
         assert bounds[name][0] <= true <= bounds[name][1], (name, bounds[name], true)
-    assert result.undetermined == [] and result.failed_steps == []
+    assert result.undetermined == [] and result.failed_steps == [] and result.structural == []
     assert np.allclose(np.diag(result.correlation), 1.0)
     table = result.to_pandas()
     assert list(table.index) == list(TRUTH) and (table["stderr"] > 0).all()
@@ -60,6 +60,10 @@ def test_free_air_impedance_alone_leaves_bl_mms_cms_rms_undetermined_and_says_wh
     assert result.undetermined == ["the data do not determine Bl_coil, m_m, k_k, c_c separately: scaling Bl_coil by "
                                    "λ, m_m by λ^2, k_k by λ^2, c_c by λ^2 leaves every prediction unchanged."]
     assert result.determined == ["m_m/Bl_coil^2", "k_k/Bl_coil^2", "c_c/Bl_coil^2"]
+    # and no data could: the transfer function's coefficients (symbolic) have the same symmetry
+    assert result.structural == ["no data of these experiments can determine Bl_coil, m_m, k_k, c_c separately: "
+                                 "scaling Bl_coil by λ, m_m by λ^2, k_k by λ^2, c_c by λ^2 leaves every prediction "
+                                 "unchanged."]
     for name in ("Bl_coil", "m_m", "k_k", "c_c"):
         assert math.isinf(result.stderr[name])
     v, t = result.values, TRUTH
@@ -104,6 +108,7 @@ def test_a_series_rlc_over_decades_is_recovered_exactly_from_exact_data(logR, lo
                     max_nfev=400)
     for name, true in (("R_R1", R), ("L_L1", L), ("C_C1", C)):
         assert result.values[name] == pytest.approx(true, rel=1e-6)
+    assert result.structural == []  # Z = R + sL + 1/(sC) fixes all three
 
 
 @pytest.mark.parametrize("make, words", [

@@ -22,7 +22,10 @@ The :class:`Fit` holds the estimates, standard errors and confidence intervals f
 (``cov = s² (JᵀJ)⁻¹``, ``s²`` the residual variance), the correlation matrix, the residuals, and the parameter
 combinations the data do not determine: directions of the Jacobian's null space (its singular values below
 ``1e-7`` of the largest), said in words — "scaling Bl_coil by λ, m_m by λ², ... leaves every prediction unchanged"
-— with the monomials that *are* determined.  Such a direction is left out of the search (the parameters keep
+— with the monomials that *are* determined.  For frequency data the same question is answered for any data
+(``Fit.structural``): exact data at every frequency fix the transfer functions' coefficients and no more, so the
+null directions of their Jacobian, from their symbolic expressions, are what no measurement of these experiments
+can determine.  Such a direction is left out of the search (the parameters keep
 their start along it, where it would otherwise drift without bound), and the standard errors of its parameters
 are infinite rather than a number.
 
@@ -47,6 +50,7 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
+import sympy as sp
 
 from ..errors import ModelError, NumericalError, UnknownNameError
 from ..model import Model
@@ -230,6 +234,10 @@ class Fit:
     njev: int
     failed_steps: list[str]
     experiments: list[Any]
+    #: for frequency data, what the model's structure leaves undetermined whatever the data (exact data at every
+    #: frequency fix a transfer function's coefficients and no more: the rank of their Jacobian, from their symbolic
+    #: expressions); ``None`` when not worked out (time series, or systems beyond ``parametric.COEFFICIENTS_MAX``)
+    structural: list[str] | None = None
 
     def interval(self, sigmas: float = 3.0) -> dict[str, tuple[float, float]]:
         """``value ± sigmas·stderr`` by name (in log-parameters for a positive one: ``value·exp(±sigmas·σ/value)``,
@@ -262,6 +270,8 @@ class Fit:
             lines.append(f"  {n:>14} = {self.values[n]:.6g} ± {e:.2g}" if math.isfinite(e) else
                          f"  {n:>14} = {self.values[n]:.6g} (not determined)")
         lines += [f"  {s}" for s in self.undetermined]
+        lines += [f"  structurally: {s}" for s in self.structural or () if s.split(":")[0].replace(
+            "no data of these experiments can", "the data do not") not in {u.split(":")[0] for u in self.undetermined}]
         if self.determined:
             lines.append(f"  determined: {', '.join(self.determined)}")
         lines += [f"  failed step: {s}" for s in self.failed_steps]
@@ -309,7 +319,7 @@ def _window(data: TimeSeries, share: float) -> TimeSeries:
                       velocity=data.velocity, model=data.model, weight=data.weight, name=data.name)
 
 
-def _null_directions(J: np.ndarray, names: list[str]) -> tuple[list[str], list[str]]:
+def _null_directions(J: np.ndarray, names: list[str], share: float = NULL_SHARE) -> tuple[list[str], list[str]]:
     """The directions (in log-parameters) the data cannot see, in words, and the monomials the data determine."""
     if J.size == 0:
         return [], []
@@ -318,7 +328,7 @@ def _null_directions(J: np.ndarray, names: list[str]) -> tuple[list[str], list[s
     _, s, vt = np.linalg.svd(J / norms, full_matrices=True)
     s = np.concatenate([s, np.zeros(len(names) - s.size)])
     words, determined = [], []
-    for k in np.flatnonzero(s < NULL_SHARE * s[0]):
+    for k in np.flatnonzero(s < share * s[0]):
         v = vt[k] / norms
         big = np.abs(v) > 1e-6 * np.max(np.abs(v))
         v = np.where(big, v, 0.0) / v[big][np.argmin(np.abs(v[big]))]  # the smallest power 1
@@ -470,4 +480,24 @@ def fit(model: Model, data: Any, params: Sequence[str], *, start: Mapping[str, f
     return Fit(names=names, values=dict(zip(names, map(float, theta))), stderr=dict(zip(names, map(float, stderr))),
                correlation=correlation, residuals=r, cost=0.5 * float(r @ r), undetermined=undetermined,
                determined=determined, nfev=int(solution.nfev), njev=int(solution.njev or 0), failed_steps=failed,
-               experiments=parts)
+               experiments=parts, structural=_structural(parts, names, theta))
+
+
+def _structural(parts: list, names: list[str], theta: np.ndarray) -> list[str] | None:
+    """The directions no data of these frequency experiments can determine: null directions of the Jacobian of
+    their transfer functions' coefficients (``∂ log c / ∂ log θ``), differentiated symbolically."""
+    if not parts or not all(isinstance(p, _Frequency) for p in parts):
+        return None
+    rows = []
+    for p in parts:
+        found = p.response.coefficients()
+        if found is None:
+            return None
+        coefficients, symbols = found
+        values = dict(zip(symbols, map(float, theta)))
+        for c in coefficients:  # ∂ log c / ∂ log θ: each coefficient relative to itself, whatever its size
+            size = float(c.subs(values))
+            if size != 0:
+                rows.append([float(sp.diff(c, x).subs(values)) * values[x] / size for x in symbols])
+    words, _ = _null_directions(np.array(rows), names, share=1e-9)
+    return [w.replace("the data do not", "no data of these experiments can") for w in words]

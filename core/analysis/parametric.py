@@ -33,7 +33,11 @@ import sympy as sp
 from ..errors import NumericalError
 from .linearize import linearize
 
-__all__ = ["ParametricResponse"]
+__all__ = ["ParametricResponse", "COEFFICIENTS_MAX"]
+
+#: Largest system (coordinates and constraints) whose transfer function :meth:`ParametricResponse.coefficients`
+#: forms symbolically.
+COEFFICIENTS_MAX = 6
 
 
 class ParametricResponse:
@@ -56,6 +60,32 @@ class ParametricResponse:
         self._slope = [{k: sp.lambdify([symbols], v.diff(s), "numpy") for k, v in flat.items() if v.has(s)}
                        for s in symbols]
         self._shapes = {k: v.shape for k, v in flat.items()}
+        self._flat, self._symbols = flat, symbols
+
+    def coefficients(self, output: int = 0, input: int = 0) -> tuple[list[sp.Expr], list[sp.Symbol]] | None:
+        """The coefficients of ``H[output, input](s)`` as a ratio of polynomials in ``s`` with a monic denominator
+        (its highest power's coefficient 1), as expressions of the parameters' symbols (and the symbols); ``None``
+        when the system has more than :data:`COEFFICIENTS_MAX` unknowns (its symbolic inverse would not pay).  What
+        a measured response determines — with exact data at every frequency — is these coefficients and no more."""
+        n, m, nb, nc, nd = self._sizes
+        if n + m > COEFFICIENTS_MAX:
+            return None
+        s = sp.Symbol("s")
+        f = self._flat
+        P = sp.zeros(n + m, n + m)
+        P[:n, :n] = (f["M"] * s + f["C"]) * s + f["K"]
+        if m:
+            P[:n, n:] = -f["force"].T
+            P[n:, :n] = f["Phi"] + f["rate"] * s
+        R = sp.zeros(n + m, 1)
+        R[:n, 0] = sum((f[f"B{k}"][:, input] * s**k for k in range(nb)), sp.zeros(n, 1)) + f["Bi"][:, input] / s
+        C = sp.zeros(1, n + m)
+        C[0, :n] = sum((f[f"Cq{k}"][output, :] * s**k for k in range(nc)), sp.zeros(1, n))
+        D = sum((f[f"D{k}"][output, input] * s**k for k in range(nd)), sp.Integer(0)) + f["Di"][output, input] / s
+        H = sp.together(sp.cancel((C * P.LUsolve(R))[0, 0] + D))
+        top, bottom = (sp.Poly(sp.expand(e), s) for e in sp.fraction(H))
+        lead = bottom.LC()
+        return [sp.cancel(c / lead) for c in top.all_coeffs() + bottom.all_coeffs()[1:]], self._symbols
 
     def _parts(self, functions: dict, theta: np.ndarray) -> dict[str, np.ndarray]:
         out = {k: np.zeros(shape) for k, shape in self._shapes.items()}
