@@ -8,8 +8,8 @@ are: nothing of a previous run's values is reused):
 
 - **sensitivities**: one ``simulate(..., sensitivities=["m_m1", "m_m2", "g_g"])`` — the state and three
   sensitivities (16 variables) by DOP853's loop in C on the augmented right-hand side in C;
-- **plain ×1, ×4, ×6**: that many plain ``simulate`` runs (DOP853 in C) — four is the brief's comparison, six what
-  central differences of three parameters need (two runs each);
+- **plain ×1, ×4, ×6**: that many plain ``simulate`` runs (DOP853 in C) — four is a run and one per parameter
+  (forward differences), six what central differences of three parameters need (two runs each);
 - **seen values**: a sensitivity run and a plain run at the model's own values, run before: what is left when
   nothing is rebuilt for new values (per new set of values a run builds the model's numeric functions again and
   loads its compiled code, some milliseconds that dominate runs this short);
