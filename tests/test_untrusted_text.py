@@ -202,9 +202,11 @@ def test_vectors_and_matrices_read_each_entry_as_text(marker):
 
 
 def test_the_time_derivative_plugins_call_refuses_text(marker):
-    from lagrangian.derivation.calculus import time_derivative
+    from lagrangian.derivation.calculus import time_derivative, time_integral
 
     for text in payloads(marker):
         with pytest.raises(lg.ModelError, match="time_derivative takes a SymPy expression, not text"):
             time_derivative(text, lg.t)
+        with pytest.raises(lg.ModelError, match="time_integral takes a SymPy expression, not text"):
+            time_integral(text, lg.t)
     assert not marker.exists()

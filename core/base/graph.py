@@ -79,7 +79,8 @@ class ComponentGraph:
         which code it called (a signal's or load's Python callable) added a component or declared a node: the run
         used the equations from before the change, and its result would describe a model that no longer exists.
         An error the block raised after such a change is chained to the refusal."""
-        before, components, nodes = self.version, set(self.components), set(self.declared)
+        # (the graph only grows, in order: counts tell what was added, at no cost per run)
+        before, components, nodes = self.version, len(self.components), len(self.declared)
         try:
             yield
         except Exception as exc:
@@ -89,9 +90,9 @@ class ComponentGraph:
         if self.version != before:
             raise self._changed(model, run, components, nodes)
 
-    def _changed(self, model: str, run: str, components: set[str], nodes: set[str]) -> ModelError:
-        added = [f"component {n!r} (a {c.kind})" for n, c in self.components.items() if n not in components]
-        declared = [f"node {n!r}" for n in self.declared if n not in nodes]
+    def _changed(self, model: str, run: str, components: int, nodes: int) -> ModelError:
+        added = [f"component {n!r} (a {c.kind})" for n, c in list(self.components.items())[components:]]
+        declared = [f"node {n!r}" for n in self.declared[nodes:]]
         return ModelError(
             f"model {model!r} was changed during {run}: {', '.join(added + declared) or 'its components'} added "
             f"while it ran, by code the run called (a signal's or load's Python callable). The run integrated the "

@@ -295,6 +295,8 @@ def time_integral(expr, t: sp.Symbol):
     >>> time_integral(sp.log(t), t) is None
     True
     """
+    if isinstance(expr, (str, bytes)):  # text is never read as code
+        raise ModelError(f"time_integral takes a SymPy expression, not text: {expr!r:.60}.")
     expr = sp.sympify(expr, strict=True)
     if isinstance(expr, sp.Piecewise):
         return _piecewise_integral(expr, t)
