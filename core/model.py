@@ -27,6 +27,7 @@ from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
 from .derivation.equations import Equations
 from .base import display, modelfile
+from .base.overrides import Rules
 from .base.latex import to_latex
 from .errors import LagrangianError, ModelError, ParameterError, UnknownNameError, closest, warn
 from .base.graph import ComponentGraph, unchanged_while_running as _unchanged_while_running
@@ -498,26 +499,8 @@ class Model:
 
     def _check_overrides(self, given: Mapping[sp.Symbol, float]) -> None:
         """Another value for a parameter given as a number obeys that parameter's rule (positive, ...)."""
-        if not given:
-            return
-        for comp in self._graph.components.values():
-            for pname, symbol in getattr(comp, "_symbols", {}).items():
-                if isinstance(symbol, sp.Symbol):
-                    if symbol in given:
-                        check_value(sp.Float(given[symbol]), comp.parameters[pname].check, comp.name, pname)
-                    continue
-                # an entry of a vector, matrix or mapping: its symbol carries its value's sign, which must stay
-                entries = symbol.values() if isinstance(symbol, Mapping) else [symbol]
-                for entry in {s for e in entries for s in sp.sympify(e, strict=True).free_symbols if s in given}:
-                    value = float(given[entry])
-                    if not (value > 0 if entry.is_positive else value < 0):
-                        sign = "positive" if entry.is_positive else "negative"
-                        raise ParameterError(
-                            comp.name, pname,
-                            f"entry {entry.name!r} was given as a {sign} number ({float(comp.values[entry]):g}); another "
-                            f"value must be {sign} too, got {value:g} (build the model with a sympy.Symbol there to vary "
-                            f"its sign)."
-                        )
+        if given:
+            self._get("override_rules", lambda: Rules(self._graph.components.values())).check(given)
 
     def numeric(self, params: Mapping[str, float] | None = None) -> NumericModel:
         """The model's numeric functions for the given parameter values (cached)."""

@@ -193,6 +193,7 @@ def test_without_the_loop_in_c_scipy_integrates_and_says_so(monkeypatch):
     assert any("atol given per state" in n for n in per_state.notes)
     monkeypatch.setattr(sensitivity, "compiler", lambda: None)
     monkeypatch.setattr(sensitivity, "_BUILT", type(sensitivity._BUILT)())
+    monkeypatch.setattr(sensitivity, "_LAST", {})  # (the library this process loaded before)
     without = oscillator().simulate(1.0, **kw)
     assert any("not usable here" in n and "SciPy's DOP853" in n for n in without.notes)
     for res in (per_state, without):

@@ -60,6 +60,11 @@ __all__ = ["fit", "Fit", "FrequencyData", "TimeSeries"]
 
 #: Singular values of the scaled Jacobian below this share of the largest are directions the data cannot see.
 NULL_SHARE = 1e-7
+#: The ``ftol`` of the fits over a time series' shorter windows, which only bring the start near the answer; the
+#: fit over the whole record keeps the caller's.
+WINDOW_FTOL = 1e-6
+
+
 
 
 # -- the data ---------------------------------------------------------------------------------------------------------
@@ -325,7 +330,7 @@ def _null_directions(J: np.ndarray, names: list[str], share: float = NULL_SHARE)
         return [], []
     norms = np.linalg.norm(J, axis=0)
     norms[norms == 0] = 1.0
-    _, s, vt = np.linalg.svd(J / norms, full_matrices=True)
+    _, s, vt = np.linalg.svd(J / norms, full_matrices=J.shape[0] < J.shape[1])
     s = np.concatenate([s, np.zeros(len(names) - s.size)])
     words, determined = [], []
     for k in np.flatnonzero(s < share * s[0]):
@@ -396,7 +401,7 @@ def fit(model: Model, data: Any, params: Sequence[str], *, start: Mapping[str, f
             part = [_window(e, 2.0**-k) if isinstance(e, TimeSeries) else e for e in experiments]
             try:
                 start = fit(model, part, names, start=start, bounds=bounds, rtol=rtol, atol=atol, max_nfev=max_nfev,
-                            ftol=ftol, windows=1, **simulate).values
+                            ftol=max(ftol, WINDOW_FTOL), windows=1, **simulate).values
             except NumericalError:  # (a window it cannot settle: the next, longer one starts from where it was)
                 continue
         x0 = np.array([float(start.get(n, known.get(n, 0.0))) for n in names])
@@ -444,7 +449,7 @@ def fit(model: Model, data: Any, params: Sequence[str], *, start: Mapping[str, f
     J0 = both(z0)[1]
     norms = np.linalg.norm(J0, axis=0)
     norms[norms == 0] = 1.0
-    _, sv, vt = np.linalg.svd(J0 / norms, full_matrices=True)
+    _, sv, vt = np.linalg.svd(J0 / norms, full_matrices=J0.shape[0] < J0.shape[1])
     sv = np.concatenate([sv, np.zeros(len(names) - sv.size)])
     seen = sv > NULL_SHARE * max(sv[0], 1e-300)
     if not seen.all() and np.isinf(zlow).all() and np.isinf(zhigh).all():
@@ -461,7 +466,7 @@ def fit(model: Model, data: Any, params: Sequence[str], *, start: Mapping[str, f
         raise NumericalError(f"fit did not converge ({solution.message}); it stopped at "
                              f"{dict(zip(names, map(float, theta)))} after {solution.nfev} evaluations: give a start "
                              f"nearer the data, more max_nfev, or fewer parameters.")
-    r, J = evaluate(solution.x, True)
+    r, J = both(solution.x)
     Jp = J / np.where(log, theta, 1.0)  # by the parameters themselves
     dof = max(r.size - len(names), 1)
     s2 = float(r @ r) / dof

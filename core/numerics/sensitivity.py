@@ -61,6 +61,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import math
+import os
 import sys
 import threading
 import weakref
@@ -76,7 +77,7 @@ from ..base.component import t as time_symbol
 from ..derivation.calculus import Calculus
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError, UnknownNameError
 from ..plugin.contracts import resolve
-from .c_build import _cache, _key, _libraries, compiler
+from .c_build import _cache, _key, _libraries, cache_dir, compiler, wanted_compiler
 from .c_source import _HEADER, _SOLVE, _interpreter, _Unavailable, programs
 from .codegen import _array, _prog, _Prog
 from .compiled_loops import _watched
@@ -360,6 +361,10 @@ _LOCK = threading.Lock()
 def _library() -> ctypes.CDLL:
     """The library of ``lg_sens_rhs``: from this process, the disk cache, or compiled now (once per machine);
     raises ``_Unavailable`` (or ``OSError``) when it cannot be had."""
+    where = _where()
+    lib = _LAST.get(where)
+    if lib is not None:
+        return lib
     cc = compiler()
     if cc is None:
         raise _Unavailable("no C compiler found")
@@ -373,7 +378,19 @@ def _library() -> ctypes.CDLL:
             lib.lg_sens_rhs.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p]
             lib.lg_sens_rhs.restype = ctypes.c_int
             _LIBRARIES[(str(directory), key)] = lib
+        _LAST.clear()
+        _LAST[where] = lib
     return lib
+
+
+#: The library last loaded, by what chose it (:func:`_where`): a run of a fit (a run per trial point) finds it
+#: without looking for the compiler on the PATH, checking the cache directory and hashing the source again.
+_LAST: dict[tuple, ctypes.CDLL] = {}
+
+
+def _where() -> tuple:
+    """What decides which compiler and cache directory :func:`_library` uses (settings and environment)."""
+    return (wanted_compiler(), os.environ.get("PATH"), cache_dir())
 
 
 class _Sens(ctypes.Structure):
