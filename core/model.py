@@ -586,7 +586,8 @@ class Model:
 
         ``sensitivities`` names parameters (of :attr:`parameter_values`, or symbolic ones) and initial values (``"x_p"``,
         ``"x_p'"``) whose forward sensitivities are integrated with the state: ``res.sensitivity("x_p", "k_k1")`` is
-        ``∂x_p(t)/∂k_k1`` (adaptive methods; no constraints or events: :mod:`lagrangian.numerics.sensitivity`).
+        ``∂x_p(t)/∂k_k1`` (adaptive methods; no events; with constraints, what they do not hold:
+        :mod:`lagrangian.numerics.sensitivity`).
 
         ``method="auto"`` picks one from the model's properties — exact for
         a linear time-invariant model, an implicit method for a stiff one

@@ -185,15 +185,15 @@ def test_symbolic_parameter_given_in_params_and_a_time_input(compiled):
 
 def test_without_the_loop_in_c_scipy_integrates_and_says_so(monkeypatch):
     """No C compiler for the augmented right-hand side, or atol given per state: SciPy's DOP853, with a note."""
-    from lagrangian.numerics import sensitivity
+    from lagrangian.numerics import sensitivity, sensitivity_c
 
     kw = dict(initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=11, rtol=1e-11, sensitivities=["k_k"])
     reference = oscillator().simulate(1.0, **kw)
     per_state = oscillator().simulate(1.0, **kw, atol=[1e-14, 1e-13])
     assert any("atol given per state" in n for n in per_state.notes)
-    monkeypatch.setattr(sensitivity, "compiler", lambda: None)
+    monkeypatch.setattr(sensitivity_c, "compiler", lambda: None)
     monkeypatch.setattr(sensitivity, "_BUILT", type(sensitivity._BUILT)())
-    monkeypatch.setattr(sensitivity, "_LAST", {})  # (the library this process loaded before)
+    monkeypatch.setattr(sensitivity_c, "_LAST", {})  # (the library this process loaded before)
     without = oscillator().simulate(1.0, **kw)
     assert any("not usable here" in n and "SciPy's DOP853" in n for n in without.notes)
     for res in (per_state, without):
@@ -224,15 +224,16 @@ def test_first_order_rate_is_no_initial_condition():
         model.simulate(1.0, initial={"x_p": 0.01, "x_a": 0.0}, velocity={"x_p": 0.0}, sensitivities=["x_a'"])
 
 
-def test_models_with_constraints_events_or_callables_are_refused_by_name():
+def test_what_constraints_hold_events_or_callables_are_refused_by_name():
     model = lg.Model("rolling")
     model.add("mass", "body", "p", m=0.5)
     model.add("inertia", "I", "w", J=1e-3)
     model.add("force", "F", "p", F=1.0)
     model.add("constraint", "roll", f=lg.coordinate("x_p") - 0.05 * lg.coordinate("theta_w"))
     kw = dict(initial={"x_p": 0.0, "theta_w": 0.0}, velocity={"x_p": 0.0, "theta_w": 0.0}, points=3)
-    with pytest.raises(lg.ModelError, match=r"model 'rolling' has constraints \('roll'\)"):
-        model.simulate(1.0, **kw, sensitivities=["m_body"])
+    with pytest.raises(lg.ModelError, match=r"'theta_w' is an initial value held by the constraints of model 'rolling' "
+                                            r"\('roll'\)"):
+        model.simulate(1.0, **kw, sensitivities=["m_body", "theta_w"])
     osc = oscillator()
     wall = lg.Event(lambda t, y: y[0] + 0.005, name="wall", terminal=True)
     with pytest.raises(lg.ModelError, match="has events \\('wall'\\)"):

@@ -33,8 +33,13 @@ parameter's effect of a change by its own size, in the units of the state; an in
 start), so that one ``atol`` fits all.  The run restarts at the switching times of its inputs, as a plain run
 does; it makes no energy check (``energy_tol`` does not apply) and no stiffness check.
 
-Refused with a :class:`~lagrangian.ModelError` naming what: constraints (loops, rolling, nonholonomic ones),
-events (impacts), Python-callable signals or loads, fixed-step methods and ``method="exact"`` or ``"auto"``, and
+**Constraints.**  A constrained model's solve holds the multipliers too (``u = (q̈_I, q̇_F, λ)``, the
+Baumgarte-stabilized rows of its loops, rolling and nonholonomic constraints): the same derivative of ``A u = b``
+gives their sensitivities, and ``m`` counts them.  The start must satisfy the constraints (as a plain run's must),
+so a parameter they hold (a loop's joint position, a wheel's radius) or the initial value or rate of a coordinate
+they hold cannot change alone: asking for one is refused, naming the constraints.
+
+Refused with a :class:`~lagrangian.ModelError` naming what: what constraints hold (above), events (impacts), Python-callable signals or loads, fixed-step methods and ``method="exact"`` or ``"auto"``, and
 a function that jumps where a state or an asked parameter crosses a value (``sign`` of a rate, a pulse whose time
 is the parameter: the sensitivities jump there).  Functions that bend without jumping (``Abs``, ``Max``) and inputs
 that switch in time alone are taken.
@@ -59,9 +64,7 @@ True
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import math
-import os
 import sys
 import threading
 import weakref
@@ -77,13 +80,12 @@ from ..base.component import t as time_symbol
 from ..derivation.calculus import Calculus
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError, UnknownNameError
 from ..plugin.contracts import resolve
-from .c_build import _cache, _key, _libraries, cache_dir, compiler, wanted_compiler
-from .c_source import _HEADER, _SOLVE, _interpreter, _Unavailable, programs
-from .codegen import _array, _prog, _Prog
+from .c_source import _Unavailable
 from .compiled_loops import _watched
 from .problem import MAX_EVALUATIONS, inside
+from .sensitivity_c import _Compiled, _library
 from .result import Result
-from .simulation import NumericModel, _EPS, _lambdify, initial_state
+from .simulation import NumericModel, _EPS, _lambdify, check_start, initial_state
 from .tape import Program, TapeError, record
 
 __all__ = ["SCIPY_METHODS", "asked", "plan", "refuse", "simulate"]
@@ -160,17 +162,10 @@ def plan(eq, numeric: NumericModel, names: Any, y0: np.ndarray, model: str = "mo
 
 
 def refuse(model, numeric: NumericModel, events: Sequence = ()) -> None:
-    """A :class:`ModelError` naming what a sensitivity run of ``model`` cannot take: constraints, events,
-    Python-callable signals or loads."""
+    """A :class:`ModelError` naming what a sensitivity run of ``model`` cannot take: events, Python-callable signals
+    or loads (what constraints refuse is :func:`_held`'s)."""
     eq = numeric.eq
     name = getattr(model, "name", "model")
-    if len(eq.constraints) or len(eq.velocity_constraints):
-        owners = sorted({o for o in [*getattr(eq, "constraint_owners", []), *getattr(eq, "velocity_owners", [])] if o})
-        loops = any(o is None for o in getattr(eq, "constraint_owners", []))
-        what = ", ".join([*map(repr, owners), *(["its kinematic loops"] if loops else [])]) or "its constraints"
-        raise ModelError(f"sensitivities: model {name!r} has constraints ({what}), kept with Lagrange multipliers; "
-                         f"sensitivities of constrained models are not computed yet. Central differences of "
-                         f"Model.simulate give them meanwhile.")
     if events:
         raise ModelError(f"sensitivities: the run of model {name!r} has events "
                          f"({', '.join(repr(getattr(e, 'name', e)) for e in events)}): the sensitivities jump where an "
@@ -180,6 +175,34 @@ def refuse(model, numeric: NumericModel, events: Sequence = ()) -> None:
         raise ModelError(f"sensitivities: model {name!r} has signals or loads given as Python callables "
                          f"({', '.join(callables)}), which have no derivatives to take; write them as SymPy expressions "
                          f"of t (and of lagrangian.coordinate(...), lagrangian.rate(...) for a load).")
+
+
+def _held(eq, wrt: Sequence[_Wrt], model: str) -> None:
+    """A :class:`ModelError` for a sensitivity that would move the start off the constraints: the start must satisfy
+    them (:func:`~lagrangian.numerics.simulation.check_start`), so a parameter they hold, or the initial value or rate
+    of a coordinate they hold, cannot change alone — its derivative, the start held, is not a run's."""
+    if not len(eq.constraints) and not len(eq.velocity_constraints):
+        return
+    g = eq.generic()
+    q, v = list(eq.sym.q), list(eq.sym.v)
+    rows = [(e, o) for e, o in zip(g["constraints"], getattr(eq, "constraint_owners", [None] * len(g["constraints"])))]
+    rows += [(e, o) for e, o in zip(g["velocity_constraints"],
+                                    getattr(eq, "velocity_owners", [None] * len(g["velocity_constraints"])))]
+    for w in wrt:
+        if w.symbols:
+            held = {*w.symbols}
+        else:
+            k = w.state
+            held = {q[k]} if k < len(q) else {q[eq.inertial[k - len(q)]], v[eq.inertial[k - len(q)]]}
+        owners = sorted({o or "its kinematic loops" for e, o in rows if e.free_symbols & held},
+                        key=lambda o: (o == "its kinematic loops", o))
+        if owners:
+            what = "a parameter of" if w.symbols else "an initial value held by"
+            raise ModelError(f"sensitivities: {w.name!r} is {what} the constraints of model {model!r} "
+                             f"({', '.join(o if o == 'its kinematic loops' else repr(o) for o in owners)}): the start "
+                             f"must satisfy them, so it cannot change alone. Ask for parameters and initial values the "
+                             f"constraints do not hold, or central differences of runs from consistent starts "
+                             f"(lagrangian.plugins.multibody.consistent_initial).")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -260,151 +283,12 @@ def _not_evaluable(exc: Exception) -> ModelError:
                       f"sensitivities=, or write the function as a smooth one.")
 
 
-# ---------------------------------------------------------------------------------------------------------------
-# The augmented right-hand side in C
-
-
-_C_SENS = r"""
-/* A sensitivity run: the tapes of A and b (from t, q, q'_I) and of G (from t, q, q'_I, u), the columns of G that are
-   the parameters' (pcol[s], or -1 for an initial value) and the scales of their terms. */
-typedef struct {
-    int nq, ni, nf, nm, ns, ncol;
-    const int *inertial, *first, *pcol;
-    const double *pscale;
-    lg_prog matrix, sens;
-} lg_sens;
-
-/* LU with partial pivoting in place (whole rows swapped, piv[k] the row brought to k); the singularity rule of
-   lu_core. 0: factored, 1: singular, 2: not finite. */
-static int sens_factor(int nm, double *A, int *piv) {
-    double amax = 0.0;
-    for (int i = 0; i < nm * nm; i++) {
-        const double a = fabs(A[i]);
-        if (!(a <= DBL_MAX)) return 2;
-        if (a > amax) amax = a;
-    }
-    const double tiny = nm * DBL_EPSILON * amax;
-    if (nm && !(amax > 0.0)) return 1;
-    for (int k = 0; k < nm; k++) {
-        int p = k;
-        double best = fabs(A[k * nm + k]);
-        for (int i = k + 1; i < nm; i++) { const double a = fabs(A[i * nm + k]); if (a > best) { best = a; p = i; } }
-        if (!(best > tiny)) return best == best ? 1 : 2;
-        piv[k] = p;
-        if (p != k)
-            for (int j = 0; j < nm; j++) { const double s = A[k * nm + j]; A[k * nm + j] = A[p * nm + j]; A[p * nm + j] = s; }
-        const double inv = 1.0 / A[k * nm + k];
-        for (int i = k + 1; i < nm; i++) {
-            const double f = A[i * nm + k] * inv;
-            A[i * nm + k] = f;
-            if (f != 0.0) for (int j = k + 1; j < nm; j++) A[i * nm + j] -= f * A[k * nm + j];
-        }
-    }
-    return 0;
-}
-
-/* x = A^-1 x from sens_factor's LU and pivots. */
-static void sens_solve(int nm, const double *LU, const int *piv, double *x) {
-    for (int k = 0; k < nm; k++) if (piv[k] != k) { const double s = x[k]; x[k] = x[piv[k]]; x[piv[k]] = s; }
-    for (int i = 1; i < nm; i++) { double s = x[i]; for (int j = 0; j < i; j++) s -= LU[i * nm + j] * x[j]; x[i] = s; }
-    for (int i = nm - 1; i >= 0; i--) {
-        double s = x[i];
-        for (int j = i + 1; j < nm; j++) s -= LU[i * nm + j] * x[j];
-        x[i] = s / LU[i * nm + i];
-    }
-}
-
-/* The augmented system: y = (q, q'_I, S_0, S_1, ...), each S_s of the state's length. 0, 1 singular, 2 not finite. */
-int lg_sens_rhs(const void *ctx, double t, const double *y, double *dy) {
-    const lg_sens *m = ctx;
-    const int nq = m->nq, ni = m->ni, nf = m->nf, nm = m->nm, ns = m->ns, ncol = m->ncol, dim = nq + ni;
-    SCRATCH(w, (long)nm * nm + 2 * nm + 1 + (long)nm * ncol);
-    int piv_stack[256];
-    int *piv = nm <= 256 ? piv_stack : malloc((size_t)nm * sizeof(int));
-    int rc = (w && piv) ? 0 : 2;
-    double *A = w, *u = w + (long)nm * nm, *R = u + nm, *G = R + nm + 1;
-    if (!rc) rc = run_on(&m->matrix, t, y, nq, y + nq, ni, A);  /* A, then b in u */
-    if (!rc) rc = sens_factor(nm, A, piv);
-    if (!rc) { sens_solve(nm, A, piv, u); rc = state_rate(nq, ni, nf, m->inertial, m->first, y, u, dy); }
-    if (!rc) rc = run_on(&m->sens, t, y, dim, u, nm, G);
-    for (int s = 0; s < ns && !rc; s++) {
-        const double *S = y + (long)dim * (1 + s);
-        double *dS = dy + (long)dim * (1 + s);
-        const int pc = m->pcol[s];
-        for (int r = 0; r < nm; r++) {
-            const double *g = G + (long)r * ncol;
-            double acc = pc >= 0 ? m->pscale[s] * g[pc] : 0.0;
-            for (int j = 0; j < dim; j++) acc += g[j] * S[j];
-            R[r] = acc;
-        }
-        sens_solve(nm, A, piv, R);
-        for (int j = 0; j < ni; j++) { dS[m->inertial[j]] = S[nq + j]; dS[nq + j] = R[j]; }
-        for (int k = 0; k < nf; k++) dS[m->first[k]] = R[ni + k];
-        for (int i = 0; i < dim; i++) if (!isfinite(dS[i])) { rc = 2; break; }
-    }
-    if (piv && piv != piv_stack) free(piv);
-    if (w) RELEASE(w);
-    return rc;
-}
-"""
-
-
-def _source() -> str:
-    return "\n".join(["/* lagrangian.numerics.sensitivity: the augmented right-hand side of a sensitivity run, on the tape "
-                      "interpreter; do not edit. */", _HEADER, _SOLVE, _interpreter(), _C_SENS])
-
-
-_LIBRARIES: dict[tuple[str, str], ctypes.CDLL] = {}
-_LOCK = threading.Lock()
-
-
-def _library() -> ctypes.CDLL:
-    """The library of ``lg_sens_rhs``: from this process, the disk cache, or compiled now (once per machine);
-    raises ``_Unavailable`` (or ``OSError``) when it cannot be had."""
-    where = _where()
-    lib = _LAST.get(where)
-    if lib is not None:
-        return lib
-    cc = compiler()
-    if cc is None:
-        raise _Unavailable("no C compiler found")
-    source = _source()
-    directory, _ = _cache()
-    key = _key(source, cc)
-    with _LOCK:
-        lib = _LIBRARIES.get((str(directory), key))
-        if lib is None:
-            lib = _libraries(directory, {"sensitivity": (key, source)}, cc)["sensitivity"].lib
-            lib.lg_sens_rhs.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_void_p, ctypes.c_void_p]
-            lib.lg_sens_rhs.restype = ctypes.c_int
-            _LIBRARIES[(str(directory), key)] = lib
-        _LAST.clear()
-        _LAST[where] = lib
-    return lib
-
-
-#: The library last loaded, by what chose it (:func:`_where`): a run of a fit (a run per trial point) finds it
-#: without looking for the compiler on the PATH, checking the cache directory and hashing the source again.
-_LAST: dict[tuple, ctypes.CDLL] = {}
-
-
-def _where() -> tuple:
-    """What decides which compiler and cache directory :func:`_library` uses (settings and environment)."""
-    return (wanted_compiler(), os.environ.get("PATH"), cache_dir())
-
-
-class _Sens(ctypes.Structure):
-    _fields_ = [("nq", ctypes.c_int), ("ni", ctypes.c_int), ("nf", ctypes.c_int), ("nm", ctypes.c_int),
-                ("ns", ctypes.c_int), ("ncol", ctypes.c_int), ("inertial", ctypes.c_void_p), ("first", ctypes.c_void_p),
-                ("pcol", ctypes.c_void_p), ("pscale", ctypes.c_void_p), ("matrix", _Prog), ("sens", _Prog)]
-
-
 class _Layout:
     """The shapes of a sensitivity run: ``n`` coordinates, ``nI`` inertial, ``m`` unknowns of the solve, ``dim`` the
     state's length; per sensitivity the column of ``G`` of its parameter (``-1``: an initial value) and its scale."""
 
-    def __init__(self, eq, wrt: Sequence[_Wrt], ncol: int):
-        self.n, self.nI, self.m = len(eq.names), len(eq.inertial), len(eq.names)
+    def __init__(self, eq, wrt: Sequence[_Wrt], ncol: int, m: int):
+        self.n, self.nI, self.m = len(eq.names), len(eq.inertial), m
         self.inertial, self.first = list(eq.inertial), list(eq.first_order)
         self.dim, self.ns, self.ncol = self.n + self.nI, len(wrt), ncol
         column = iter(range(self.dim, ncol))
@@ -422,30 +306,11 @@ class _Layout:
         return Y
 
 
-class _Compiled:
-    """The augmented right-hand side in C for one run's values: the context ``lg_sens_rhs`` reads (kept alive with
-    the arrays it points into) and the function's address, for the runtime library's loops."""
-
-    def __init__(self, lib: ctypes.CDLL, numeric: NumericModel, layout: _Layout, sens: Program):
-        matrix, _ = programs(numeric)
-        keep: list = []
-        L = layout
-        self.struct = _Sens(L.n, L.nI, len(L.first), L.m, L.ns, L.ncol, _array(L.inertial, np.int32, keep),
-                            _array(L.first, np.int32, keep), _array(L.pcol, np.int32, keep),
-                            _array(L.pscale, np.float64, keep), _prog(matrix, keep), _prog(sens, keep))
-        self.keep, self.layout, self.lib = keep, layout, lib
-        self.ctx = ctypes.addressof(self.struct)
-        self.ptr = ctypes.cast(lib.lg_sens_rhs, ctypes.c_void_p).value
-
-    def __call__(self, t: float, Y: np.ndarray) -> tuple[int, np.ndarray]:
-        """``(status, dY)`` at one augmented state (status 0: fine, 1: singular, 2: not finite)."""
-        Y = np.ascontiguousarray(Y, dtype=float)
-        dY = np.empty_like(Y)
-        return self.lib.lg_sens_rhs(self.ctx, float(t), Y.ctypes.data, dY.ctypes.data), dY
-
-
 # per model with values (NumericModel) and sensitivities asked: what a run evaluates (never pickled with the model)
 _BUILT: "weakref.WeakKeyDictionary[NumericModel, dict]" = weakref.WeakKeyDictionary()
+
+
+_LOCK = threading.Lock()
 
 
 def _built(numeric: NumericModel, key: tuple, make):
@@ -512,12 +377,12 @@ class _Python:
         dY = np.empty_like(Y)
         v = np.empty(n)
         v[L.inertial] = vI
-        v[L.first] = u[nI:]
+        v[L.first] = u[nI:n]  # (after them: the multipliers of the constraints)
         dY[:n], dY[n:dim] = v, u[:nI]
         dS = np.empty((dim, L.ns))
         dS[L.inertial] = S[n:]
         dS[n:] = Z[:nI]
-        dS[L.first] = Z[nI:]
+        dS[L.first] = Z[nI:n]
         dY[dim:] = dS.T.ravel()
         return (0 if np.all(np.isfinite(dY)) else 2), dY
 
@@ -560,6 +425,7 @@ def simulate(model, run, names: Sequence[str]):
         notes.append("sensitivities: the augmented right-hand side runs on the tape interpreter (no native code is "
                      "generated for it); the model's own native code evaluates its outputs")
     y0, defaulted = initial_state(eq, run.initial, run.velocity)
+    check_start(numeric, name, run.span[0], y0, params=run.params)
     wrt = plan(eq, numeric, names, y0, name)
     options = dict(run.options)
     first_step = options.pop("first_step", None)
@@ -572,8 +438,9 @@ def simulate(model, run, names: Sequence[str]):
     atol = 1e-12 if run.atol is None else run.atol
     max_step = np.inf if run.max_step is None else float(run.max_step)
     groups = _groups(wrt)
-    _, _, ncol = _expressions(eq, groups)
-    layout = _Layout(eq, wrt, ncol)
+    _held(eq, wrt, name)
+    _, u, ncol = _expressions(eq, groups)
+    layout = _Layout(eq, wrt, ncol, len(u))
     Y0 = layout.start(y0, wrt)
     rhs, loops = None, None
     per_state = np.ndim(atol) > 0
