@@ -39,7 +39,7 @@ from collections.abc import Sequence
 
 import sympy as sp
 
-from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, cross, time_derivative, time_integral, trig
+from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, from_entries, cross, time_derivative, time_integral, trig
 from .probe import float_value
 
 __all__ = ["Calculus", "Derivation", "Rewriter", "cross", "float_value", "general", "time_derivative", "time_integral",
@@ -317,12 +317,13 @@ class Derivation:
                 self._frame_curls[w] = curls[k]
 
     def equations(self, T, V, G, D, Q: Sequence, frames: Sequence = ()) -> tuple[list[list], list]:
-        """``(M as rows, f)``; ``frames``: see :meth:`frames`."""
+        """``(M, f)``: the mass matrix (a SymPy matrix, built from its nonzero entries: a chain of 10⁴ masses has 10⁴ of
+        them, not 10⁸) and the forcing as a list; ``frames``: see :meth:`frames`."""
         n, calc, q, v, t = self.n, self.calc, self.q, self.v, self.t
         self.frames(frames)
         products, rest = self.split(T)
         self.products, self.rest = products, rest
-        Mbuckets: list[dict] = [dict() for _ in range(n * n)]  # (i, j), i <= j: (J_i, J_j) → [coef]
+        Mbuckets: dict[tuple[int, int], dict] = {}  # (i, j), i <= j: (J_i, J_j) → [coef]
         fbuckets: list[dict] = [dict() for _ in range(n)]  # i: J_i → {term: [coef]}
         fextra: list[list] = [[] for _ in range(n)]
 
@@ -332,7 +333,7 @@ class Derivation:
             if i > j:
                 i, j, x, y = j, i, y, x
             (nx, x), (ny, y) = canon(x), canon(y)
-            Mbuckets[i * n + j].setdefault((x, y), []).append(-c if nx != ny else c)
+            Mbuckets.setdefault((i, j), {}).setdefault((x, y), []).append(-c if nx != ny else c)
 
         def add_f(i, x, terms, c):
             nx, x = canon(x)
@@ -384,12 +385,9 @@ class Derivation:
                 fextra[i].append(sp.Mul(-_ONE, c, g, B.w))
             for i, g in self._curl(B).items():
                 fextra[i].append(sp.Mul(-_ONE, c, g, A.w))
-        M = [[_ZERO] * n for _ in range(n)]
-        for i in range(n):
-            for j in range(i, n):
-                bucket = Mbuckets[i * n + j]
-                if bucket:
-                    M[i][j] = M[j][i] = _collect([(sp.Mul(x, y), cs) for (x, y), cs in bucket.items()], pythagoras=i == j)
+        M: dict[tuple[int, int], sp.Expr] = {}
+        for (i, j), bucket in sorted(Mbuckets.items()):
+            M[i, j] = M[j, i] = _collect([(sp.Mul(x, y), cs) for (x, y), cs in bucket.items()], pythagoras=i == j)
         f = [_ZERO] * n
         for i in range(n):
             parts = []
@@ -410,7 +408,7 @@ class Derivation:
                     j = self.vidx[s]
                     d = calc.diff(p, s)
                     if d != 0:
-                        M[i][j] = sp.Add(M[i][j], d)
+                        M[i, j] = sp.Add(M.get((i, j), _ZERO), d)
         for i, part in self.gradient(V).items():
             f[i].append(sp.Mul(-_ONE, part))
         for s in calc.deps(Lrest_T):
@@ -429,7 +427,7 @@ class Derivation:
             if Q[i] != 0:
                 f[i].append(Q[i])
         self._rest_momenta = pr
-        return M, [sp.Add(*terms) for terms in f]
+        return from_entries(n, n, {k: e for k, e in M.items() if e != 0}), [sp.Add(*terms) for terms in f]
 
     def gradient(self, E) -> dict:
         """``{i: ∂E/∂q_i}`` for a velocity-free ``E``, with ``E`` first distributed over its sums into

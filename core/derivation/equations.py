@@ -193,7 +193,7 @@ class Equations:
                 return e
             return e.applyfunc(rewrite) if isinstance(e, sp.MatrixBase) else rewrite(sp.sympify(e))
 
-        M, f = sp.Matrix(M), sp.Matrix(f)
+        M, f = M.copy(), sp.Matrix(f)
         for i, g in (quadratures or {}).items():  # q̇_i = g: a first-order row with unit rate
             M[i, :] = sp.zeros(1, len(q))
             f[i] = g - v[i]
@@ -332,7 +332,8 @@ class Equations:
         if getattr(self, "_free", None) is None:
             g = self.generic()
             inner = set(self.sym.q) | set(self.sym.v) | set(self.sym.a) | {t}
-            free = symbols_of(sp.sympify(g[k]) for k in ("A", "b", "T", "V", "D"))
+            free = symbols_of(g[k] if isinstance(g[k], sp.MatrixBase) else sp.sympify(g[k])  # (a matrix as it is:
+                              for k in ("A", "b", "T", "V", "D"))  # sympify copies it entry by entry)
             free |= symbols_of(self.symbolic(e.solution) for e in self.eliminated.values())
             self._free = free - inner - set(self._values)
         return set(self._free)

@@ -312,3 +312,31 @@ int lg_dop853_prepare(rhs_fn f, const void *ctx, int dim, double t, double hstep
 
 void lg_dop853_dense(int dim, const double *work, double x, double *out) { d8_dense(dim, work, x, out); }
 """
+
+
+# Many runs of one model in one call (lagrangian.numerics.ensemble): run s takes its parameters from P + s*np (its
+# ctx), starts from Y0 + s*dim, writes Y + s*nout*dim, counts + 3*s, fail + s*(dim + 1) and status[s]; the model's
+# energies at every output time go to E + s*nout*4 when E is given (lg_energies of the model's native library).
+ENSEMBLE_SOURCE = r"""
+typedef void (*energy_fn)(const void *ctx, long N, const double *t, const double *q, const double *v, double *out);
+
+void lg_ensemble(int method, rhs_fn f, energy_fn energies, long S, int np, const double *P, int nq, int dim,
+                 double t0, double t1, const double *Y0, long nout, const double *tout, double rtol, double atol,
+                 double max_step, double budget, double *Y, long *counts, double *fail, int *status, double *E,
+                 double *scratch) {
+    for (long s = 0; s < S; s++) {
+        const double *ctx = P + s * np;
+        double *Ys = Y + s * nout * dim;
+        status[s] = (method ? lg_dop853 : lg_dopri5)(f, ctx, dim, t0, t1, Y0 + s * dim, nout, tout, rtol, atol,
+                                                      max_step, 0.0, budget, NULL, Ys, counts + 3 * s,
+                                                      fail + s * (dim + 1));
+        if (status[s] || !E || !energies) continue;
+        /* scratch: q and v of every output time (rows), v of inertial coordinates from the state */
+        for (long k = 0; k < nout; k++) {
+            memcpy(scratch + k * nq, Ys + k * dim, nq * sizeof(double));
+            memcpy(scratch + nout * nq + k * nq, Ys + k * dim + nq, (dim - nq) * sizeof(double));
+        }
+        energies(ctx, nout, tout, scratch, scratch + nout * nq, E + s * nout * 4);
+    }
+}
+"""

@@ -11,11 +11,13 @@ import math
 import sympy as sp
 
 from ..base.component import t as time_symbol
-from .c_dop853 import dop853_source
+from ..derivation.calculus import dense
+from .band import BAND_MATRIX, BAND_RUNTIME, BAND_SOLVE, NATIVE_BAND_RHS, Band, native_tables, plan as band_plan
+from .c_dop853 import ENSEMBLE_SOURCE, dop853_source
 from .tape import OPS, Program, TapeError, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
-CODEGEN_VERSION = "7"
+CODEGEN_VERSION = "8"
 
 
 class _Unavailable(Exception):
@@ -31,7 +33,7 @@ def _arrays(numeric) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
 def _arrays_of(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
     g = eq.generic()
     energies = [g["T"], g["V"], g["D"], g["L"], *g["p"]]
-    return list(g["A"]), list(g["b"]), energies
+    return dense(g["A"]), dense(g["b"]), energies
 
 
 def c_comment(text: str) -> str:
@@ -49,7 +51,7 @@ def c_comment(text: str) -> str:
     return f"/* {safe} */"
 
 
-def programs(numeric) -> tuple[Program, Program]:
+def programs(numeric, banded: bool | None = None) -> tuple[Program, Program]:
     """The two tapes (:mod:`lagrangian.tape`) of ``numeric``: ``A`` and ``b`` from ``(t, q, q̇_inertial)``, and
     ``T, V, D, L, p`` from ``(t, q, q̇)``, with ``numeric``'s parameter values in their constant registers.
 
@@ -61,24 +63,45 @@ def programs(numeric) -> tuple[Program, Program]:
     Raises an internal error (turned into a note by :func:`compile_model`)
     when the model cannot be compiled: time signals given as Python
     callables, or functions the tape does not know.
+
+    ``banded``: whether the tape of ``A`` records its nonzero entries only, in the order of
+    :func:`band_of`'s pattern (``None``: when the model's solve is banded; ``False``: ``A`` whole, row-major).
     """
-    found = getattr(numeric, "_tapes", None)
-    if found is not None:
-        return found
-    generic = _generic_programs(numeric.eq, tuple(sorted(numeric.values, key=sp.default_sort_key)))
+    if banded is None:
+        banded = band_of(numeric.eq) is not None
+    found = numeric.__dict__.setdefault("_tapes_by_layout", {})
+    if banded in found:
+        return found[banded]
+    generic = _generic_programs(numeric.eq, tuple(sorted(numeric.values, key=sp.default_sort_key)), banded)
     try:
-        numeric._tapes = tuple(p.with_values(numeric.values) for p in generic)
+        found[banded] = tuple(p.with_values(numeric.values) for p in generic)
     except TapeError as exc:  # pragma: no cover - every parameter has a value by Model._values
         raise _Unavailable(str(exc)) from None
-    return numeric._tapes
+    return found[banded]
 
 
-def _generic_programs(eq, parameters: tuple) -> tuple[Program, Program]:
-    """The tapes of ``eq`` with ``parameters`` as run-time constants, recorded once per set of parameter symbols."""
+def band_of(eq) -> Band | None:
+    """The banded solve of ``eq``'s ``A u = b`` (:mod:`lagrangian.numerics.band`), or ``None`` for the dense one;
+    decided once per model."""
+    if "_band" not in eq.__dict__:
+        g = eq.generic()
+        eq.__dict__["_band"] = band_plan(g["A"], constraints=g["A"].rows - len(eq.inertial) - len(eq.first_order))
+    return eq.__dict__["_band"]
+
+
+def _generic_programs(eq, parameters: tuple, banded: bool = False) -> tuple[Program, Program]:
+    """The tapes of ``eq`` with ``parameters`` as run-time constants, recorded once per set of parameter symbols
+    (``banded``: ``A``'s nonzero entries only, see :func:`programs`)."""
     cache = eq.__dict__.setdefault("_generic_tapes", {})
-    if parameters in cache:
-        return cache[parameters]
-    a_entries, b_entries, energies = _arrays_of(eq)
+    if (parameters, banded) in cache:
+        return cache[parameters, banded]
+    if banded:
+        g = eq.generic()
+        A = g["A"]
+        a_entries, b_entries = [A[i, j] for i, j in band_of(eq).pattern], dense(g["b"])
+        energies = [g["T"], g["V"], g["D"], g["L"], *g["p"]]
+    else:
+        a_entries, b_entries, energies = _arrays_of(eq)
     scan = eq.scan()
     callables = scan["callables"]
     if callables or scan["derivatives"]:
@@ -93,8 +116,8 @@ def _generic_programs(eq, parameters: tuple) -> tuple[Program, Program]:
         energy = record(energies, [time_symbol, *q, *v], parameters)
     except TapeError as exc:
         raise _Unavailable(str(exc)) from None
-    cache[parameters] = (matrix, energy)
-    return cache[parameters]
+    cache[parameters, banded] = (matrix, energy)
+    return cache[parameters, banded]
 
 
 def generate_source(numeric) -> str:
@@ -103,7 +126,7 @@ def generate_source(numeric) -> str:
     ``lg_rhs`` (that and the LU solve: the state derivative) and ``lg_energies`` (``T``, ``V``, ``D``,
     Jacobi integral); the stepping loops are in the runtime library, shared by every model.
     """
-    return _source(numeric.eq, *programs(numeric))
+    return _source(numeric.eq, *programs(numeric), band=band_of(numeric.eq))
 
 
 def parametric_source(eq, parameters: tuple) -> str:
@@ -115,7 +138,7 @@ def parametric_source(eq, parameters: tuple) -> str:
     return _source(eq, matrix, energy, parameters)
 
 
-def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = None) -> str:
+def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = None, band: Band | None = None) -> str:
     n, nI = len(eq.sym.q), len(eq.inertial)
     first = list(eq.first_order)
     m = int(math.isqrt(len(eq.generic()["A"])))
@@ -125,7 +148,8 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         slot = {s: k for k, s in enumerate(parameters)}
         inputs_m |= {matrix.n_inputs + i: f"P[{slot[s]}]" for s, i in matrix.parameters.items()}
         inputs_e |= {energy.n_inputs + i: f"P[{slot[s]}]" for s, i in energy.parameters.items()}
-    body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(m * m)] + [f"b[{k}]" for k in range(m)], "    ",
+    entries = m * m if band is None else len(band.pattern)  # (banded: A's nonzero entries, in the band's order)
+    body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(entries)] + [f"b[{k}]" for k in range(m)], "    ",
                             zeroed=True)
     body_e = energy.c_lines(inputs_e, [f"o[{k}]" for k in range(4 + n)], "    ")
 
@@ -147,27 +171,33 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         _SOLVE,
         "int lg_dims(int *out) { out[0] = NQ; out[1] = NI; out[2] = NM; out[3] = NF; out[4] = NP; return 0; }",
         "",
-        "/* The entries of A (row-major, NM x NM) and b of the solve A u = b, u = (accelerations, first-order rates, multipliers).",
+        *(native_tables(band, table) if band is not None else []),
+        "/* The entries of A (row-major, NM x NM; banded: its NNZ nonzero entries, in the order of ROW and COL) and b",
+        "   of the solve A u = b, u = (accelerations, first-order rates, multipliers).",
         "   Static, so that lg_rhs calls it directly (an exported function is called through the PLT) or inlines it. */",
         "static int matrix_terms(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
         "    const double *P = ctx; (void)P;",
-        *(["    memset(A, 0, sizeof(double) * NM * NM);", "    memset(b, 0, sizeof(double) * NM);"]
+        *([f"    memset(A, 0, sizeof(double) * {'NM * NM' if band is None else 'NNZ'});",
+           "    memset(b, 0, sizeof(double) * NM);"]
           if matrix.zero_outputs(inputs_m) else []),  # (a dense matrix, a double pendulum's, is written whole)
         *body_m,
         "    return 0;",
         "}",
         "",
-        "int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
-        "    return matrix_terms(ctx, t, q, vI, A, b);",
-        "}",
+        *(_DENSE_MATRIX if band is None else BAND_MATRIX),
         "",
         "/* T, V, D, L and the momenta p at (t, q, v), v: the rates of all coordinates. */",
         "static void energy_terms(const double *P, double t, const double *q, const double *v, double *o) {",
         "    (void)P;",
         *body_e,
         "}",
-        _NATIVE,
+        _NATIVE if band is None else _NATIVE_BAND,
     ]) + "\n"
+
+
+_DENSE_MATRIX = ["int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
+                 "    return matrix_terms(ctx, t, q, vI, A, b);",
+                 "}"]
 
 
 _HEADER = """#include <math.h>
@@ -320,6 +350,10 @@ void lg_energies(const void *ctx, long N, const double *t, const double *q, cons
     RELEASE(o);
 }
 """
+
+
+# A banded native library's state derivative, and its energies as a dense one's.
+_NATIVE_BAND = NATIVE_BAND_RHS + _NATIVE[_NATIVE.index("void lg_energies"):]
 
 
 def _interpreter() -> str:
@@ -747,35 +781,7 @@ def _runtime_source() -> str:
     """The runtime library: the tape interpreter and the stepping loops (model-independent: compiled once per
     compiler and kept in the cache)."""
     return "\n".join([f"/* lagrangian.codegen {CODEGEN_VERSION}: runtime (tape interpreter, stepping loops); do not edit. */",
-                      _HEADER, _SOLVE, _interpreter(), _LOOPS, dop853_source(), _ENSEMBLE])
-
-
-# Many runs of one model in one call (lagrangian.numerics.ensemble): run s takes its parameters from P + s*np (its
-# ctx), starts from Y0 + s*dim, writes Y + s*nout*dim, counts + 3*s, fail + s*(dim + 1) and status[s]; the model's
-# energies at every output time go to E + s*nout*4 when E is given (lg_energies of the model's native library).
-_ENSEMBLE = r"""
-typedef void (*energy_fn)(const void *ctx, long N, const double *t, const double *q, const double *v, double *out);
-
-void lg_ensemble(int method, rhs_fn f, energy_fn energies, long S, int np, const double *P, int nq, int dim,
-                 double t0, double t1, const double *Y0, long nout, const double *tout, double rtol, double atol,
-                 double max_step, double budget, double *Y, long *counts, double *fail, int *status, double *E,
-                 double *scratch) {
-    for (long s = 0; s < S; s++) {
-        const double *ctx = P + s * np;
-        double *Ys = Y + s * nout * dim;
-        status[s] = (method ? lg_dop853 : lg_dopri5)(f, ctx, dim, t0, t1, Y0 + s * dim, nout, tout, rtol, atol,
-                                                      max_step, 0.0, budget, NULL, Ys, counts + 3 * s,
-                                                      fail + s * (dim + 1));
-        if (status[s] || !E || !energies) continue;
-        /* scratch: q and v of every output time (rows), v of inertial coordinates from the state */
-        for (long k = 0; k < nout; k++) {
-            memcpy(scratch + k * nq, Ys + k * dim, nq * sizeof(double));
-            memcpy(scratch + nout * nq + k * nq, Ys + k * dim + nq, (dim - nq) * sizeof(double));
-        }
-        energies(ctx, nout, tout, scratch, scratch + nout * nq, E + s * nout * 4);
-    }
-}
-"""
+                      _HEADER, _SOLVE, BAND_SOLVE, _interpreter(), BAND_RUNTIME, _LOOPS, dop853_source(), ENSEMBLE_SOURCE])
 
 
 # ---------------------------------------------------------------------------

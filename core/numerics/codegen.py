@@ -24,6 +24,9 @@ two ways (:func:`compile_model`'s ``kind``):
 ``"auto"`` takes the native library when it is already in the cache, else
 the tape.  Either way the solve itself is done in C by a small dense LU
 factorization with partial pivoting (``M⁻¹`` is never formed symbolically),
+or for a large system whose renumbered unknowns keep its matrix in a narrow
+band, a banded one (:mod:`lagrangian.numerics.band`: the tape then records
+the nonzero entries of ``A`` only),
 so that one call gives the derivative of the state ``(q, q̇_inertial)``; and
 the runtime library holds stepping loops in C — an adaptive Dormand–Prince
 5(4) pair with dense output, classical Runge–Kutta and Störmer–Verlet —
@@ -99,7 +102,7 @@ from .c_build import (
     set_compiler,
     wanted_compiler,
 )
-from .c_source import _runtime_source, _Unavailable, generate_source, programs
+from .c_source import _runtime_source, _Unavailable, band_of, generate_source, programs
 from .tape import Program
 
 __all__ = [
@@ -187,6 +190,16 @@ class _Tape(ctypes.Structure):
                 ("inertial", ctypes.c_void_p), ("first", ctypes.c_void_p), ("matrix", _Prog), ("energy", _Prog)]
 
 
+def _banded(band) -> str:
+    return (f"the solve banded: {band.nm} unknowns within {band.kl} + {band.ku} diagonals of the main one after "
+            f"renumbering")
+
+
+class _BandTape(ctypes.Structure):
+    _fields_ = [("tape", _Tape), ("kl", ctypes.c_int), ("ku", ctypes.c_int), ("nnz", ctypes.c_int),
+                ("slot", ctypes.c_void_p), ("perm", ctypes.c_void_p), ("row", ctypes.c_void_p), ("col", ctypes.c_void_p)]
+
+
 def _array(values, dtype, keep: list) -> int:
     """The address of ``values`` as a C array (one element at least), the array kept alive in ``keep``."""
     a = np.ascontiguousarray(values if len(values) else [0], dtype=dtype)
@@ -245,6 +258,7 @@ class CompiledModel:
         self.from_cache, self.codegen_seconds, self.build_seconds = from_cache, codegen_seconds, build_seconds
         self.n, self.nI, self.dim = numeric.n, numeric.nI, numeric.n + numeric.nI
         self.m = int(math.isqrt(len(numeric.eq.generic()["A"])))
+        self.band = band_of(numeric.eq)  # (a banded solve: lagrangian.numerics.band)
         dbl, ptr, lng, cint = ctypes.c_double, ctypes.c_void_p, ctypes.c_long, ctypes.c_int
         if lib is not None:
             dims = (ctypes.c_int * 5)()
@@ -253,6 +267,9 @@ class CompiledModel:
                 raise NumericalError(f"the compiled library {path} does not belong to this model; delete it and retry.")
             rhs, matrix, energies = lib.lg_rhs, lib.lg_matrix, lib.lg_energies
             self._ctx = None
+        elif self.band is not None:
+            rhs, matrix, energies = runtime.lg_band_rhs, runtime.lg_band_matrix, runtime.lg_tape_energies
+            self._ctx, self._keep = self._tape(numeric)
         else:
             rhs, matrix, energies = runtime.lg_tape_rhs, runtime.lg_tape_matrix, runtime.lg_tape_energies
             self._ctx, self._keep = self._tape(numeric)
@@ -291,15 +308,23 @@ class CompiledModel:
         matrix, energy = programs(numeric)
         tape = _Tape(self.n, self.nI, len(eq.first_order), self.m, _array(eq.inertial, np.int32, keep),
                      _array(list(eq.first_order), np.int32, keep), _prog(matrix, keep), _prog(energy, keep))
+        if self.band is not None:
+            b = self.band
+            tape = _BandTape(tape, b.kl, b.ku, len(b.pattern), _array(b.slot, np.int32, keep),
+                             _array(b.perm, np.int32, keep), _array(b.rows, np.int32, keep), _array(b.cols, np.int32, keep))
         keep.append(tape)
         return ctypes.addressof(tape), keep
 
     def describe(self) -> str:
         """What evaluates the model: ``native code (<key>.so, from the cache)`` or ``the tape interpreter (…)``."""
         if self.kind == "native":
-            return f"native code ({self.path.name}{', from the cache' if self.from_cache else ', built for this model'})"
+            solve = "" if self.band is None else f"; {_banded(self.band)}"
+            return (f"native code ({self.path.name}{', from the cache' if self.from_cache else ', built for this model'}"
+                    f"{solve})")
         matrix, _ = programs(self.numeric)
-        return f"the tape interpreter ({len(matrix.code)} instructions per evaluation; nothing compiled for this model)"
+        solve = "" if self.band is None else f", {_banded(self.band)}"
+        return (f"the tape interpreter ({len(matrix.code)} instructions per evaluation{solve}; nothing compiled for "
+                f"this model)")
 
     # -- one state ----------------------------------------------------------------
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:

@@ -158,7 +158,7 @@ class _Compiled:
     the arrays it points into) and the function's address, for the runtime library's loops."""
 
     def __init__(self, lib: ctypes.CDLL, numeric: NumericModel, layout, sens: Program):
-        matrix, _ = programs(numeric)
+        matrix, _ = programs(numeric, banded=False)  # (the solve here is dense)
         keep: list = []
         L = layout
         self.struct = _Sens(L.n, L.nI, len(L.first), L.m, L.ns, L.ncol, _array(L.inertial, np.int32, keep),

@@ -273,7 +273,7 @@ class NumericModel:
     #: What a pickle leaves out: compiled code (native libraries, tape programs, ctypes handles) and the NumPy
     #: functions lambdified from the equations, all rebuilt on first use where it is unpickled (native code from
     #: the disk cache, or compiled again) — never unpickled as machine code.
-    _UNPICKLED = ("_builds", "_fast", "_flat_fn", "_solve_fn", "_energy_fn")
+    _UNPICKLED = ("_builds", "_fast", "_flat_fn", "_solve_fn", "_energy_fn", "_tapes_by_layout")
 
     def __getstate__(self) -> dict[str, Any]:
         for f, fn in self.signals.items():  # (a load's callable of the state is held by a StateCall)
