@@ -2,7 +2,10 @@
 
 - ``chain10k``: a chain of 10,000 masses, springs and dampers (30,001 components) driven by a harmonic force
   at its end, built, assembled and solved over 1 s (101 points) with ``method="auto"``: CPU time and peak
-  memory of the whole process, import included.
+  memory of the whole process, import included; ``chain10k_default``: the same run with the default method.
+- ``fput10k``: a Fermi–Pasta–Ulam–Tsingou β chain of 10,000 unit masses between walls (springs of force
+  100·d + 10⁶·d³, nonlinear: no exact solution to fall back on) from the shape of its linear mode n/10, where
+  the cubic force is about twice the linear one, default settings, 1 s: CPU, peak memory and the drift of its energy.
 - ``spatial``: three rigid bodies on spherical joints (``benchmarks/spatial.py``): the size of our equations against
   KanesMethod's, and a warm 5 s run against PyDy's Cython code (``null`` without the ``bench`` extra).
 - ``ladder2000``: an RLC ladder of 2,000 sections (sine source, 30 s, 3,001 points), likewise.
@@ -15,7 +18,8 @@
 
 The package is byte-compiled first, as an installed one is (:func:`bytecode`).  Prints a table and, as its last
 line, a JSON object with the fields of the real-sizes issue that this run
-measures (``null`` for those it does not).  Run: ``.venv/bin/python benchmarks/scale.py``.
+measures (``null`` for those it does not).  Run: ``.venv/bin/python benchmarks/scale.py`` (``--large``: the two
+default-method chains alone).
 """
 
 from __future__ import annotations
@@ -57,6 +61,53 @@ def child_chain(n: int) -> dict:
         warnings.simplefilter("ignore")
         res = m.simulate(1.0, initial={"x_p0": 0.01}, method="auto", points=101)
     return {"method": res.method, "notes": res.notes[:2], "x_end": float(res[f"x_{prev}"][-1])}
+
+
+def child_chain_default(n: int) -> dict:
+    """The chain of :func:`child_chain`, run with every option at its default (no ``method``)."""
+    import warnings
+
+    import sympy as sp
+
+    import lagrangian as lg
+
+    m = lg.Model("chain")
+    prev = "ground"
+    for i in range(n):
+        m.add("mass", f"m{i}", f"p{i}", m=0.3 + 0.01 * (i % 7))
+        m.add("spring", f"k{i}", (prev, f"p{i}"), k=40.0 + i % 5)
+        m.add("damper", f"c{i}", (prev, f"p{i}"), c=0.02)
+        prev = f"p{i}"
+    m.add("force", "F", prev, F=0.5 * sp.sin(3 * lg.t))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = m.simulate(1.0, initial={"x_p0": 0.01}, points=101)
+    return {"method": res.method, "notes": res.notes[:2], "x_end": float(res[f"x_{prev}"][-1])}
+
+
+def child_fput(n: int) -> dict:
+    """A Fermi–Pasta–Ulam–Tsingou β chain: ``n`` masses between two walls joined by springs of force k·d + β·d³,
+    from the shape of its linear mode ``n/10`` (where the cubic force of a stretched spring is about twice the
+    linear one: strongly nonlinear), default settings, 1 s; the drift of its energy (it has no damping)."""
+    import warnings
+
+    import lagrangian as lg
+
+    m = lg.Model("fput")
+    prev = "ground"
+    for i in range(n):
+        m.add("mass", f"m{i}", f"p{i}", m=1.0)
+        m.add("spring", f"k{i}", (prev, f"p{i}"), k=100.0, beta=1e6)
+        prev = f"p{i}"
+    m.add("spring", f"k{n}", (prev, "wall"), k=100.0, beta=1e6)
+    m.add("prescribed_motion", "wall", "wall", position=0)
+    mode = max(n // 10, 1)
+    start = {f"x_p{i}": 0.05 * np.sin(np.pi * mode * (i + 1) / (n + 1)) for i in range(n)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = m.simulate(1.0, initial=start, velocity={f"x_p{i}": 0.0 for i in range(n)}, points=101)
+    E = res.T + res.V
+    return {"method": res.method, "notes": res.notes[:2], "energy_drift": float(np.max(np.abs(E - E[0])) / abs(E[0]))}
 
 
 def child_ladder(n: int) -> dict:
@@ -162,13 +213,25 @@ def run_child(kind: str, n: int) -> dict:
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--child":
         kind, n = sys.argv[2], int(sys.argv[3])
-        info = {"chain": child_chain, "ladder": child_ladder, "ngspice": child_ngspice, "pendulum": child_pendulum,
-                "numpy": child_numpy, "spatial": child_spatial}[kind](n)
+        info = {"chain": child_chain, "chain_default": child_chain_default, "fput": child_fput, "ladder": child_ladder,
+                "ngspice": child_ngspice, "pendulum": child_pendulum, "numpy": child_numpy,
+                "spatial": child_spatial}[kind](n)
         info["rss_gb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
         print(json.dumps(info))
         return
     bytecode()
     rows = []
+    large = {}
+    for kind, label in (("chain_default", "chain of 10,000 masses, default method"),
+                        ("fput", "FPUT β chain of 10,000 masses, default")):
+        large[kind] = run_child(kind, 10000)
+        rows.append((label, large[kind]["cpu_s"], large[kind]["rss_gb"], large[kind]["notes"][0]))
+    if "--large" in sys.argv:  # (the O(n) cases alone)
+        return _report(rows, {
+            "chain10k_default_cpu_s": round(large["chain_default"]["cpu_s"], 2),
+            "chain10k_default_rss_gb": round(large["chain_default"]["rss_gb"], 3),
+            "fput10k_cpu_s": round(large["fput"]["cpu_s"], 2), "fput10k_rss_gb": round(large["fput"]["rss_gb"], 3),
+            "fput10k_energy_drift": large["fput"]["energy_drift"]})
     spatial = run_child("spatial", 3)
     rows.append(("3 bodies on spherical joints, derivation", spatial["ours_derive_s"], spatial["rss_gb"],
                  f"{spatial['ours_ops']} operations against KanesMethod's {spatial['kane_ops']} (derived in "
@@ -195,10 +258,7 @@ def main() -> None:
     rows.append(("ladder 2,000 sections, ours", ladder2000["cpu_s"], ladder2000["rss_gb"], ladder2000["notes"][-1]))
     chain = run_child("chain", 10000)
     rows.append(("chain of 10,000 masses, ours", chain["cpu_s"], chain["rss_gb"], chain["notes"][-1]))
-    print(f"{'case':42s} {'CPU s':>8s} {'peak GB':>8s}  notes")
-    for name, cpu, rss, note in rows:
-        print(f"{name:42s} {cpu:8.3g} {rss:8.3f}  {note}")
-    print(json.dumps({
+    _report(rows, {
         "spatial_ops_vs_kane": round(spatial["ops_ratio"], 3),
         "spatial_speed_vs_pydy_cython": None if spatial.get("speed_ratio") is None else round(spatial["speed_ratio"], 3),
         "ladder200_speed_vs_ngspice": round(ngspice200["cpu_s"] / ours200["cpu_s"], 3),
@@ -207,7 +267,18 @@ def main() -> None:
         "chain10k_cpu_s": round(chain["cpu_s"], 2),
         "chain10k_rss_gb": round(chain["rss_gb"], 3),
         "second_run_vs_numpy_scipy_import": round(second["cpu_s"] / numpy_import, 3),
-    }))
+        "chain10k_default_cpu_s": round(large["chain_default"]["cpu_s"], 2),
+        "chain10k_default_rss_gb": round(large["chain_default"]["rss_gb"], 3),
+        "fput10k_cpu_s": round(large["fput"]["cpu_s"], 2), "fput10k_rss_gb": round(large["fput"]["rss_gb"], 3),
+        "fput10k_energy_drift": large["fput"]["energy_drift"],
+    })
+
+
+def _report(rows, figures: dict) -> None:
+    print(f"{'case':42s} {'CPU s':>8s} {'peak GB':>8s}  notes")
+    for name, cpu, rss, note in rows:
+        print(f"{name:42s} {cpu:8.3g} {rss:8.3f}  {note}")
+    print(json.dumps(figures))
 
 
 if __name__ == "__main__":

@@ -191,11 +191,21 @@ class Mass(Component):
 
 
 class Spring(Component):
-    """Linear spring along the line between its nodes: V = ½ k (|r_b − r_a| − ℓ₀)².
+    """Spring along the line between its nodes: V = ½ k e² + ¼ β e⁴ for its extension e = |r_b − r_a| − ℓ₀.
 
     In one dimension the signed extension ``x_b − x_a − ℓ₀`` is used; with
     ``rest_length = 0`` (the default) the spring is a zero-length spring
-    ``V = ½ k |r_b − r_a|²`` in any dimension.
+    ``V = ½ k |r_b − r_a|²`` in any dimension.  ``beta`` (default 0: linear)
+    adds a cubic force ``β e³`` to the linear ``k e``: hardening for
+    ``β > 0``, softening for ``β < 0`` — a Duffing oscillator, or the
+    bonds of a Fermi–Pasta–Ulam–Tsingou β chain.
+
+    >>> import lagrangian as lg
+    >>> m = lg.Model("duffing")
+    >>> _ = m.add("mass", "m", "p", m=0.3)
+    >>> _ = m.add("spring", "k", ("ground", "p"), k=40, beta=2e4)
+    >>> m.equations[0]
+    Eq(0.3*Derivative(x_p(t), (t, 2)), -20000.0*x_p(t)**3 - 40*x_p(t))
     """
 
     distinct_terminals = True
@@ -206,6 +216,8 @@ class Spring(Component):
         "k": Parameter("stiffness", unit="N/m"),
         # its zero removes the square root of the spring's length: it decides the form, so it stays a number
         "rest_length": Parameter("rest length", default=0, check="nonnegative", unit="m", symbolic=False),
+        "beta": Parameter("cubic stiffness: the force β e³ added to k e (hardening > 0, softening < 0)", default=0,
+                          check="real", unit="N/m^3"),
     }
 
     def extension(self, ctx) -> sp.Expr:
@@ -219,13 +231,17 @@ class Spring(Component):
     def contribute(self, ctx) -> Contribution:
         if ctx.view.dim > 1 and self.rest_length == 0:
             d = ctx.view.position(self.nodes[1]) - ctx.view.position(self.nodes[0])
-            return Contribution(V=self.k * dot(d, d) / 2)
-        return Contribution(V=_half_square(self.k, self.extension(ctx)))
+            square = dot(d, d)
+            quartic = self.beta * square**2 / 4 if self.beta != 0 else 0
+            return Contribution(V=self.k * square / 2 + quartic)
+        e = self.extension(ctx)
+        quartic = self.beta * sp.Pow(e, 4, evaluate=False) / 4 if self.beta != 0 else 0
+        return Contribution(V=_half_square(self.k, e) + quartic)
 
     def linear(self, ctx: LinearContext) -> Linear | None:
         k = ctx.number(self, "k")
-        if k is None or not _one_axis(ctx) or self.rest_length != 0:  # a rest length: a constant force too
-            return None
+        if k is None or not _one_axis(ctx) or self.rest_length != 0 or "beta" in self._given:  # (a rest length:
+            return None  # a constant force too; beta, even 0, which params= may change: a cubic one)
         return Linear(V={(0, 0): k})
 
     @classmethod
@@ -564,6 +580,13 @@ def _no_rest_length(spring) -> None:
         raise AnalogyError(
             f"spring {spring.name!r} has a rest length; its analogue is a linear element about zero: "
             f"measure positions from the rest configuration (rest_length=0)."
+        )
+    beta = spring.params.get("beta", 0)
+    if sp.sympify(getattr(spring, "values", {}).get(beta, beta)).is_zero is not True:  # (a number given stands
+        # for a symbol here; sp.Float(0.0) != 0 in SymPy)
+        raise AnalogyError(
+            f"spring {spring.name!r} has a cubic stiffness (beta); its analogue would be a nonlinear capacitor or "
+            f"inductor, which the circuits plugin does not have: map the linear model (beta=0)."
         )
 
 
