@@ -200,10 +200,12 @@ class Equations:
         # generic: the parameters given as numbers still symbols (compiled code takes their values at run time)
         self._generic = {"M": M, "f": f, "Q": sp.Matrix(Q), "constraints": sp.Matrix(constraints),
                          "velocity_constraints": sp.Matrix(list(velocity))}
-        self.T, self.V, self.D, self.G = put(T), put(V), put(D), put(G)
-        self._generic_energies = (T, V, D, T - V + G)
-        self.L = self.T - self.V + self.G
-        self.Q = put(sp.Matrix(Q))
+        # T, V, D, G, L and Q with the values in are put together on first use (__getattr__): large sums for a large
+        # model, used for display and the NumPy path; compiled runs read the generic ones
+        for name in _LAZY:
+            self.__dict__.pop(name, None)
+        self._lazy = {"T": T, "V": V, "D": D, "G": G, "Q": sp.Matrix(Q)}
+        self._generic_energies = (T, V, D, _lagrangian(T, V, G))
         self.M = put(M)
         self._f = None if values else f  # with values: put in on first use (large, and unused by compiled runs)
         self.constraints = put(self._generic["constraints"])
@@ -214,6 +216,21 @@ class Equations:
         rows = len(self.constraints) + len(self.velocity_constraints)
         self.multipliers = [sp.Symbol(f"lambda_{k}", real=True) for k in range(rows)]
         self._split()
+
+    def __getattr__(self, name: str):
+        """``T``, ``V``, ``D``, ``G``, ``L`` and ``Q`` with the values in, put together on first use."""
+        lazy = self.__dict__.get("_lazy")
+        if lazy is None or name not in _LAZY:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        if name == "L":
+            value = _lagrangian(self.T, self.V, self.G)
+        elif not self._values:
+            value = lazy[name]
+        else:
+            e = lazy[name]
+            value = e.applyfunc(self._put) if isinstance(e, sp.MatrixBase) else self._put(sp.sympify(e))
+        self.__dict__[name] = value
+        return value
 
     @property
     def values(self) -> dict:
@@ -435,3 +452,15 @@ class Equations:
         """One ``Eq(Σ_j M_ij q̈_j, f_i)`` per coordinate, in terms of ``q(t)``."""
         lhs = self.M * sp.Matrix(self.sym.a)
         return [sp.Eq(self.display(l), self.display(r)) for l, r in zip(lhs, self.f)]
+
+
+#: What :class:`Equations` puts together on first use (its ``__getattr__``).
+_LAZY = ("T", "V", "D", "G", "L", "Q")
+
+
+def _lagrangian(T, V, G) -> sp.Expr:
+    """``T − V + G`` with ``−V`` kept as one product: negating a sum of 10⁴ terms term by term asks each its
+    assumptions (seconds for a chain of nonlinear springs), and the sum is the same."""
+    if isinstance(V, sp.Add):
+        return sp.Add(T, sp.Mul(sp.S.NegativeOne, V, evaluate=False), G)
+    return T - V + G

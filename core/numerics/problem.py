@@ -17,7 +17,9 @@ import sympy as sp
 
 from ..base.component import t as time_symbol
 from ..base.identity import depends_on, is_zero
+from ..derivation.calculus import symbols_of
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError, warn
+from .c_source import programs
 from .simulation import NumericModel, _lambdify
 
 
@@ -423,11 +425,17 @@ class Problem:
         generic = eq.generic()
         subs = {s: sp.Float(v) for s, v in values.items()}
         reasons = []
-        if not is_zero(sp.sympify(generic["D"]).xreplace(subs)):
+        # Evidence first (:meth:`_sampled`): a D clearly nonzero at a state, or an L that changes with t alone, is
+        # proof; an L without t among its symbols cannot depend on it.  Only what remains undecided substitutes
+        # the values into the whole of D or L (seconds for a chain of 10⁴ masses).
+        D, L = sp.sympify(generic["D"]), sp.sympify(generic["L"])
+        sampled = self._sampled() if D != 0 or time_symbol in symbols_of([L]) else None
+        if D != 0 and ((sampled is not None and sampled["dissipates"]) or not is_zero(D.xreplace(subs))):
             reasons.append("it dissipates energy (Rayleigh function D ≠ 0)")
         if not all(is_zero(x.xreplace(subs)) for x in generic["Q"]):
             reasons.append("applied forces or sources do work on it (generalized forces Q ≠ 0)")
-        if depends_on(sp.sympify(generic["L"]).xreplace(subs), time_symbol):
+        if time_symbol in symbols_of([L]) and ((sampled is not None and sampled["timed"])
+                                               or depends_on(L.xreplace(subs), time_symbol)):
             reasons.append("its Lagrangian depends on time (prescribed motions or time-varying parameters)")
         # constraints fixed in time (Φ(q), A(q)·q̇ = 0) do no work: their forces are perpendicular to every motion
         # they allow; moving ones (a driven loop, A(q, t)·q̇ + b(q, t)) put energy in or take it out
@@ -437,6 +445,24 @@ class Problem:
                 any(not is_zero(c.xreplace(subs).xreplace(at_rest)) for c in velocity):
             reasons.append("its constraints move with time, and their forces do work")
         return not reasons, "; ".join(reasons)
+
+    def _sampled(self) -> dict[str, bool] | None:
+        """``dissipates`` (D clearly nonzero) and ``timed`` (L changes with t alone) at a random state, from the
+        model's energy tape with the run's values (:func:`lagrangian.numerics.c_source.programs`), or ``None``
+        when it cannot be had.  Only proofs: a value within rounding of zero, or not finite, proves nothing."""
+        try:
+            _, energy = programs(self.numeric)
+            n = self.numeric.n
+            rng = np.random.default_rng(7)
+            q, v = rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n)
+            a = np.array(energy.evaluate([0.37, *q, *v])[:4])
+            b = np.array(energy.evaluate([1.91, *q, *v])[:4])
+        except Exception:  # (a model the tape cannot hold, a state outside its domain: no evidence)
+            return None
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+            return None
+        size = max(float(np.max(np.abs(a[:3]))), float(np.max(np.abs(b[:3]))), np.finfo(float).tiny)
+        return {"dissipates": abs(a[2]) > 1e-9 * size, "timed": abs(a[3] - b[3]) > 1e-9 * size}
 
     @functools.cached_property
     def structure(self) -> Structure:
