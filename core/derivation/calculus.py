@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterable
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from ..base.identity import entries, nodes  # noqa: F401 - (defined there; named here too)
 from ..errors import ModelError
 
 __all__ = ["Calculus", "Rewriter", "atoms_of", "cross", "nodes", "symbols_of", "time_derivative", "time_integral", "trig"]
@@ -106,41 +107,6 @@ class Calculus:
         elif isinstance(e, sp.cos):
             return sp.Mul(-_ONE, trig(sp.sin, e.args[0]), self.diff(e.args[0], s))
         return sp.diff(e, s)
-
-
-def nodes(exprs: Iterable) -> set:
-    """Every distinct sub-expression of ``exprs`` (expressions or matrices), each visited once.
-
-    SymPy's ``atoms`` and ``free_symbols`` visit a shared sub-expression once per occurrence: exponential in the
-    nesting depth for expressions such as a spatial chain's, where each body's velocity is nested in every body's
-    beyond it (16.5 million visits for the equations of four bodies on spherical joints, against 3,267 here).
-    Nodes that bind symbols (an integral's variable) are kept whole and not entered."""
-    seen: set = set()
-    stack = [e for x in exprs for e in (entries(x) if isinstance(x, sp.MatrixBase) else (x,))]
-    while stack:
-        e = stack.pop()
-        if e in seen:
-            continue
-        seen.add(e)
-        if e.args and not getattr(e, "bound_symbols", None):
-            stack.extend(e.args)
-    return seen
-
-
-def entries(matrix: sp.MatrixBase) -> list:
-    """The distinct entries of ``matrix``: its nonzero ones, and zero when it has a zero entry — read from its
-    sparse store, so that a diagonal matrix of 10⁴ rows costs 10⁴ steps, not 10⁸ (indexing a SymPy matrix entry
-    by entry costs microseconds each).
-
-    >>> x = sp.Symbol("x")
-    >>> sorted(entries(sp.diag(x, 2 * x, x)), key=str)
-    [0, 2*x, x]
-    """
-    found = matrix.todok()
-    out = list(set(found.values()))
-    if len(found) < matrix.rows * matrix.cols:
-        out.append(sp.S.Zero)
-    return out
 
 
 def from_entries(rows: int, cols: int, found: dict) -> sp.Matrix:

@@ -284,7 +284,16 @@ class Equations:
         coordinates are ``Σ_j M_ij q̈_j − f_i − Σ_k λ_k ∂Φ_k/∂q_i = 0``, linear in ``u``."""
         n = len(self.names)
         M = self.M
-        zero_rows = [i for i in range(n) if all(_is_zero(M[i, j]) for j in [i, *range(n)])]
+        # decided on the generic entries with the values as the exact binary numbers they are: a Float's rounding
+        # tolerance, against a magnitude that grows with the depth of the entries (those of ten bodies on spherical
+        # joints reach 10¹⁴ times their value), would take a diagonal entry of inertia for zero
+        generic = self._generic["M"]
+        exact = {s: sp.Rational(v) if getattr(v, "is_Float", False) or isinstance(v, float) else v
+                 for s, v in self._values.items()}
+        stored: dict[int, list] = {}
+        for (i, j), e in sorted(generic.todok().items(), key=lambda item: (item[0][0], item[0][0] != item[0][1])):
+            stored.setdefault(i, []).append(e)  # (each row's nonzero entries, its diagonal first)
+        zero_rows = [i for i in range(n) if all(is_zero(e, exact) for e in stored.get(i, ()))]
         # A coordinate without inertia of its own whose motion a loop constraint fixes (a massless slider
         # closed by a loop) stays second-order: its acceleration follows from the constraint rows, and the
         # solve is regular when M is positive definite on the motions the constraints allow.

@@ -1,0 +1,52 @@
+"""The zero test on expressions whose sub-expressions are shared (a spatial chain's: each body's velocity inside
+every body's beyond it): each distinct sub-expression visited once, and the same unknowns as SymPy finds."""
+
+import pytest
+import sympy as sp
+from hypothesis import given, settings, strategies as st
+from sympy.core.function import AppliedUndef
+
+from lagrangian.base import identity
+
+x, y = sp.symbols("x y", real=True)
+f = sp.Function("f")
+t = sp.Symbol("t")
+
+
+def nested(depth: int) -> sp.Expr:
+    """e_{k+1} = sin(e_k)·cos(e_k) + e_k·y: a tree of 2^depth leaves, a graph of 3·depth nodes."""
+    e = x
+    for _ in range(depth):
+        e = sp.sin(e) * sp.cos(e) + e * y
+    return e
+
+
+@pytest.mark.timeout(60)
+def test_a_deeply_shared_expression_is_decided_without_visiting_every_occurrence():
+    e = nested(60)  # 2^60 leaves as a tree
+    assert len(identity.nodes([e])) < 400
+    assert identity.is_zero(e) is False
+    assert identity.is_zero(e - e) is True  # (SymPy cancels it: zero without any point)
+    assert [s.name for s in identity._opaque(e)] == ["x", "y"]
+
+
+ATOMS = st.sampled_from([x, y, f(t), sp.Derivative(f(t), t), sp.Integer(2), sp.Float(0.5)])
+
+
+@st.composite
+def expressions(draw, depth=3):
+    if depth == 0:
+        return draw(ATOMS)
+    op = draw(st.sampled_from(["add", "mul", "sin", "atom"]))
+    if op == "atom":
+        return draw(ATOMS)
+    a, b = draw(expressions(depth - 1)), draw(expressions(depth - 1))
+    return {"add": a + b, "mul": a * b, "sin": sp.sin(a)}[op]
+
+
+@settings(max_examples=100, deadline=None)
+@given(expressions())
+def test_the_unknowns_and_floats_found_once_per_node_are_sympys(e):
+    reference = sorted(set(e.free_symbols) | e.atoms(AppliedUndef, sp.Derivative), key=sp.default_sort_key)
+    assert identity._opaque(e) == reference
+    assert identity._has_float(e, {}) == bool(e.atoms(sp.Float))
