@@ -20,19 +20,14 @@ import sympy as sp
 import lagrangian as lg
 from lagrangian.numerics import band
 from lagrangian.numerics.codegen import compile_model
+from scale import chain_model
 
 SIZES = (8, 16, 32, 64, 128, 256)
 
 
 def chain(n: int) -> lg.Model:
-    m = lg.Model("chain")
-    prev = "ground"
-    for i in range(n):
-        m.add("mass", f"m{i}", f"p{i}", m=0.3 + 0.01 * (i % 7))
-        m.add("spring", f"k{i}", (prev, f"p{i}"), k=40.0 + i % 5)
-        m.add("damper", f"c{i}", (prev, f"p{i}"), c=0.02)
-        prev = f"p{i}"
-    return m
+    """``benchmarks/scale.py``'s chain of masses, springs and dampers."""
+    return chain_model(n)[0]
 
 
 def ladder(n: int) -> lg.Model:
