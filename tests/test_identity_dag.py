@@ -50,3 +50,14 @@ def test_the_unknowns_and_floats_found_once_per_node_are_sympys(e):
     reference = sorted(set(e.free_symbols) | e.atoms(AppliedUndef, sp.Derivative), key=sp.default_sort_key)
     assert identity._opaque(e) == reference
     assert identity._has_float(e, {}) == bool(e.atoms(sp.Float))
+
+
+@settings(max_examples=100, deadline=None)
+@given(expressions())
+def test_a_contributions_functions_are_found_once_per_node_as_sympy_finds_them(e):
+    from lagrangian.derivation.assembly import _every
+
+    integral = sp.Integral(e * f(x), (x, 0, 1))  # (inside a node that binds a symbol, too)
+    for expr in (e, integral):
+        assert _every(expr, AppliedUndef) == expr.atoms(AppliedUndef)
+        assert _every(expr, sp.Derivative) == expr.atoms(sp.Derivative)

@@ -204,9 +204,8 @@ class Equations:
         # model, used for display and the NumPy path; compiled runs read the generic ones
         for name in _LAZY:
             self.__dict__.pop(name, None)
-        self._lazy = {"T": T, "V": V, "D": D, "G": G, "Q": sp.Matrix(Q)}
+        self._lazy = {"T": T, "V": V, "D": D, "G": G, "Q": sp.Matrix(Q), "M": M}
         self._generic_energies = (T, V, D, _lagrangian(T, V, G))
-        self.M = put(M)
         self._f = None if values else f  # with values: put in on first use (large, and unused by compiled runs)
         self.constraints = put(self._generic["constraints"])
         self.velocity_constraints = put(self._generic["velocity_constraints"])
@@ -218,12 +217,15 @@ class Equations:
         self._split()
 
     def __getattr__(self, name: str):
-        """``T``, ``V``, ``D``, ``G``, ``L`` and ``Q`` with the values in, put together on first use."""
+        """``T``, ``V``, ``D``, ``G``, ``L``, ``Q``, ``M`` (and ``A`` when it is ``M``) with the values in, put
+        together on first use."""
         lazy = self.__dict__.get("_lazy")
         if lazy is None or name not in _LAZY:
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         if name == "L":
             value = _lagrangian(self.T, self.V, self.G)
+        elif name == "A":  # (the unconstrained case without first-order coordinates: A is M)
+            value = self.M.copy()
         elif not self._values:
             value = lazy[name]
         else:
@@ -283,7 +285,6 @@ class Equations:
         """``A u = b`` with ``u = (q̈_inertial, q̇_first_order, λ)``, built block by block: the rows of the
         coordinates are ``Σ_j M_ij q̈_j − f_i − Σ_k λ_k ∂Φ_k/∂q_i = 0``, linear in ``u``."""
         n = len(self.names)
-        M = self.M
         # decided on the generic entries with the values as the exact binary numbers they are: a Float's rounding
         # tolerance, against a magnitude that grows with the depth of the entries (those of ten bodies on spherical
         # joints reach 10¹⁴ times their value), would take a diagonal entry of inertia for zero
@@ -306,9 +307,10 @@ class Equations:
         self.first_order = zero_rows
         self._b = None
         if not self.first_order and not len(self.constraints) and not len(self.velocity_constraints):
-            self.A = M.copy()  # b = f, put together on first use
+            self.__dict__.pop("A", None)  # A = M and b = f, both put together on first use
         else:
-            self.A, self._b = self._system(M, self.f, self.constraints, check=True, velocity=self.velocity_constraints)
+            self.A, self._b = self._system(self.M, self.f, self.constraints, check=True,
+                                           velocity=self.velocity_constraints)
 
     @property
     def f(self) -> sp.Matrix:
@@ -463,8 +465,8 @@ class Equations:
         return [sp.Eq(self.display(l), self.display(r)) for l, r in zip(lhs, self.f)]
 
 
-#: What :class:`Equations` puts together on first use (its ``__getattr__``).
-_LAZY = ("T", "V", "D", "G", "L", "Q")
+#: What :class:`Equations` puts together on first use (its ``__getattr__``; ``A`` when it is ``M``).
+_LAZY = ("T", "V", "D", "G", "L", "Q", "M", "A")
 
 
 def _lagrangian(T, V, G) -> sp.Expr:
