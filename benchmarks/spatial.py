@@ -35,10 +35,10 @@ def mass(k: int) -> float:
     return round(0.3 + 0.1 * k, 10)
 
 
-def ours(n: int):
+def ours(n: int, dynamics: str = "auto"):
     import lagrangian as lg
 
-    m = lg.Model(f"{n}-body spatial chain", dim=3)
+    m = lg.Model(f"{n}-body spatial chain", dim=3, dynamics=dynamics)
     parent = "ground"
     for k in range(n):
         m.add("body", f"B{k}", f"B{k}", m=mass(k), inertia=(0.02, 0.03, 0.04), com=(0, 0, -0.25),

@@ -18,7 +18,8 @@ import importlib.util as _importlib_util
 import sys as _sys
 
 from .base.component import GROUND, Component, Contribution, Example, Load, MovingFrame, Parameter, dot, t
-from .base.domain import Context, Coordinate, Domain, DomainView, Incidence, Network, Option, coordinate, rate
+from .base.domain import (Context, Coordinate, Domain, DomainView, Incidence, Network, Option, Recursion, RecursiveDynamics,
+                          coordinate, rate)
 from .base.limits import limits
 from .base.linear import Linear, LinearContext, Quantity
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
@@ -105,6 +106,8 @@ __all__ = [
     "Example",
     "Domain",
     "DomainView",
+    "Recursion",
+    "RecursiveDynamics",
     "Network",
     "Option",
     "Context",

@@ -25,6 +25,7 @@ from .base.arguments import RunOptions, check_atol, check_max_step, check_state,
 from .derivation.assembly import Assembly, assemble
 from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
+from .derivation.calculus import symbols_of
 from .derivation.equations import Equations
 from .base import display, modelfile
 from .base.overrides import Rules
@@ -297,12 +298,13 @@ class Model:
         """Whether a symbol of the contributions (or the domains' constraints, eliminated solutions) has no value."""
         a = self.assembly
         known = set(a.values) | {t}
-        for c in a.generic.values():
-            parts = [c.T, c.V, c.D, c.G, *(x for load in c.loads for x in (load.force, load.velocity)), *c.constraints,
-                     *c.velocity_constraints]
-            for e in parts:
-                if isinstance(e, (sp.Basic, sp.MatrixBase)) and not e.free_symbols <= known:
-                    return True
+        parts = [e for c in a.generic.values()
+                 for e in [c.T, c.V, c.D, c.G, *(x for load in c.loads for x in (load.force, load.velocity)),
+                           *c.constraints, *c.velocity_constraints] if isinstance(e, (sp.Basic, sp.MatrixBase))]
+        # each shared sub-expression visited once (SymPy's free_symbols walks a body's nested pose once per
+        # occurrence: exponential in the depth of a spatial chain)
+        if not symbols_of(parts) <= known:
+            return True
         return any(not sp.Matrix(view.constraints).free_symbols <= known
                    for view in a.generic_views.values() if len(getattr(view, "constraints", ()))) \
             or any(not e.solution.free_symbols <= known for e in a.eliminated.values())  # θ = x / R, R cancelled

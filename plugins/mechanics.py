@@ -100,7 +100,12 @@ class MechanicalDomain(Domain):
     """Point positions in 1, 2 or 3 dimensions."""
 
     name = "mechanical"
-    options = {"dim": Option(1, "spatial dimension of mechanical nodes", choices=(1, 2, 3))}
+    options = {
+        "dim": Option(1, "spatial dimension of mechanical nodes", choices=(1, 2, 3)),
+        "dynamics": Option("auto", "rigid-body trees: 'closed' (closed-form equations), 'recursive' (the articulated-"
+                           "body algorithm) or 'auto' (recursive from lagrangian.plugins.multibody.RECURSIVE_FROM joint "
+                           "coordinates)", choices=("auto", "closed", "recursive")),
+    }
 
     def build(self, network: Network, options: dict[str, Any]) -> MechanicalView:
         dim = options["dim"]
@@ -110,7 +115,7 @@ class MechanicalDomain(Domain):
         if any(getattr(c, "multibody", False) for c in network.components):
             from lagrangian.plugins.multibody import build_kinematics
 
-            build_kinematics(network, view)
+            build_kinematics(network, view, options.get("dynamics", "auto"))
         for node in network.nodes:
             if node in view.positions:  # a body, or a point of one
                 if node in prescribed:
@@ -374,8 +379,12 @@ class Gravity(Component):
         "direction": Parameter("direction of gravity (normalized)", default=None, shape="vector", symbolic=False),
     }
 
-    def contribute(self, ctx) -> Contribution:
-        dim = ctx.view.dim
+    def field_acceleration(self, dim: int) -> sp.Matrix:
+        """The field's acceleration ``g u`` (``dim × 1``): a uniform field acting on every gravitational mass (what
+        recursive rigid-body dynamics take as the ground's acceleration, ``−g u``)."""
+        return self._direction(dim) * self.g
+
+    def _direction(self, dim: int) -> sp.Matrix:
         if self.direction is None:
             u = sp.zeros(dim, 1)
             u[dim - 1] = -1
@@ -385,6 +394,11 @@ class Gravity(Component):
             if norm == 0:
                 raise ModelError(f"gravity {self.name!r}: direction must not be the zero vector.")
             u = u / norm
+        return u
+
+    def contribute(self, ctx) -> Contribution:
+        dim = ctx.view.dim
+        u = self._direction(dim)
         terms = []  # summed once: adding term by term rebuilds the sum each time (quadratic in the masses)
         for comp in ctx.components:
             held = getattr(comp, "gravitational_mass", None)

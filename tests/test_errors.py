@@ -569,7 +569,7 @@ CASES = [
     ("callable-prescribed-motion", callable_prescribed_motion, lg.ModelError,
      [r"prescribed_motion 'P1'", r"SymPy expression of t"]),
     ("unknown-option", unknown_option, lg.UnknownNameError,
-     [r"unknown model option 'dimm'", r"Did you mean 'dim'\?", r"Known: dim, formulation"]),
+     [r"unknown model option 'dimm'", r"Did you mean 'dim'\?", r"Known: dim, dynamics, formulation"]),
     ("invalid-option-value", invalid_option_value, lg.ModelError,
      [r"model option 'formulation'", r"must be one of 'charge', 'flux'", r"not 'charges'"]),
     ("invalid-dim", invalid_dim, lg.ModelError,

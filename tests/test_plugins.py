@@ -198,7 +198,7 @@ def test_runtime_plugin_with_only_builtins_selected():
 
     reg = lg.Registry(plugins={"mech": mechanics, "extra": make_plugin(kinds=[Widget])}, entry_points=False)
     assert set(reg.kinds) == set(BUILTIN_KINDS["mechanics"]) | {"widget"}
-    assert set(reg.options()) == {"dim"}
+    assert set(reg.options()) == {"dim", "dynamics"}
     m = lg.Model(registry=reg, dim=2)
     m.add("widget", "W", "p", a=1)
     assert m.coordinate_names == ["x_p", "y_p"]

@@ -10,7 +10,7 @@ charges, branch flux linkages, ...).  Core code never looks inside a view.
 from __future__ import annotations
 
 import unicodedata
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -120,18 +120,57 @@ class Network:
 
 
 @dataclass
+class Recursion:
+    """The dynamics of a domain's coordinates computed step by step (:class:`RecursiveDynamics`): ``definitions``,
+    ``(symbol, expression)`` pairs in order, each in the coordinates, their rates, the parameters and the symbols
+    defined before it; in those, the ``accelerations`` (one per coordinate), the kinetic energy ``kinetic``, the
+    momenta ``∂T/∂q̇`` (one per coordinate) and ``pivots``, positive numbers (one per coordinate) where the motion
+    is determined (the articulated inertias about each joint's axis; zero where the mass matrix is singular)."""
+
+    definitions: list[tuple[sp.Symbol, sp.Expr]]
+    accelerations: list[sp.Expr]
+    kinetic: sp.Expr
+    momenta: list[sp.Expr]
+    pivots: list[sp.Expr]
+
+
+@dataclass
+class RecursiveDynamics:
+    """A domain's offer to compute the accelerations of its coordinates by a recursion over its structure (a tree
+    of rigid bodies: the articulated-body algorithm), in work linear in their number, rather than from closed-form
+    equations of motion.
+
+    ``covers`` names the components whose kinetic and potential energies the recursion accounts for (bodies, and
+    uniform gravity on them); every other component of the model must then store no kinetic energy and add no
+    couplings, frames or constraints: its potential, dissipation and loads enter as generalized forces.
+    ``build(q, v, tau)`` gets the plain symbols of the coordinates and their rates (in the model's order, by name
+    ``names``) and those generalized forces, and returns the :class:`Recursion`.  ``note`` says in words what the
+    recursion is, for reports; ``forced``: the user asked for it (``Model(dynamics="recursive")``), so a model it
+    cannot serve is refused by name rather than derived in closed form.
+    """
+
+    covers: frozenset[str]
+    names: tuple[str, ...]
+    build: Callable[[Sequence[sp.Symbol], Sequence[sp.Symbol], Sequence[sp.Expr]], Recursion]
+    note: str
+    forced: bool = False
+
+
+@dataclass
 class DomainView:
     """What a domain exposes to components: at least its coordinates.
 
     ``branch_value(key)`` gives the integral quantity of a branch (edge key
     of the component graph) — a position difference, a charge, a flux
     linkage — in terms of the coordinates; analogies identify branches of
-    two domains through it.
+    two domains through it.  ``recursive``: the domain's offer of recursive
+    dynamics (:class:`RecursiveDynamics`), or ``None``.
     """
 
     coordinates: list[Coordinate] = field(default_factory=list)
     #: holonomic constraints ``Φ(q, t) = 0`` among the coordinates (closed kinematic loops), kept with multipliers
     constraints: list[sp.Expr] = field(default_factory=list)
+    recursive: RecursiveDynamics | None = None
 
     def branch_value(self, key: str) -> sp.Expr:
         raise NotImplementedError(f"{type(self).__name__} does not define branch quantities")

@@ -29,6 +29,7 @@ and the constraint Jacobian.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -39,6 +40,7 @@ from .assembly import Assembly
 from ..base.component import t
 from .calculus import atoms_of, symbols_of
 from .derive import Derivation, Rewriter
+from .recursion import Taken, take
 from ..errors import ModelError
 from ..base.identity import is_zero
 from ..base.switching import SWITCHES
@@ -59,7 +61,12 @@ class _Symbols:
 
 
 class Equations:
-    """Mass matrix, forcing and the first-order solve of an :class:`~lagrangian.assembly.Assembly`."""
+    """Mass matrix, forcing and the first-order solve of an :class:`~lagrangian.assembly.Assembly`.
+
+    ``recursion``: when a domain's recursive dynamics serve the model (:mod:`lagrangian.derivation.recursion`),
+    what gives compiled runs their accelerations; ``M``, ``f``, ``A`` and ``b`` are then derived on first use."""
+
+    recursion: Taken | None = None
 
     def __init__(self, assembly: Assembly):
         if not assembly.coordinates:
@@ -108,7 +115,9 @@ class Equations:
         rate = max((getattr(v, "constraint_rate", 10.0) for v in assembly.generic_views.values()), default=10.0)
         frames = [([self.symbolic(e) for e in f.omega], [[self.symbolic(e) for e in vel] for vel in f.velocities])
                   for f in assembly.frame_list(generic=True)]
-        self._derive(T, V, G, D, Q, constraints, rate, values=values, frames=frames, velocity=velocity)
+        self._values = values  # (read by the recursion's check of its pivots; set again by _derive)
+        taken = take(assembly, self, Q, calc)
+        self._derive(T, V, G, D, Q, constraints, rate, values=values, frames=frames, velocity=velocity, recursion=taken)
 
     def _linear_in_rates(self, name: str, c: sp.Expr) -> sp.Expr:
         """``c`` (in plain symbols), checked to be a constraint on velocities ``A(q, t)·q̇ + b(q, t)``."""
@@ -179,32 +188,43 @@ class Equations:
         self._display = Rewriter(self._from_sym)
 
     def _derive(self, T, V, G, D, Q, constraints, constraint_rate, quadratures=None, values=None, frames=(),
-                velocity=()) -> None:
+                velocity=(), recursion: Taken | None = None) -> None:
         q, v = self.sym.q, self.sym.v
         self._derivation = derivation = Derivation(q, v, t)
-        M, f = derivation.equations(T, V, G, D, Q, frames=frames)
-        # The derivation ran on symbols (exact, and faster than on floats); the values given as numbers go in now.
+        # The derivation runs on symbols (exact, and faster than on floats); the values given as numbers go in after.
         self._values = values = dict(values or {})
-
-        self._put = rewrite = Rewriter(values)  # memoized: the equations share sub-expressions, xreplace revisits them
-
-        def put(e):
-            if not values:
-                return e
-            return e.applyfunc(rewrite) if isinstance(e, sp.MatrixBase) else rewrite(sp.sympify(e))
-
+        self._put = Rewriter(values)  # memoized: the equations share sub-expressions, xreplace revisits them
+        #: the recursion that gives the accelerations (:mod:`lagrangian.derivation.recursion`), or None: the closed form
+        self.recursion = recursion
+        if recursion is not None:  # M and f derived when something asks for them (display, linearization, ...)
+            self._generic = _Generic({"Q": sp.Matrix(Q), "constraints": sp.Matrix(constraints),
+                                      "velocity_constraints": sp.Matrix(list(velocity))},
+                                     self, functools.partial(derivation.equations, T, V, G, D, Q, frames=frames))
+            self._finish(T, V, G, D, Q, None, constraint_rate, values)
+            return
+        M, f = derivation.equations(T, V, G, D, Q, frames=frames)
         M, f = M.copy(), sp.Matrix(f)
         for i, g in (quadratures or {}).items():  # q̇_i = g: a first-order row with unit rate
             M[i, :] = sp.zeros(1, len(q))
             f[i] = g - v[i]
         # generic: the parameters given as numbers still symbols (compiled code takes their values at run time)
-        self._generic = {"M": M, "f": f, "Q": sp.Matrix(Q), "constraints": sp.Matrix(constraints),
-                         "velocity_constraints": sp.Matrix(list(velocity))}
+        self._generic = _Generic({"M": M, "f": f, "Q": sp.Matrix(Q), "constraints": sp.Matrix(constraints),
+                                  "velocity_constraints": sp.Matrix(list(velocity))}, self)
+        self._finish(T, V, G, D, Q, f, constraint_rate, values)
+
+    def _finish(self, T, V, G, D, Q, f, constraint_rate, values) -> None:
+        """What both forms share: the energies, constraints and multipliers, and the split of ``A u = b``."""
+
+        def put(e):
+            if not values:
+                return e
+            return e.applyfunc(self._put) if isinstance(e, sp.MatrixBase) else self._put(sp.sympify(e))
+
         # T, V, D, G, L and Q with the values in are put together on first use (__getattr__): large sums for a large
         # model, used for display and the NumPy path; compiled runs read the generic ones
         for name in _LAZY:
             self.__dict__.pop(name, None)
-        self._lazy = {"T": T, "V": V, "D": D, "G": G, "Q": sp.Matrix(Q), "M": M}
+        self._lazy = {"T": T, "V": V, "D": D, "G": G, "Q": sp.Matrix(Q)}
         self._generic_energies = (T, V, D, _lagrangian(T, V, G))
         self._f = None if values else f  # with values: put in on first use (large, and unused by compiled runs)
         self.constraints = put(self._generic["constraints"])
@@ -227,9 +247,9 @@ class Equations:
         elif name == "A":  # (the unconstrained case without first-order coordinates: A is M)
             value = self.M.copy()
         elif not self._values:
-            value = lazy[name]
+            value = self._generic["M"] if name == "M" else lazy[name]
         else:
-            e = lazy[name]
+            e = self._generic["M"] if name == "M" else lazy[name]
             value = e.applyfunc(self._put) if isinstance(e, sp.MatrixBase) else self._put(sp.sympify(e))
         self.__dict__[name] = value
         return value
@@ -244,7 +264,9 @@ class Equations:
         ``{"A", "b", "T", "V", "D", "L", "p"}``, in the same plain symbols and with the same split as :attr:`A` and
         :attr:`b` — what compiled code records once, taking the values at run time."""
         g = self._generic
-        if "A" not in g:
+        if "T" not in g:
+            g["T"], g["V"], g["D"], g["L"] = self._generic_energies
+        if "A" not in g and self.recursion is None:
             if not self._values:
                 g.update(A=self.A, b=self.b, T=self.T, V=self.V, D=self.D, L=self.L, p=self.p)
             else:
@@ -257,6 +279,8 @@ class Equations:
     def p(self) -> sp.Matrix:
         """Generalized momenta ``∂L/∂q̇`` (built on first use)."""
         if getattr(self, "_p", None) is None:
+            if self.recursion is not None:
+                self._generic["M"]  # (the closed-form derivation the momenta come from)
             self._p = sp.Matrix(self._derivation.momenta())
             if self._values:
                 self._p = self._p.applyfunc(self._put)
@@ -285,6 +309,10 @@ class Equations:
         """``A u = b`` with ``u = (q̈_inertial, q̇_first_order, λ)``, built block by block: the rows of the
         coordinates are ``Σ_j M_ij q̈_j − f_i − Σ_k λ_k ∂Φ_k/∂q_i = 0``, linear in ``u``."""
         n = len(self.names)
+        if self.recursion is not None:  # every pivot of the recursion is positive: every coordinate has inertia
+            self.held, self.inertial, self.first_order, self._b = [], list(range(n)), [], None
+            self.__dict__.pop("A", None)
+            return
         # decided on the generic entries with the values as the exact binary numbers they are: a Float's rounding
         # tolerance, against a magnitude that grows with the depth of the entries (those of ten bodies on spherical
         # joints reach 10¹⁴ times their value), would take a diagonal entry of inertia for zero
@@ -333,7 +361,7 @@ class Equations:
             self._scan = {"callables": [], "derivatives": []}  # no signal given as a callable: nothing to look for
         if getattr(self, "_scan", None) is None:
             g = self.generic()
-            solve = [g["A"], g["b"]]
+            solve = self._solve_exprs()
             energies = [sp.sympify(g[k]) for k in ("T", "V", "D", "L")] + [g["p"]]
             self._scan = {
                 "callables": sorted({f.func.__name__ for f in atoms_of(solve + energies, AppliedUndef)}),
@@ -341,14 +369,21 @@ class Equations:
             }
         return self._scan
 
+    def _solve_exprs(self) -> list:
+        """What gives the solve ``A u = b``: ``A`` and ``b``, or a recursion's accelerations and definitions."""
+        if self.recursion is not None:
+            rec = self.recursion.recursion
+            return [sp.Matrix(rec.accelerations), rec.kinetic, *rec.momenta, *(e for _, e in rec.definitions)]
+        g = self.generic()
+        return [g["A"], g["b"]]
+
     def time_switches(self) -> list[sp.Expr]:
         """The switching functions of ``t`` in the generic ``A`` and ``b`` (pulses, steps, ...; cached): those whose
         arguments hold ``t`` and no coordinate or velocity, where an adaptive integrator restarts
         (:mod:`lagrangian.switching`)."""
         if getattr(self, "_switches", None) is None:
-            g = self.generic()
             state = set(self.sym.q) | set(self.sym.v) | set(self.sym.a)
-            found = {a for a in atoms_of((g["A"], g["b"]), *SWITCHES)
+            found = {a for a in atoms_of(self._solve_exprs(), *SWITCHES)
                      if t in a.free_symbols and not a.free_symbols & state}
             self._switches = sorted(found, key=sp.default_sort_key)
         return list(self._switches)
@@ -361,7 +396,10 @@ class Equations:
             g = self.generic()
             inner = set(self.sym.q) | set(self.sym.v) | set(self.sym.a) | {t}
             free = symbols_of(g[k] if isinstance(g[k], sp.MatrixBase) else sp.sympify(g[k])  # (a matrix as it is:
-                              for k in ("A", "b", "T", "V", "D"))  # sympify copies it entry by entry)
+                              for k in ("T", "V", "D"))  # sympify copies it entry by entry)
+            free |= symbols_of(self._solve_exprs())
+            if self.recursion is not None:
+                free -= {s for s, _ in self.recursion.recursion.definitions}
             free |= symbols_of(self.symbolic(e.solution) for e in self.eliminated.values())
             self._free = free - inner - set(self._values)
         return set(self._free)
@@ -475,3 +513,30 @@ def _lagrangian(T, V, G) -> sp.Expr:
     if isinstance(V, sp.Add):
         return sp.Add(T, sp.Mul(sp.S.NegativeOne, V, evaluate=False), G)
     return T - V + G
+
+
+class _Generic(dict):
+    """The generic equations (:meth:`Equations.generic`): with a recursion, ``M`` and ``f`` are derived on first
+    use (``derive``), and ``A``, ``b`` and the momenta ``p`` put together from them; a run the recursion serves
+    never asks for them."""
+
+    def __init__(self, items: Mapping, owner: "Equations", derive=None):
+        super().__init__(items)
+        self.owner, self.derive = owner, derive
+
+    def __missing__(self, key: str):
+        if key in ("M", "f") and self.derive is not None:
+            M, f = self.derive()
+            self.derive = None
+            self["M"], self["f"] = M.copy(), sp.Matrix(f)
+            return self[key]
+        eq = self.owner
+        if key in ("A", "b") and eq.recursion is not None:
+            self["A"], self["b"] = eq._system(self["M"], self["f"], self["constraints"],
+                                              velocity=self["velocity_constraints"])
+            return self[key]
+        if key == "p" and eq.recursion is not None:
+            self["M"]  # (the derivation the momenta come from)
+            self["p"] = sp.Matrix(eq._derivation.momenta())
+            return self[key]
+        raise KeyError(key)

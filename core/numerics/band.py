@@ -29,6 +29,7 @@ True
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -96,6 +97,26 @@ def plan(A, constraints: int) -> Band | None:
     if slot.max() >= np.iinfo(np.int32).max:  # (beyond a C int's index: the dense solve refuses such sizes anyway)
         return None
     return Band(nm, pattern, perm, kl, ku, slot.astype(np.int32))
+
+
+def solve_size(eq) -> int:
+    """The number of unknowns of ``eq``'s solve ``A u = b``."""
+    if eq.recursion is not None:
+        return len(eq.names)
+    return int(math.isqrt(len(eq.generic()["A"])))
+
+
+def band_of(eq) -> Band | None:
+    """The banded solve of ``eq``'s ``A u = b`` (:mod:`lagrangian.numerics.band`), or ``None`` for the dense one;
+    decided once per model (a recursion's ``A`` is the identity: a band of no diagonals beside the main one)."""
+    if "_band" not in eq.__dict__ and eq.recursion is not None:
+        n = len(eq.names)
+        every = np.arange(n, dtype=np.int32)
+        eq.__dict__["_band"] = Band(n, tuple((i, i) for i in range(n)), every, 0, 0, every.copy())
+    if "_band" not in eq.__dict__:
+        g = eq.generic()
+        eq.__dict__["_band"] = plan(g["A"], constraints=g["A"].rows - len(eq.inertial) - len(eq.first_order))
+    return eq.__dict__["_band"]
 
 
 # The solve in C: in the runtime library (sizes as arguments) and in a native library.

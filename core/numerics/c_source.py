@@ -6,18 +6,26 @@ loops — that is the same for every model.  Names enter the C only through :fun
 from __future__ import annotations
 
 import functools
-import math
 
 import sympy as sp
 
 from ..base.component import t as time_symbol
 from ..derivation.calculus import dense
-from .band import BAND_MATRIX, BAND_RUNTIME, BAND_SOLVE, NATIVE_BAND_RHS, Band, native_tables, plan as band_plan
+
+from .band import BAND_MATRIX, BAND_RUNTIME, BAND_SOLVE, NATIVE_BAND_RHS, Band, band_of, native_tables, solve_size
 from .c_dop853 import ENSEMBLE_SOURCE, dop853_source
 from .tape import OPS, Program, TapeError, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
-CODEGEN_VERSION = "8"
+CODEGEN_VERSION = "9"
+
+
+#: The most instructions printed in one C function: a longer tape is cut into parts of this size, each a function of
+#: its own (:meth:`lagrangian.tape.Program.c_parts`).  GCC's time on one straight-line function grows faster than its
+#: length.  Measured on the native library of 30 bodies on spherical joints (31,591 instructions for A and b, 2.7 MB
+#: of C), GCC -O3: 50 s as one function each, 9.3 s in parts of 4,000 instructions, 7.7 s of 2,000, 6.9 s of 1,000
+#: and of 500.
+C_PART = 1000
 
 
 class _Unavailable(Exception):
@@ -31,6 +39,8 @@ def _arrays(numeric) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
 
 
 def _arrays_of(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
+    if eq.recursion is not None:
+        return _recursive_arrays(eq)
     g = eq.generic()
     energies = [g["T"], g["V"], g["D"], g["L"], *g["p"]]
     return dense(g["A"]), dense(g["b"]), energies
@@ -80,13 +90,12 @@ def programs(numeric, banded: bool | None = None) -> tuple[Program, Program]:
     return found[banded]
 
 
-def band_of(eq) -> Band | None:
-    """The banded solve of ``eq``'s ``A u = b`` (:mod:`lagrangian.numerics.band`), or ``None`` for the dense one;
-    decided once per model."""
-    if "_band" not in eq.__dict__:
-        g = eq.generic()
-        eq.__dict__["_band"] = band_plan(g["A"], constraints=g["A"].rows - len(eq.inertial) - len(eq.first_order))
-    return eq.__dict__["_band"]
+def _recursive_arrays(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
+    """A recursion's arrays (:mod:`lagrangian.derivation.recursion`): ``A`` the identity by its diagonal (the
+    :func:`band_of` of a recursion), ``b`` the accelerations, and the energies with its kinetic energy and momenta."""
+    rec, g = eq.recursion.recursion, eq.generic()
+    T, V, D = rec.kinetic, g["V"], g["D"]
+    return [sp.S.One] * len(eq.names), list(rec.accelerations), [T, V, D, T - V, *rec.momenta]
 
 
 def _generic_programs(eq, parameters: tuple, banded: bool = False) -> tuple[Program, Program]:
@@ -95,7 +104,9 @@ def _generic_programs(eq, parameters: tuple, banded: bool = False) -> tuple[Prog
     cache = eq.__dict__.setdefault("_generic_tapes", {})
     if (parameters, banded) in cache:
         return cache[parameters, banded]
-    if banded:
+    if eq.recursion is not None:  # (A's nonzero entries, its diagonal, in either layout)
+        a_entries, b_entries, energies = _recursive_arrays(eq)
+    elif banded:
         g = eq.generic()
         A = g["A"]
         a_entries, b_entries = [A[i, j] for i, j in band_of(eq).pattern], dense(g["b"])
@@ -111,9 +122,10 @@ def _generic_programs(eq, parameters: tuple, banded: bool = False) -> tuple[Prog
             f"compile"
         )
     q, v = list(eq.sym.q), list(eq.sym.v)
+    steps = eq.recursion.recursion.definitions if eq.recursion is not None else ()
     try:
-        matrix = record([*a_entries, *b_entries], [time_symbol, *q, *(v[i] for i in eq.inertial)], parameters)
-        energy = record(energies, [time_symbol, *q, *v], parameters)
+        matrix = record([*a_entries, *b_entries], [time_symbol, *q, *(v[i] for i in eq.inertial)], parameters, steps)
+        energy = record(energies, [time_symbol, *q, *v], parameters, steps)
     except TapeError as exc:
         raise _Unavailable(str(exc)) from None
     cache[parameters, banded] = (matrix, energy)
@@ -135,13 +147,13 @@ def parametric_source(eq, parameters: tuple) -> str:
     set of values, as the tape interpreter is (``lagrangian.numerics.ensemble`` runs many sets with it).  What
     depends on the parameters alone is computed per evaluation rather than folded away."""
     matrix, energy = _generic_programs(eq, parameters)
-    return _source(eq, matrix, energy, parameters)
+    return _source(eq, matrix, energy, parameters, band=band_of(eq) if eq.recursion is not None else None)
 
 
 def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = None, band: Band | None = None) -> str:
     n, nI = len(eq.sym.q), len(eq.inertial)
     first = list(eq.first_order)
-    m = int(math.isqrt(len(eq.generic()["A"])))
+    m = solve_size(eq)
     inputs_m = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + j: f"vI[{j}]" for j in range(nI)}}
     inputs_e = {0: "t", **{1 + i: f"q[{i}]" for i in range(n)}, **{1 + n + i: f"v[{i}]" for i in range(n)}}
     if parameters is not None:  # the parameters' constant registers read P (= ctx)
@@ -149,9 +161,13 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         inputs_m |= {matrix.n_inputs + i: f"P[{slot[s]}]" for s, i in matrix.parameters.items()}
         inputs_e |= {energy.n_inputs + i: f"P[{slot[s]}]" for s, i in energy.parameters.items()}
     entries = m * m if band is None else len(band.pattern)  # (banded: A's nonzero entries, in the band's order)
-    body_m = matrix.c_lines(inputs_m, [f"A[{k}]" for k in range(entries)] + [f"b[{k}]" for k in range(m)], "    ",
+    parts_m, body_m = _body(matrix, inputs_m, [f"A[{k}]" for k in range(entries)] + [f"b[{k}]" for k in range(m)],
+                            "matrix_part", "const double *P, double t, const double *q, const double *vI, double *A, "
+                            "double *b", "P, t, q, vI, A, b", ["for (int k = 0; k < NM; k++) b[k] = NAN;", "return 2;"],
                             zeroed=True)
-    body_e = energy.c_lines(inputs_e, [f"o[{k}]" for k in range(4 + n)], "    ")
+    parts_e, body_e = _body(energy, inputs_e, [f"o[{k}]" for k in range(4 + n)], "energy_part",
+                            "const double *P, double t, const double *q, const double *v, double *o", "P, t, q, v, o",
+                            ["for (int k = 0; k < 4 + NQ; k++) o[k] = NAN;", "return;"])
 
     def table(values):
         return "{" + ", ".join(map(str, values or [0])) + "}"
@@ -172,6 +188,7 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         "int lg_dims(int *out) { out[0] = NQ; out[1] = NI; out[2] = NM; out[3] = NF; out[4] = NP; return 0; }",
         "",
         *(native_tables(band, table) if band is not None else []),
+        *parts_m,
         "/* The entries of A (row-major, NM x NM; banded: its NNZ nonzero entries, in the order of ROW and COL) and b",
         "   of the solve A u = b, u = (accelerations, first-order rates, multipliers).",
         "   Static, so that lg_rhs calls it directly (an exported function is called through the PLT) or inlines it. */",
@@ -186,6 +203,7 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         "",
         *(_DENSE_MATRIX if band is None else BAND_MATRIX),
         "",
+        *parts_e,
         "/* T, V, D, L and the momenta p at (t, q, v), v: the rates of all coordinates. */",
         "static void energy_terms(const double *P, double t, const double *q, const double *v, double *o) {",
         "    (void)P;",
@@ -193,6 +211,24 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         "}",
         _NATIVE if band is None else _NATIVE_BAND,
     ]) + "\n"
+
+
+def _body(program: Program, inputs: dict, targets: list[str], name: str, params: str, args: str, fail: list[str],
+          zeroed: bool = False) -> tuple[list[str], list[str]]:
+    """The C of ``program`` writing ``targets``: ``([], lines)`` in one function's body up to :data:`C_PART`
+    instructions; beyond, the functions of its parts (``name_k(params, W)``) and the body that calls them in turn,
+    their shared results in a scratch array ``W`` (``fail``: what the body does when no memory is left for it)."""
+    if len(program.code) <= C_PART:
+        return [], program.c_lines(inputs, targets, "    ", zeroed=zeroed)
+    parts, size, final = program.c_parts(inputs, targets, C_PART, zeroed=zeroed)
+    functions = []
+    for k, lines in enumerate(parts):
+        functions += [f"static LG_NOINLINE void {name}_{k}({params}, double *W) {{",
+                      "    (void)P; (void)t; (void)q; (void)W;", *(f"    {line}" for line in lines), "}", ""]
+    body = [f"    SCRATCH(W, {max(size, 1)});", "    if (!W) {", *(f"        {line}" for line in fail), "    }",
+            *(f"    {name}_{k}({args}, W);" for k in range(len(parts))), *(f"    {line}" for line in final),
+            "    RELEASE(W);"]
+    return functions, body
 
 
 _DENSE_MATRIX = ["int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
@@ -210,6 +246,12 @@ _HEADER = """#include <math.h>
 #define SCRATCH(name, count) double name##_stack[LG_SCRATCH]; \
     double *name = (count) <= LG_SCRATCH ? name##_stack : malloc((size_t)(count) * sizeof(double))
 #define RELEASE(name) do { if (name != name##_stack) free(name); } while (0)
+/* The parts of a long tape stay functions of their own (lagrangian.tape.Program.c_parts). */
+#if defined(__GNUC__)
+#define LG_NOINLINE __attribute__((noinline))
+#else
+#define LG_NOINLINE
+#endif
 """
 
 # The solve and the state derivative: one text, in the runtime library (sizes as arguments) and in every native

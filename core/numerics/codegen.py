@@ -102,7 +102,7 @@ from .c_build import (
     set_compiler,
     wanted_compiler,
 )
-from .c_source import _runtime_source, _Unavailable, band_of, generate_source, programs
+from .c_source import _runtime_source, _Unavailable, band_of, generate_source, programs, solve_size
 from .tape import Program
 
 __all__ = [
@@ -190,6 +190,14 @@ class _Tape(ctypes.Structure):
                 ("inertial", ctypes.c_void_p), ("first", ctypes.c_void_p), ("matrix", _Prog), ("energy", _Prog)]
 
 
+def _solve_note(numeric, band) -> str | None:
+    """How the accelerations are had, when not by the dense solve: a recursion's note, or the banded solve."""
+    taken = numeric.eq.recursion
+    if taken is not None:
+        return taken.note
+    return None if band is None else _banded(band)
+
+
 def _banded(band) -> str:
     return (f"the solve banded: {band.nm} unknowns within {band.kl} + {band.ku} diagonals of the main one after "
             f"renumbering")
@@ -257,7 +265,7 @@ class CompiledModel:
         self.kind = "tape" if lib is None else "native"
         self.from_cache, self.codegen_seconds, self.build_seconds = from_cache, codegen_seconds, build_seconds
         self.n, self.nI, self.dim = numeric.n, numeric.nI, numeric.n + numeric.nI
-        self.m = int(math.isqrt(len(numeric.eq.generic()["A"])))
+        self.m = solve_size(numeric.eq)
         self.band = band_of(numeric.eq)  # (a banded solve: lagrangian.numerics.band)
         dbl, ptr, lng, cint = ctypes.c_double, ctypes.c_void_p, ctypes.c_long, ctypes.c_int
         if lib is not None:
@@ -317,12 +325,13 @@ class CompiledModel:
 
     def describe(self) -> str:
         """What evaluates the model: ``native code (<key>.so, from the cache)`` or ``the tape interpreter (…)``."""
+        note = _solve_note(self.numeric, self.band)
         if self.kind == "native":
-            solve = "" if self.band is None else f"; {_banded(self.band)}"
+            solve = "" if note is None else f"; {note}"
             return (f"native code ({self.path.name}{', from the cache' if self.from_cache else ', built for this model'}"
                     f"{solve})")
         matrix, _ = programs(self.numeric)
-        solve = "" if self.band is None else f", {_banded(self.band)}"
+        solve = "" if note is None else f", {note}"
         return (f"the tape interpreter ({len(matrix.code)} instructions per evaluation{solve}; nothing compiled for "
                 f"this model)")
 

@@ -34,7 +34,7 @@ import sympy as sp
 from ..base.component import t as time_symbol
 from ..errors import ModelError
 from .c_build import _cache, _key, _libraries, _shipped, check_key, compiler
-from .c_source import _runtime_source, _Unavailable, parametric_source
+from .c_source import _runtime_source, _Unavailable, parametric_source, solve_size
 from .codegen import _prog
 from .tape import Program, TapeError, record
 
@@ -158,7 +158,7 @@ def compile_form(eq, values: dict, *, name: str, outputs: dict[str, sp.Expr] | N
     libraries = {k: Library(key, text, built[k].data) for k, (key, text) in wanted.items()}  # the bytes loaded here
     return CompiledForm(
         name=name, coordinates=tuple(eq.names), inertial=tuple(eq.inertial), first=tuple(eq.first_order),
-        m=int(math.isqrt(len(eq.generic()["A"]))), parameters=tuple(s.name for s in parameters),
+        m=solve_size(eq), parameters=tuple(s.name for s in parameters),
         values=tuple(float(values[s]) for s in parameters), outputs=tuple(outputs), output_tape=output_tape,
         checks=checks, conservative=bool(conservative), runtime=libraries["runtime"], model=libraries["model"],
     )

@@ -187,6 +187,57 @@ class Program:
                   if i not in skip]
         return lines
 
+    def c_parts(self, inputs: dict[int, str], targets: Sequence[str], size: int, *, zeroed: bool = False,
+                store: str = "W") -> tuple[list[list[str]], int, list[str]]:
+        """:meth:`c_lines` cut into parts of at most ``size`` instructions, for functions of their own: a C
+        compiler's time on one straight-line function grows faster than its length (GCC took 50 s on the 31,591
+        instructions of 30 bodies on spherical joints), on parts of bounded size linearly.  A result a later part
+        or an output reads is kept in ``store[k]`` (an array of the caller's), the others in locals.  Returns the
+        parts' lines, the length of ``store`` needed and the lines that write the targets from it.
+
+        >>> x = sp.Symbol("x")
+        >>> parts, n, last = record([sp.sin(x) + 1, sp.sin(x) * 2], [x]).c_parts({0: "x"}, ["o[0]", "o[1]"], 2)
+        >>> parts, n, last
+        ([['W[0] = sin(x);', 'W[1] = 1.0 + W[0];'], ['const double w2 = 2.0 * W[0];', 'o[1] = w2;']], 2, ['o[0] = W[1];'])
+        """
+        first = self.n_inputs + len(self.constants)
+        names = dict(inputs)
+        for k, c in enumerate(self.constants.tolist()):
+            names.setdefault(self.n_inputs + k, "NAN" if c != c else f"({c!r})" if c < 0 else repr(c))
+        op_names = list(OPS)
+        rows = self.code.tolist()
+        part = {row[1]: i // size for i, row in enumerate(rows)}
+        kept = set()
+        for i, (op, dst, x, y, z) in enumerate(rows):
+            for r in (x, y, z)[:OPS[op_names[op]][0]]:
+                if r in part and part[r] != i // size:
+                    kept.add(r)
+        outputs = self.outputs.tolist()
+        skip = set(self.zero_outputs(inputs)) if zeroed else set()
+        last_part = (len(rows) - 1) // size
+        kept |= {r for i, r in enumerate(outputs) if r in part and i not in skip and part[r] != last_part}
+        slot = {r: k for k, r in enumerate(sorted(kept))}
+        parts: list[list[str]] = [[] for _ in range(last_part + 1)] if rows else []
+        for i, (op, dst, x, y, z) in enumerate(rows):
+            template = OPS[op_names[op]][1]
+            spelled = {"x": names[x], "y": names[y], "z": names[z]}
+            text = "".join(spelled.get(ch, ch) if ch in "xyz" and _alone(template, j) else ch for j, ch in enumerate(template))
+            if dst in slot:
+                names[dst] = f"{store}[{slot[dst]}]"
+                parts[i // size].append(f"{names[dst]} = {text};")
+            else:
+                names[dst] = f"w{dst - first}"
+                parts[i // size].append(f"const double {names[dst]} = {text};")
+        written = [(target, k) for i, (target, k) in enumerate(zip(targets, outputs)) if i not in skip]
+
+        def in_last(k):  # an output the last part computes: written there, from its locals
+            return bool(parts) and k in part and part[k] == last_part
+
+        if parts:
+            parts[-1] += [f"{target} = {names[k]};" for target, k in written if in_last(k)]
+        final = [f"{target} = {names[k]};" for target, k in written if not in_last(k)]
+        return parts, len(slot), final
+
     def zero_outputs(self, inputs: Mapping[int, str] | None = None) -> list[int]:
         """The positions of the outputs that are the constant +0.0 (not a constant ``inputs`` spells: a parameter
         read at run time)."""
@@ -458,17 +509,31 @@ def size(exprs: Sequence) -> int:
     return len(rec.code)
 
 
-def record(exprs: Sequence, inputs: Sequence[sp.Symbol], parameters: Sequence[sp.Symbol] = ()) -> Program:
+def record(exprs: Sequence, inputs: Sequence[sp.Symbol], parameters: Sequence[sp.Symbol] = (),
+           definitions: Sequence[tuple[sp.Symbol, sp.Expr]] = ()) -> Program:
     """The :class:`Program` computing ``exprs`` from ``inputs`` (symbols), subexpressions computed once.
 
     ``parameters`` are symbols held in constant registers whose values are
     given later (:meth:`Program.with_values`): the program is recorded once
-    for every set of values.  Raises :class:`TapeError` for an expression the
-    tape cannot hold (an unknown function, a symbol that is neither an input
-    nor a parameter, a non-finite constant).
+    for every set of values.  ``definitions`` are ``(symbol, expression)``
+    pairs in order, each expression in the inputs, the parameters and the
+    symbols defined before it: a program written as a sequence of small
+    steps (a recursion over a tree of bodies) stays as long as its steps,
+    where the same program as one expression would repeat them.  Raises
+    :class:`TapeError` for an expression the tape cannot hold (an unknown
+    function, a symbol that is neither an input, a parameter nor defined,
+    a non-finite constant).
+
+    >>> x, w = sp.symbols("x w")
+    >>> record([w * w], [x], definitions=[(w, sp.sin(x) + 1)]).evaluate([0.0])
+    [1.0]
     """
     rec = _Recorder(list(inputs), parameters=parameters)
     try:
+        for symbol, e in definitions:
+            if symbol in rec.memo:
+                raise TapeError(f"the symbol {symbol} is defined twice, or is an input")
+            rec.memo[symbol] = rec.reg(sp.sympify(e))
         outputs = [rec.reg(sp.sympify(e)) for e in exprs]
     except RecursionError:
         raise TapeError("an expression is nested too deeply for the tape (more than ~900 levels)") from None

@@ -12,12 +12,14 @@ from lagrangian.derive import cross, time_derivative
 
 from .bodies import _BodyBase
 from .joints import _Joint
-from .rotations import Pose, _rot2, transform
+from .recursive import offer
+from .rotations import Pose, _rot2, product, transform
 
 
-def build_kinematics(network, view) -> None:
+def build_kinematics(network, view, dynamics: str = "auto") -> None:
     """Give ``view`` the pose of every body and the position of every body point; add joint coordinates and
-    loop-closure constraints.  Called by the mechanical domain when the model has bodies or joints."""
+    loop-closure constraints; offer recursive dynamics (``view.recursive``, :mod:`.recursive`) for a tree, as the
+    model's ``dynamics`` option says.  Called by the mechanical domain when the model has bodies or joints."""
     dim = view.dim
     comps = network.components
     if any(getattr(c, "multibody", False) for c in comps) and dim not in (2, 3):
@@ -41,7 +43,7 @@ def build_kinematics(network, view) -> None:
     children: dict[str, list] = {}
     for j in joints:
         children.setdefault(j.nodes[0], []).append(j)
-    used, queue = set(), deque([GROUND])
+    used, queue, tree_order = set(), deque([GROUND]), []
     while queue:
         body = queue.popleft()
         for j in children.get(body, []):
@@ -49,6 +51,7 @@ def build_kinematics(network, view) -> None:
             if child in view.poses:
                 continue
             used.add(j.name)
+            tree_order.append(j.name)
             view.poses[child] = _child_pose(j, view, dim, body, child, bodies)
             view.positions[child] = view.poses[child].p
             queue.append(child)
@@ -73,6 +76,14 @@ def build_kinematics(network, view) -> None:
         body, _, point = node.partition(".")
         if point and body in bodies:
             view.position(node)  # resolves (and checks) the point
+    if view.closures:
+        if dynamics == "recursive":
+            raise ModelError(f"dynamics='recursive' needs a tree of joints: joint {view.closures[0][0]!r} closes a "
+                             f"loop. Use dynamics='closed' (or 'auto').")
+        return
+    order = {name: k for k, name in enumerate(tree_order)}
+    view.recursive = offer(sorted((j for j in joints if j.name in used), key=lambda j: order[j.name]), bodies, dim,
+                           list(comps), view.coordinates, dynamics)
 
 
 def _child_pose(j: _Joint, view, dim: int, parent: str, child: str, bodies) -> Pose:
@@ -96,15 +107,15 @@ def _child_pose(j: _Joint, view, dim: int, parent: str, child: str, bodies) -> P
         R = _rot2(angle)
         p = transform(transform(pp.p, pp.R, P + d), R, -C)
         return Pose(R, p, time_derivative(sp.sympify(angle), t), angle)
-    R = pp.R * R_rel
-    omega = pp.omega + pp.R * w_rel
+    R = product(pp.R, R_rel)
+    omega = pp.omega + product(pp.R, w_rel)
     # in the body's frame, joint by joint: never Rᵀ ω of two long products whose cancellation SymPy cannot see
-    carried = R_rel.T * pp.omega_body if any(e != 0 for e in pp.omega_body) else sp.zeros(3, 1)
+    carried = product(R_rel.T, pp.omega_body) if any(e != 0 for e in pp.omega_body) else sp.zeros(3, 1)
     omega_body = carried + j.relative_body_rate(q, R_rel, w_rel)
     p = transform(transform(pp.p, pp.R, P + d), R, -C)
     r = P + d
     vj = pp.v_body + sp.Matrix(cross(pp.omega_body, r)) + d.applyfunc(lambda e: time_derivative(e, t))
-    v_body = R_rel.T * vj - sp.Matrix(cross(omega_body, C))
+    v_body = product(R_rel.T, vj) - sp.Matrix(cross(omega_body, C))
     return Pose(R, p, omega, omega_body=omega_body, v_body=v_body)
 
 

@@ -48,6 +48,14 @@ def _rot3(axis: sp.Matrix, angle) -> sp.Matrix:
 E3 = [sp.Matrix([1, 0, 0]), sp.Matrix([0, 1, 0]), sp.Matrix([0, 0, 1])]
 
 
+def product(A: sp.Matrix, B: sp.Matrix) -> sp.Matrix:
+    """``A B`` without forming products by exact zeros: SymPy's ``0 · x`` asks whether ``x`` may be infinite, a walk
+    of all of ``x`` (the nested rotations of a chain of 30 bodies spent 4.9 s of 14 in it)."""
+    rows, inner, cols = A.rows, A.cols, B.cols
+    return sp.Matrix(rows, cols, [sp.Add(*[A[i, k] * B[k, j] for k in range(inner) if A[i, k] != 0 and B[k, j] != 0])
+                                  for i in range(rows) for j in range(cols)])
+
+
 def transform(p: sp.Matrix, R: sp.Matrix, x: sp.Matrix) -> sp.Matrix:
     """``p + R x`` (a point given in a body frame, in the fixed frame), without products by zero entries of ``x``."""
     x = list(x)
