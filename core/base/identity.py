@@ -272,23 +272,27 @@ _SLOPES: dict[str, Callable] = {  # |f'| at the point, to carry the argument's r
 }
 
 
-def nodes(exprs: Iterable) -> set:
+def nodes(exprs: Iterable, seen: set | None = None) -> set:
     """Every distinct sub-expression of ``exprs`` (expressions or matrices), each visited once.
 
     SymPy's ``atoms`` and ``free_symbols`` visit a shared sub-expression once per occurrence: exponential in the
     nesting depth for expressions such as a spatial chain's, where each body's velocity is nested in every body's
     beyond it (16.5 million visits for the equations of four bodies on spherical joints, against 3,267 here).
-    Nodes that bind symbols (an integral's variable) are kept whole and not entered."""
-    seen: set = set()
+    Nodes that bind symbols (an integral's variable) are kept whole and not entered.  ``seen``: nodes visited before
+    (by an earlier call), neither entered nor returned; the new ones are added to it."""
+    found: set = set()
+    before = seen if seen is not None else set()
     stack = [e for x in exprs for e in (entries(x) if isinstance(x, sp.MatrixBase) else (x,))]
     while stack:
         e = stack.pop()
-        if e in seen:
+        if e in found or e in before:
             continue
-        seen.add(e)
+        found.add(e)
         if e.args and not getattr(e, "bound_symbols", None):
             stack.extend(e.args)
-    return seen
+    if seen is not None:
+        seen |= found
+    return found
 
 
 def entries(matrix: sp.MatrixBase) -> list:

@@ -171,6 +171,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
     for comp in components:
         values.update(comp.values)
     allowed = allowed | set(signals)
+    checked: set = set()  # sub-expressions whose functions the checks of contributions have found allowed
     for comp, view in zip(components, symbolic):
         ctx = Context(views[comp.domain], views, dict(options), symbolic, values=values)
         try:
@@ -184,7 +185,7 @@ def assemble(graph: ComponentGraph, registry: Registry, options: Mapping[str, An
         if applied and isinstance(contribution, Contribution) and contribution.loads:  # a copy: never the plugin's own
             contribution = replace(contribution, loads=[Load(_applied(load.force, applied), load.velocity)
                                                         for load in contribution.loads])
-        _check_contribution(comp, contribution, allowed, names)  # one list of names: not one per component
+        _check_contribution(comp, contribution, allowed, names, checked)  # (one list of names, one set of nodes)
         generic[comp.name] = contribution
     eliminated = _eliminations(components, generic, coordinates)
     if eliminated:
@@ -271,11 +272,11 @@ def _with_values(c: Contribution, values: Mapping) -> Contribution:
                         [put(e) for e in c.constraints], [put(e) for e in c.velocity_constraints])
 
 
-def _every(expr, kind=sp.Basic) -> set:
+def _every(expr, kind=sp.Basic, seen: set | None = None) -> set:
     """The sub-expressions of ``expr`` of ``kind``, each distinct one visited once (:func:`~lagrangian.identity.nodes`:
     ``atoms`` visits a shared one once per occurrence, 32 million visits for seven bodies on spherical joints), and
-    those inside nodes that bind a symbol (an integral)."""
-    found = nodes([expr])
+    those inside nodes that bind a symbol (an integral); ``seen``: nodes an earlier walk visited, skipped."""
+    found = nodes([expr], seen)
     out = {e for e in found if isinstance(e, kind)}
     for e in found:
         if e.args and getattr(e, "bound_symbols", None):
@@ -283,7 +284,10 @@ def _every(expr, kind=sp.Basic) -> set:
     return out
 
 
-def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] = ()) -> None:
+def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] = (), seen: set | None = None) -> None:
+    """Refuse a contribution that is not one, or whose expressions hold a function that is neither a coordinate nor a
+    signal (``seen``: sub-expressions earlier contributions' checks found sound, not walked again: the bodies of a
+    chain share their poses, and walking each body's anew was quadratic in their number)."""
     where = f"{comp.kind} {comp.name!r}"
     if not isinstance(c, Contribution):
         raise ModelError(f"{where}: contribute() returned {type(c).__name__}, not a lagrangian.Contribution.")
@@ -325,7 +329,7 @@ def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] 
             raise ModelError(f"{where}: {label} is not a SymPy expression: {expr!r}.") from None
         if label in ("T", "V", "D", "G") and not isinstance(expr, sp.Expr):
             raise ModelError(f"{where}: {label} must be a scalar expression.")
-        for f in _every(expr, AppliedUndef):
+        for f in _every(expr, AppliedUndef, seen):
             if f.func not in allowed:
                 if f.args == (t,) and names:  # a load written in lagrangian.coordinate(...)
                     raise ModelError(f"{where}: {label} depends on {f}, which is not a coordinate of the model."
