@@ -41,17 +41,10 @@ AGREEMENT = 1e-10
 
 
 def model(kind: str, n: int, dynamics: str):
-    import lagrangian as lg
+    from lagrangian import models
 
     if kind == "planar":
-        m = lg.Model(f"{n}-link planar chain", dim=2, dynamics=dynamics)
-        parent = "ground"
-        for k in range(n):
-            m.add("rod", f"r{k}", f"r{k}", m=multibody.LINK_M, length=multibody.LINK_L)
-            m.add("revolute", f"j{k}", (parent, f"r{k}"), **({"parent_point": (multibody.LINK_L, 0)} if k else {}))
-            parent = f"r{k}"
-        m.add("gravity", "g", g=multibody.G)
-        return m
+        return models.pendulum_chain(n, m=multibody.LINK_M, length=multibody.LINK_L, g=multibody.G, dynamics=dynamics)
     return spatial.ours(n, dynamics=dynamics)
 
 

@@ -49,7 +49,16 @@ Figures (CPU time, ``time.process_time``; ours and Pinocchio interleaved, best o
   time ÷ ours); summaries ``rhs_vs_pinocchio_worst`` (the largest over the sizes), ``run_vs_pinocchio_scipy_worst``
   (the smallest), ``build_exponent`` (least-squares slope of log build_s against log n over the planar sizes).
 
-Without Pinocchio installed (``pip install pin``) its figures are ``null`` and ours are still measured.
+**MuJoCo** (``mujoco``, the ``bench`` extra) gets the same models in MJCF: hinge joints, a spatial body turned by
+three hinges about its x, y and z axes in that order (MuJoCo's R = R_x(α) R_y(β) R_z(γ), the same coordinates).  Its
+accelerations (``mj_forward``'s ``qacc``) must agree with ours to 1e-10 (``mujoco_agreement_rel``); then
+``mujoco_rhs_us``: one ``mj_forward`` from Python; ``mujoco_c_us``: an RK4 step of ``mujoco.rollout`` in C divided
+by its 4 evaluations; ``mujoco_run_s``: the 5 s run with its RK4 in C (``rollout``) at the longest step (0.01 s
+halved up to eight times: every step divides the output spacing) whose error is no larger than ours.  Ratios
+``rhs_vs_mujoco`` (our C loop ÷ its), ``run_vs_mujoco`` (its run ÷ ours), and their worst over the sizes.
+
+Without Pinocchio or MuJoCo installed (``pip install pin mujoco``) their figures are ``null`` and ours are still
+measured.
 
 Prints a table and, as its last line, a JSON object.
 
@@ -92,16 +101,9 @@ RTOLS = [10 ** (-k / 2) for k in range(12, 25)]  # 1e-6 … 1e-12, Pinocchio's t
 
 
 def planar_ours(n: int):
-    import lagrangian as lg
+    from lagrangian import models
 
-    model = lg.Model(f"{n}-link planar chain", dim=2)
-    parent = "ground"
-    for k in range(n):
-        model.add("rod", f"r{k}", f"r{k}", m=LINK_M, length=LINK_L)
-        model.add("revolute", f"j{k}", (parent, f"r{k}"), **({"parent_point": (LINK_L, 0)} if k else {}))
-        parent = f"r{k}"
-    model.add("gravity", "g", g=G)
-    return model
+    return models.pendulum_chain(n, m=LINK_M, length=LINK_L, g=G)
 
 
 def planar_pinocchio(n: int):
@@ -135,7 +137,37 @@ def spatial_pinocchio(n: int):
     return model, model.createData()
 
 
+def planar_mujoco(n: int) -> str:
+    """The planar chain in MJCF: hinge joints about z, each rod's inertia about its centre of mass (none about its
+    own axis: a trillionth, which the planar motion never reads)."""
+    I = LINK_M * LINK_L**2 / 12
+    body = ""
+    for k in reversed(range(n)):
+        body = (f'<body pos="{LINK_L if k else 0.0} 0 0"><joint type="hinge" axis="0 0 1"/>'
+                f'<inertial pos="{LINK_L / 2} 0 0" mass="{LINK_M}" diaginertia="1e-12 {I!r} {I!r}"/>{body}</body>')
+    return _mjcf(f"0 {-G} 0", body)
+
+
+def spatial_mujoco(n: int) -> str:
+    """The spatial chain in MJCF: three hinges about the body's x, y and z axes at its joint (MuJoCo turns a body by
+    its joints in their order, R = R_x(α) R_y(β) R_z(γ)), each body's inertia about its centre of mass."""
+    body = ""
+    for k in reversed(range(n)):
+        hinges = "".join(f'<joint type="hinge" axis="{a}"/>' for a in ("1 0 0", "0 1 0", "0 0 1"))
+        body = (f'<body pos="0 0 {-0.5 if k else 0.0}">{hinges}<inertial pos="0 0 -0.25" mass="{spatial.mass(k)!r}" '
+                f'diaginertia="0.02 0.03 0.04"/>{body}</body>')
+    return _mjcf(f"0 0 {-G}", body)
+
+
+def _mjcf(gravity: str, body: str) -> str:
+    return (f'<mujoco><option gravity="{gravity}" integrator="RK4" timestep="0.01"/>'
+            f"<worldbody>{body}</worldbody></mujoco>")
+
+
 MODELS = {"planar": (planar_ours, planar_pinocchio), "spatial": (spatial.ours, spatial_pinocchio)}
+MUJOCO = {"planar": planar_mujoco, "spatial": spatial_mujoco}
+#: MuJoCo's RK4 steps tried in turn, longest first: 0.01 s halved eight times (each divides the output spacing)
+STEPS = [0.01 / 2**k for k in range(9)]
 
 
 def start(kind: str, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -274,7 +306,7 @@ def best_cpu(f) -> tuple[float, object]:
 # -- one model, one size ---------------------------------------------------------------------------------------------
 
 
-def measure(kind: str, n: int, args, pin) -> dict:
+def measure(kind: str, n: int, args, pin, mj=None) -> dict:
     out: dict = {"kind": kind, "n": n, "dof": n if kind == "planar" else 3 * n, "notes": []}
     dof = out["dof"]
     scratch = tempfile.mkdtemp(prefix="lg-multibody-")
@@ -294,7 +326,7 @@ def measure(kind: str, n: int, args, pin) -> dict:
             codegen.set_cache_dir(cache)  # the native library the child built
             with open(pickled, "rb") as fh:
                 model = pickle.load(fh)
-        measured = compare(kind, n, dof, model, args, pin, scratch)
+        measured = compare(kind, n, dof, model, args, pin, scratch, mj)
         out["notes"] += measured.pop("notes")
         out.update(measured)
     finally:
@@ -302,7 +334,70 @@ def measure(kind: str, n: int, args, pin) -> dict:
     return out
 
 
-def compare(kind: str, n: int, dof: int, model, args, pin, scratch: str) -> dict:
+def agreement(kind: str, n: int, dof: int, ours_rhs, theirs) -> float:
+    """The largest relative difference of the accelerations, ours against ``theirs(y)``, at random states."""
+    worst = 0.0
+    for y in random_states(kind, n, STATES, seed=5):
+        a, b = ours_rhs(y)[dof:], np.array(theirs(y))
+        worst = max(worst, float(np.max(np.abs(a - b)) / np.max(np.abs(b))))
+    return worst
+
+
+def with_mujoco(kind: str, n: int, dof: int, out: dict, ours_rhs, q0, v0, reference, args, mj) -> None:
+    """MuJoCo's figures into ``out``: agreement of the accelerations, one ``mj_forward`` from Python, an RK4 step's
+    share per evaluation in C (``rollout``), and a 5 s RK4 run at the longest step whose error is no larger than
+    ours (``run_error``)."""
+    from mujoco import rollout
+
+    m = mj.MjModel.from_xml_string(MUJOCO[kind](n))
+    d = mj.MjData(m)
+    if m.nv != dof:
+        raise RuntimeError(f"{kind} {n}: MuJoCo's model has {m.nv} degrees of freedom, not {dof}")
+
+    def forward(y):
+        d.qpos[:], d.qvel[:] = y[:dof], y[dof:]
+        mj.mj_forward(m, d)
+        return d.qacc
+
+    worst = agreement(kind, n, dof, ours_rhs, forward)
+    out["mujoco_agreement_rel"] = worst
+    if not worst <= AGREEMENT:
+        out["notes"].append(f"{kind} {n}: MuJoCo's accelerations DISAGREE, relative difference {worst:.2e}")
+    states = random_states(kind, n, 64, seed=11)
+    per_call_us(forward, states, 200)
+    out["mujoco_rhs_us"] = min(per_call_us(forward, states, 2000) for _ in range(args.repeat))
+    spec = mj.mjtState.mjSTATE_FULLPHYSICS
+    start = np.zeros(mj.mj_stateSize(m, spec))
+    d.qpos[:], d.qvel[:], d.time = q0, v0, 0.0
+    mj.mj_getState(m, d, start, spec)
+
+    def run(dt):
+        m.opt.timestep = dt
+        steps = int(round(SPAN / dt))
+        state, _ = rollout.rollout(m, d, start[None, :], nstep=steps)
+        every = int(round((SPAN / (POINTS - 1)) / dt))
+        q = state[0, every - 1::every, 1:1 + dof]
+        return np.vstack([q0, q]), steps
+
+    calls = 2000
+    m.opt.timestep = 1e-3
+    out["mujoco_c_us"] = min(best_cpu(lambda: rollout.rollout(m, d, start[None, :], nstep=calls))[0]
+                             for _ in range(args.repeat)) / (4 * calls) * 1e6  # (an RK4 step: 4 evaluations)
+    if reference is None:
+        return
+    target = max(out["run_error"], out.get("reference_spread", 0.0))
+    for dt in STEPS:
+        q, steps = run(dt)
+        error = float(np.max(np.abs(q - reference)))
+        if error <= target:
+            break
+    else:
+        out["notes"].append(f"{kind} {n}: MuJoCo's RK4 did not reach the error {target:.1e} at a step of {STEPS[-1]:.1e} s")
+    out.update(mujoco_step=dt, mujoco_run_error=error,
+               mujoco_run_s=min(best_cpu(lambda: run(dt))[0] for _ in range(args.repeat)))
+
+
+def compare(kind: str, n: int, dof: int, model, args, pin, scratch: str, mj=None) -> dict:
     out: dict = {"notes": []}
     states = random_states(kind, n, 64, seed=11)
     q0, v0 = start(kind, n)
@@ -321,10 +416,7 @@ def compare(kind: str, n: int, dof: int, model, args, pin, scratch: str) -> dict
 
     # agreement of the accelerations
     if ours_rhs is not None and pin is not None:
-        worst = 0.0
-        for y in random_states(kind, n, STATES, seed=5):
-            a, b = ours_rhs(y)[dof:], np.array(pin_rhs(y))
-            worst = max(worst, float(np.max(np.abs(a - b)) / np.max(np.abs(b))))
+        worst = agreement(kind, n, dof, ours_rhs, pin_rhs)
         out["agreement_rel"] = worst
         if not worst <= AGREEMENT:
             out["notes"].append(f"{kind} {n}: accelerations DISAGREE, relative difference {worst:.2e} > {AGREEMENT:g}")
@@ -423,6 +515,9 @@ def compare(kind: str, n: int, dof: int, model, args, pin, scratch: str) -> dict
         if pin is not None:
             runs.setdefault("pin", []).append(best_cpu(lambda: pin_run(out["pin_rtol"]))[0])
     out.update(run_s=min(runs["ours"]) if "ours" in runs else None, pin_run_s=min(runs["pin"]) if "pin" in runs else None)
+    if mj is not None and ours_rhs is not None:
+        print(f"[{kind} {n}] MuJoCo ...", file=sys.stderr, flush=True)
+        with_mujoco(kind, n, dof, out, ours_rhs, q0, v0, reference, args, mj)
     return out
 
 
@@ -461,7 +556,12 @@ def main() -> None:
     began = time.perf_counter()
     sizes = [("planar", int(s)) for s in args.planar.split(",") if s.strip()]
     sizes += [("spatial", int(s)) for s in args.spatial.split(",") if s.strip()]
-    results = [measure(kind, n, args, pin) for kind, n in sizes]
+    try:
+        import mujoco as mj
+    except ImportError as exc:
+        mj = None
+        print(f"mujoco is not importable ({exc}): its figures are null (pip install mujoco)")
+    results = [measure(kind, n, args, pin, mj) for kind, n in sizes]
 
     print(f"Pinocchio {getattr(pin, '__version__', 'not installed')} against ours; CPU time, best of {args.repeat}; "
           f"run: {SPAN:g} s, {POINTS} points")
@@ -503,6 +603,27 @@ def main() -> None:
         })
         if "error" in b:
             figures[f"{key}_build_note"] = b["error"]
+    if mj is not None:
+        print(f"\nMuJoCo {mj.__version__} against ours (RK4 at the longest step, halving 0.01 s, whose error is no larger "
+              f"than ours; an evaluation in C: an RK4 step of rollout ÷ 4)")
+        print(f"{'model':8} {'n':>3} | {'rhs µs':>7} {'mujoco':>7} | {'C loop':>7} {'mujoco':>7} {'÷':>5} | {'run s':>7} "
+              f"{'mujoco':>7} {'÷':>5} {'step':>8} {'error':>8} | {'agree':>7}")
+        for r in results:
+            key = f"{r['kind']}{r['n']}"
+            r["mujoco_rhs_ratio"] = ratio(r["rhs_c_us"], r.get("mujoco_c_us"))
+            r["mujoco_run_ratio"] = ratio(r.get("mujoco_run_s"), r["run_s"])
+            print(f"{r['kind']:8} {r['n']:>3} | {fmt(r['rhs_us'], '7.2f')} {fmt(r.get('mujoco_rhs_us'), '7.2f')} | "
+                  f"{fmt(r['rhs_c_us'], '7.3f')} {fmt(r.get('mujoco_c_us'), '7.3f')} {fmt(r['mujoco_rhs_ratio'], '5.2f')} | "
+                  f"{fmt(r['run_s'], '7.3f')} {fmt(r.get('mujoco_run_s'), '7.3f')} {fmt(r['mujoco_run_ratio'], '5.1f')} "
+                  f"{fmt(r.get('mujoco_step'), '8.1e')} {fmt(r.get('mujoco_run_error'), '8.1e')} | "
+                  f"{fmt(r.get('mujoco_agreement_rel'), '7.0e')}")
+            figures.update({f"{key}_{k}": r.get(k) for k in ("mujoco_rhs_us", "mujoco_c_us", "mujoco_run_s", "mujoco_step",
+                                                              "mujoco_run_error", "mujoco_agreement_rel")})
+            figures.update({f"{key}_rhs_vs_mujoco": r["mujoco_rhs_ratio"], f"{key}_run_vs_mujoco": r["mujoco_run_ratio"]})
+        mj_runs = [r["mujoco_run_ratio"] for r in results if r.get("mujoco_run_ratio") is not None]
+        mj_rhs = [r["mujoco_rhs_ratio"] for r in results if r.get("mujoco_rhs_ratio") is not None]
+        figures.update(run_vs_mujoco_worst=min(mj_runs) if mj_runs else None,
+                       rhs_vs_mujoco_worst=max(mj_rhs) if mj_rhs else None, mujoco_version=mj.__version__)
     rhs_ratios = [r["rhs_ratio"] for r in results if r["rhs_ratio"] is not None]
     run_ratios = [r["run_ratio"] for r in results if r["run_ratio"] is not None]
     planar = [(r["n"], r["build"]["build_s"]) for r in results if r["kind"] == "planar" and "build_s" in r["build"]]

@@ -18,9 +18,11 @@ import numpy as np
 import sympy as sp
 
 from .base.text import as_expr
+from .errors import ModelError
 from .model import Model
 
-__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "loudspeaker", "rlc_ladder", "whipple_bicycle"]
+__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "pendulum_chain", "loudspeaker", "rlc_ladder",
+           "whipple_bicycle"]
 
 
 def spherical_pendulum(m: Any = 1.0, length: Any = 1.0, g: Any = 9.81) -> Model:
@@ -102,6 +104,31 @@ def loudspeaker(Re: Any = 6.0, Le: Any = 0.5e-3, Bl: Any = 7.0, m: Any = 0.02, k
     model.add("mass", "m", "cone", m=m)
     model.add("spring", "k", ("ground", "cone"), k=k)
     model.add("damper", "c", ("ground", "cone"), c=c)
+    return model
+
+
+def pendulum_chain(n: int, m: Any = 1.0, length: Any = 0.5, g: Any = 9.81, dynamics: str = "auto") -> Model:
+    """A planar chain of ``n`` uniform rods ``r0 … r<n-1>`` of mass ``m`` (a number, or one per rod) and ``length``
+    on revolute joints ``j0 … j<n-1>`` (``theta_j<k>``: each rod's angle to the one before it; the first's to the x
+    axis), under gravity ``g`` along −y.  ``dynamics``: the model's option (from 9 links, ``"auto"`` takes the
+    articulated-body algorithm).
+
+    >>> chain = pendulum_chain(12, m=[0.3 + 0.05 * k for k in range(12)], length=0.7)
+    >>> chain.coordinate_names[:3], chain.eq.recursion is not None
+    (['theta_j0', 'theta_j1', 'theta_j2'], True)
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 100_000:
+        raise ModelError(f"pendulum_chain: n must be a whole number from 1 to 100000, got {n!r}.")
+    masses = list(m) if isinstance(m, (list, tuple, np.ndarray)) else [m] * n
+    if len(masses) != n:
+        raise ModelError(f"pendulum_chain: {len(masses)} masses given for {n} rods: give one, or one per rod.")
+    model = Model(f"{n}-link planar chain", dim=2, dynamics=dynamics)
+    parent = "ground"
+    for k in range(n):
+        model.add("rod", f"r{k}", f"r{k}", m=masses[k], length=length)
+        model.add("revolute", f"j{k}", (parent, f"r{k}"), **({"parent_point": (length, 0)} if k else {}))
+        parent = f"r{k}"
+    model.add("gravity", "g", g=g)
     return model
 
 

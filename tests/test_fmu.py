@@ -32,19 +32,9 @@ CASES = {
     "loudspeaker": (lambda: models.loudspeaker(E=2.0), 0.05, {"x_cone": 1e-3}, dict(method="exact")),
     "rlc ladder": (lambda: models.rlc_ladder(10, E=1.0), 5.0, {}, dict(method="exact")),
     # the accelerations by the articulated-body algorithm (lagrangian.plugins.multibody.recursive)
-    "recursive chain": (lambda: recursive_chain(4), 2.0, {"theta_j0": 0.4, "theta_j2": -0.3}, dict(rtol=1e-13, atol=1e-15)),
+    "recursive chain": (lambda: models.pendulum_chain(4, m=[0.3, 0.4, 0.5, 0.6], length=0.6, dynamics="recursive"), 2.0,
+                        {"theta_j0": 0.4, "theta_j2": -0.3}, dict(rtol=1e-13, atol=1e-15)),
 }
-
-
-def recursive_chain(n):
-    m = lg.Model("chain", dim=2, dynamics="recursive")
-    parent = "ground"
-    for k in range(n):
-        m.add("rod", f"r{k}", f"r{k}", m=0.3 + 0.1 * k, length=0.6)
-        m.add("revolute", f"j{k}", (parent, f"r{k}"), **({"parent_point": (0.6, 0)} if k else {}))
-        parent = f"r{k}"
-    m.add("gravity", "g", g=9.81)
-    return m
 
 
 def states(model):

@@ -14,6 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.plugins.multibody import recursive
 
 # (runs started at rest without saying so: the rates are zero, as the warning says)
@@ -119,17 +120,8 @@ def test_spatial_trees_agree_with_the_closed_form(tree):
     _check(tree)
 
 
-def chain(n, dynamics="auto", **extra):
-    m = lg.Model("chain", dim=2, dynamics=dynamics)
-    parent = "ground"
-    for k in range(n):
-        m.add("rod", f"r{k}", f"r{k}", m=0.3 + 0.05 * k, length=0.7)
-        m.add("revolute", f"j{k}", (parent, f"r{k}"), **({"parent_point": (0.7, 0)} if k else {}))
-        parent = f"r{k}"
-    m.add("gravity", "g", g=9.81)
-    for kind, name, nodes, params in extra.get("add", ()):
-        m.add(kind, name, nodes, **params)
-    return m
+def chain(n, dynamics="auto"):
+    return models.pendulum_chain(n, m=[0.3 + 0.05 * k for k in range(n)], length=0.7, dynamics=dynamics)
 
 
 def test_auto_takes_the_recursion_from_the_measured_size_and_says_so():
@@ -224,9 +216,9 @@ def test_a_sweep_of_a_recursive_chain_is_a_loop_of_simulate_to_the_last_bit():
 def test_native_code_in_parts_gives_the_tapes_numbers_to_the_bit(monkeypatch, tmp_path):
     """A long tape printed as C in parts (functions of at most C_PART instructions, their shared results in a
     scratch array) computes what the tape interpreter does, operation for operation."""
-    from lagrangian.numerics import c_source
+    from lagrangian.numerics import tape
 
-    monkeypatch.setattr(c_source, "C_PART", 40)
+    monkeypatch.setattr(tape, "C_PART", 40)
     lg.codegen.set_cache_dir(tmp_path)
     try:
         numeric = chain(9).numeric()
@@ -242,3 +234,10 @@ def test_native_code_in_parts_gives_the_tapes_numbers_to_the_bit(monkeypatch, tm
             assert np.array_equal(native._energies([0.3], q, v), tape._energies([0.3], q, v))
     finally:
         lg.codegen.set_cache_dir(None)
+
+
+@pytest.mark.parametrize("n, m, words", [("3", 1.0, "got '3'"), (0, 1.0, "got 0"), (2.5, 1.0, "got 2.5"),
+                                         (3, [1.0, 2.0], "2 masses given for 3 rods")])
+def test_pendulum_chain_refuses_what_is_no_chain(n, m, words):
+    with pytest.raises(lg.ModelError, match=words):
+        models.pendulum_chain(n, m=m)

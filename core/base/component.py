@@ -44,13 +44,10 @@ _CHECKS = {
 
 
 def dot(a: sp.Matrix, b: sp.Matrix) -> sp.Expr:
-    """Scalar product of two column matrices.
+    """Scalar product of two column matrices, as a sum of products (``a.T * b`` took half the assembly of 200 bodies).
 
     >>> dot(sp.Matrix([1, 2]), sp.Matrix([3, 4]))
     11
-
-    A sum of products, without products by exact zeros: ``a.T * b`` went through SymPy's domain matrices, which
-    took half of the assembly of a chain of 200 bodies (7.1 s against 3.5 s).
     """
     return sp.Add(*[x * y for x, y in zip(a, b) if x != 0 and y != 0])
 

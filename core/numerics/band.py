@@ -33,6 +33,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import sympy as sp
 
 #: The fewest unknowns for which a banded solve is taken.  Measured (``benchmarks/band.py``, one evaluation on the
 #: tape interpreter): a chain of masses (diagonal) takes 2.5 µs banded and 2.9 µs dense at 16 unknowns, 3.7 and
@@ -104,6 +105,14 @@ def solve_size(eq) -> int:
     if eq.recursion is not None:
         return len(eq.names)
     return int(math.isqrt(len(eq.generic()["A"])))
+
+
+def recursive_arrays(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
+    """A recursion's arrays (:mod:`lagrangian.derivation.recursion`): ``A`` the identity by its diagonal (the
+    :func:`band_of` of a recursion), ``b`` the accelerations, and the energies with its kinetic energy and momenta."""
+    rec, g = eq.recursion.recursion, eq.generic()
+    T, V, D = rec.kinetic, g["V"], g["D"]
+    return [sp.S.One] * len(eq.names), list(rec.accelerations), [T, V, D, T - V, *rec.momenta]
 
 
 def band_of(eq) -> Band | None:

@@ -12,20 +12,12 @@ import sympy as sp
 from ..base.component import t as time_symbol
 from ..derivation.calculus import dense
 
-from .band import BAND_MATRIX, BAND_RUNTIME, BAND_SOLVE, NATIVE_BAND_RHS, Band, band_of, native_tables, solve_size
+from .band import BAND_MATRIX, BAND_RUNTIME, BAND_SOLVE, NATIVE_BAND_RHS, Band, band_of, native_tables, recursive_arrays, solve_size
 from .c_dop853 import ENSEMBLE_SOURCE, dop853_source
-from .tape import OPS, Program, TapeError, record
+from .tape import OPS, Program, TapeError, c_body, record
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
 CODEGEN_VERSION = "9"
-
-
-#: The most instructions printed in one C function: a longer tape is cut into parts of this size, each a function of
-#: its own (:meth:`lagrangian.tape.Program.c_parts`).  GCC's time on one straight-line function grows faster than its
-#: length.  Measured on the native library of 30 bodies on spherical joints (31,591 instructions for A and b, 2.7 MB
-#: of C), GCC -O3: 50 s as one function each, 9.3 s in parts of 4,000 instructions, 7.7 s of 2,000, 6.9 s of 1,000
-#: and of 500.
-C_PART = 1000
 
 
 class _Unavailable(Exception):
@@ -40,7 +32,7 @@ def _arrays(numeric) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
 
 def _arrays_of(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
     if eq.recursion is not None:
-        return _recursive_arrays(eq)
+        return recursive_arrays(eq)
     g = eq.generic()
     energies = [g["T"], g["V"], g["D"], g["L"], *g["p"]]
     return dense(g["A"]), dense(g["b"]), energies
@@ -90,14 +82,6 @@ def programs(numeric, banded: bool | None = None) -> tuple[Program, Program]:
     return found[banded]
 
 
-def _recursive_arrays(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
-    """A recursion's arrays (:mod:`lagrangian.derivation.recursion`): ``A`` the identity by its diagonal (the
-    :func:`band_of` of a recursion), ``b`` the accelerations, and the energies with its kinetic energy and momenta."""
-    rec, g = eq.recursion.recursion, eq.generic()
-    T, V, D = rec.kinetic, g["V"], g["D"]
-    return [sp.S.One] * len(eq.names), list(rec.accelerations), [T, V, D, T - V, *rec.momenta]
-
-
 def _generic_programs(eq, parameters: tuple, banded: bool = False) -> tuple[Program, Program]:
     """The tapes of ``eq`` with ``parameters`` as run-time constants, recorded once per set of parameter symbols
     (``banded``: ``A``'s nonzero entries only, see :func:`programs`)."""
@@ -105,7 +89,7 @@ def _generic_programs(eq, parameters: tuple, banded: bool = False) -> tuple[Prog
     if (parameters, banded) in cache:
         return cache[parameters, banded]
     if eq.recursion is not None:  # (A's nonzero entries, its diagonal, in either layout)
-        a_entries, b_entries, energies = _recursive_arrays(eq)
+        a_entries, b_entries, energies = recursive_arrays(eq)
     elif banded:
         g = eq.generic()
         A = g["A"]
@@ -161,11 +145,11 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         inputs_m |= {matrix.n_inputs + i: f"P[{slot[s]}]" for s, i in matrix.parameters.items()}
         inputs_e |= {energy.n_inputs + i: f"P[{slot[s]}]" for s, i in energy.parameters.items()}
     entries = m * m if band is None else len(band.pattern)  # (banded: A's nonzero entries, in the band's order)
-    parts_m, body_m = _body(matrix, inputs_m, [f"A[{k}]" for k in range(entries)] + [f"b[{k}]" for k in range(m)],
+    parts_m, body_m = c_body(matrix, inputs_m, [f"A[{k}]" for k in range(entries)] + [f"b[{k}]" for k in range(m)],
                             "matrix_part", "const double *P, double t, const double *q, const double *vI, double *A, "
                             "double *b", "P, t, q, vI, A, b", ["for (int k = 0; k < NM; k++) b[k] = NAN;", "return 2;"],
                             zeroed=True)
-    parts_e, body_e = _body(energy, inputs_e, [f"o[{k}]" for k in range(4 + n)], "energy_part",
+    parts_e, body_e = c_body(energy, inputs_e, [f"o[{k}]" for k in range(4 + n)], "energy_part",
                             "const double *P, double t, const double *q, const double *v, double *o", "P, t, q, v, o",
                             ["for (int k = 0; k < 4 + NQ; k++) o[k] = NAN;", "return;"])
 
@@ -211,24 +195,6 @@ def _source(eq, matrix: Program, energy: Program, parameters: tuple | None = Non
         "}",
         _NATIVE if band is None else _NATIVE_BAND,
     ]) + "\n"
-
-
-def _body(program: Program, inputs: dict, targets: list[str], name: str, params: str, args: str, fail: list[str],
-          zeroed: bool = False) -> tuple[list[str], list[str]]:
-    """The C of ``program`` writing ``targets``: ``([], lines)`` in one function's body up to :data:`C_PART`
-    instructions; beyond, the functions of its parts (``name_k(params, W)``) and the body that calls them in turn,
-    their shared results in a scratch array ``W`` (``fail``: what the body does when no memory is left for it)."""
-    if len(program.code) <= C_PART:
-        return [], program.c_lines(inputs, targets, "    ", zeroed=zeroed)
-    parts, size, final = program.c_parts(inputs, targets, C_PART, zeroed=zeroed)
-    functions = []
-    for k, lines in enumerate(parts):
-        functions += [f"static LG_NOINLINE void {name}_{k}({params}, double *W) {{",
-                      "    (void)P; (void)t; (void)q; (void)W;", *(f"    {line}" for line in lines), "}", ""]
-    body = [f"    SCRATCH(W, {max(size, 1)});", "    if (!W) {", *(f"        {line}" for line in fail), "    }",
-            *(f"    {name}_{k}({args}, W);" for k in range(len(parts))), *(f"    {line}" for line in final),
-            "    RELEASE(W);"]
-    return functions, body
 
 
 _DENSE_MATRIX = ["int lg_matrix(const void *ctx, double t, const double *q, const double *vI, double *A, double *b) {",
