@@ -517,7 +517,12 @@ def compare(kind: str, n: int, dof: int, model, args, pin, scratch: str, mj=None
     out.update(run_s=min(runs["ours"]) if "ours" in runs else None, pin_run_s=min(runs["pin"]) if "pin" in runs else None)
     if mj is not None and ours_rhs is not None:
         print(f"[{kind} {n}] MuJoCo ...", file=sys.stderr, flush=True)
-        with_mujoco(kind, n, dof, out, ours_rhs, q0, v0, reference, args, mj)
+        here = os.getcwd()
+        os.chdir(scratch)  # (MuJoCo writes its warnings, an RK4 step too long to be stable, to MUJOCO_LOG.TXT here)
+        try:
+            with_mujoco(kind, n, dof, out, ours_rhs, q0, v0, reference, args, mj)
+        finally:
+            os.chdir(here)
     return out
 
 
