@@ -241,3 +241,18 @@ def test_native_code_in_parts_gives_the_tapes_numbers_to_the_bit(monkeypatch, tm
 def test_pendulum_chain_refuses_what_is_no_chain(n, m, words):
     with pytest.raises(lg.ModelError, match=words):
         models.pendulum_chain(n, m=m)
+
+
+def test_a_gimbal_lock_of_a_recursive_model_is_named_as_the_closed_forms_is():
+    """At β = π/2 the recursion divides by a zero pivot; the run is refused as singular, naming the lock."""
+    import sys as _sys
+    from pathlib import Path
+
+    _sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import spatial
+
+    m = spatial.ours(3)
+    assert m.eq.recursion is not None
+    initial = {n: 0.1 for n in m.coordinate_names} | {"beta_j1": np.pi / 2}
+    with pytest.raises(lg.SingularMassMatrixError, match=r"gimbal lock.*beta_j1 = ±π/2"):
+        m.simulate(0.1, initial=initial, velocity={n: 0.0 for n in m.coordinate_names})

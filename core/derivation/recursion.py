@@ -113,6 +113,8 @@ def _zero_pivots(rec: Recursion, eq) -> list[str]:
     return zero or [eq.names[i] for i in range(len(out)) if not finite[i]]
 
 
+_RELATIONS = {sp.StrictGreaterThan: lambda a, b: a > b, sp.GreaterThan: lambda a, b: a >= b,
+              sp.StrictLessThan: lambda a, b: a < b, sp.LessThan: lambda a, b: a <= b}
 _UNARY = {sp.sin: np.sin, sp.cos: np.cos, sp.tan: np.tan, sp.exp: np.exp, sp.log: np.log, sp.sqrt: np.sqrt,
           sp.Abs: np.abs}
 
@@ -125,6 +127,12 @@ def _value(e: sp.Expr, env: dict, rng) -> float:
         if e not in env:
             env[e] = float(10 ** rng.uniform(-0.5, 0.5))
         return env[e]
+    if isinstance(e, sp.Piecewise):  # (a recursion's guarded division: NaN where no branch holds)
+        for expr, cond in e.args:
+            compare = _RELATIONS.get(type(cond))
+            if cond is sp.true or (compare is not None and compare(_value(cond.lhs, env, rng), _value(cond.rhs, env, rng))):
+                return _value(expr, env, rng)
+        return float("nan")
     args = [_value(a, env, rng) for a in e.args]
     if e.is_Add:
         return float(np.sum(args))

@@ -361,10 +361,24 @@ class CompiledModel:
         if rc == 1:
             A, _ = self.matrix(t, y[: self.n], y[self.n :])
             raise SingularMassMatrixError(self.numeric._singular_message(t, A, y[: self.n]))
+        if self.numeric.eq.recursion is not None and np.all(np.isfinite(y)):
+            # a recursion divides by its pivots: a singular mass matrix shows as a result that is not finite
+            M = self._recursive_mass(t, y[: self.n])
+            s = np.linalg.svd(M, compute_uv=False) if np.all(np.isfinite(M)) else np.zeros(1)
+            if not s[-1] > 1e3 * self.n * np.finfo(float).eps * s[0]:
+                raise SingularMassMatrixError(self.numeric._singular_message(t, M, y[: self.n]))
         raise NumericalError(
             f"the equations are not finite at t={t:g} (state {np.array2string(y, precision=4)}): a singular "
             f"configuration of some component, or a diverging solution. Start elsewhere or reduce the step."
         )
+
+    def _recursive_mass(self, t: float, q: np.ndarray) -> np.ndarray:
+        """The mass matrix of a model whose recursion gives its accelerations, column by column from the momenta
+        ``p = M q̇`` of its energy tape (in Python: for the message of a failed run)."""
+        _, energy = programs(self.numeric)
+        rates = np.eye(self.n)
+        with np.errstate(all="ignore"):
+            return np.array([energy.evaluate([t, *q, *rates[j]])[4:] for j in range(self.n)], dtype=float).T
 
     # -- many states ------------------------------------------------------------
     def velocities_many(self, times: np.ndarray, Y: np.ndarray) -> np.ndarray:

@@ -494,6 +494,8 @@ class NumericModel:
     def _singular_everywhere(self, time: float, size: int, probes: int = 3) -> bool:
         """Whether the solve's matrix is singular at random states as well (a structural singularity), not only at
         the one where it failed; False when no random state could be evaluated."""
+        if getattr(self.eq, "recursion", None) is not None:  # (taken only when its pivots were positive at random)
+            return False
         rng = np.random.default_rng(12345)
         seen = 0
         for _ in range(4 * probes):

@@ -57,6 +57,7 @@ from .rotations import E3
 RECURSIVE_FROM = 9
 
 ZERO = sp.S.Zero
+EPS = sp.Float(2.0**-52)
 
 
 class _Steps:
@@ -309,7 +310,11 @@ class Tree:
                 Uv = w.vec(_add(_mtv(H, sw), _mv(M, sv)))
                 D = w(_dot(sw, Uw) + _dot(sv, Uv))
                 pivots[k] = D
-                Dinv[i] = w(1 / D)
+                # a pivot within rounding of zero (against |S|² times the traces of the blocks, which bound the
+                # articulated inertia's largest eigenvalue within a factor of 6) is a singular mass matrix: NaN, which
+                # the run reports as such, never accelerations of 1e30 at a gimbal lock
+                size = _dot(sw, sw) * (J[0][0] + J[1][1] + J[2][2]) + _dot(sv, sv) * (M[0][0] + M[1][1] + M[2][2])
+                Dinv[i] = w(sp.Piecewise((1 / D, D > 16 * N * EPS * size)))
                 u[i] = w(tau[k] - _dot(sw, pA[i][:3]) - _dot(sv, pA[i][3:]))
                 momenta[k] = _dot(sw, h[i][:3]) + _dot(sv, h[i][3:])
                 U[i] = (Uw, Uv)
