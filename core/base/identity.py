@@ -370,7 +370,6 @@ def is_zero(expr, values: Mapping[Any, Any] | None = None, *, points: int = _POI
     (True, False)
     """
     expr = sp.sympify(expr)
-    values = {k: sp.sympify(v) for k, v in (values or {}).items()}
     if isinstance(expr, sp.MatrixBase):
         return all(is_zero(e, values, points=points) for e in expr)
     if expr == 0:
@@ -380,7 +379,11 @@ def is_zero(expr, values: Mapping[Any, Any] | None = None, *, points: int = _POI
         if value.is_real and value.is_finite:
             return bool(value == 0)
         return False
-    return _zero_at_points(expr, values, points)
+    # the values of the symbols the expression holds, looked up from them: every value of a model of 10⁴
+    # parameters, for each of its 10⁴ mass-matrix entries, took 20 of 28 s for 1,000 masses
+    found = nodes([expr])
+    given = values or {}
+    return _zero_at_points(expr, {k: sp.sympify(given[k]) for k in found if k in given}, points, found)
 
 
 _PIECEWISE = (sp.Piecewise, sp.Heaviside, sp.Min, sp.Max)
@@ -401,8 +404,9 @@ def _zero_by_branches(expr, values: Mapping, points: int) -> bool:
     return is_zero(folded, values, points=points)
 
 
-def _zero_at_points(expr, values: Mapping, points: int) -> bool:
-    found = nodes([expr])  # (walked once, each shared sub-expression once: atoms and has walk every occurrence)
+def _zero_at_points(expr, values: Mapping, points: int, found: set | None = None) -> bool:
+    if found is None:  # (walked once, each shared sub-expression once: atoms and has walk every occurrence)
+        found = nodes([expr])
     if any(isinstance(e, _PIECEWISE) for e in found):
         return _zero_by_branches(expr, values, points)
     floating = _has_float(expr, values, found)
@@ -487,7 +491,8 @@ def equal(a, b, values: Mapping[Any, Any] | None = None, *, points: int = _POINT
     if a == b:
         return True
     pair = sp.Tuple(a, b)
-    values = {k: sp.sympify(v) for k, v in (values or {}).items()}
+    given = values or {}
+    values = {k: sp.sympify(given[k]) for k in nodes([pair]) if k in given}  # (the values of its symbols alone)
     # the difference, kept unevaluated so its addends are a's and b's own
     diff = sp.Add(a, sp.Mul(-1, b, evaluate=False), evaluate=False)
     if not pair.free_symbols and not pair.atoms(AppliedUndef):
