@@ -256,3 +256,19 @@ def test_a_gimbal_lock_of_a_recursive_model_is_named_as_the_closed_forms_is():
     initial = {n: 0.1 for n in m.coordinate_names} | {"beta_j1": np.pi / 2}
     with pytest.raises(lg.SingularMassMatrixError, match=r"gimbal lock.*beta_j1 = ±π/2"):
         m.simulate(0.1, initial=initial, velocity={n: 0.0 for n in m.coordinate_names})
+
+
+def test_rotational_springs_dampers_torques_and_forces_enter_as_generalized_forces():
+    def build(dynamics):
+        m = models.pendulum_chain(3, m=[0.3, 0.4, 0.5], length=0.6, dynamics=dynamics)
+        m.add("rotational_spring", "ks", ("r0", "r1"), k=2.0)
+        m.add("rotational_damper", "cs", ("r1", "r2"), c=0.3)
+        m.add("body_torque", "tq", "r2", tau=0.7 * lg.t)
+        m.add("force", "F", "r2.end", F=(0.2, -0.1))
+        return m
+
+    fast, closed = build("recursive"), build("closed")
+    assert fast.eq.recursion is not None
+    y = np.array([0.3, -0.4, 0.2, 0.5, -0.7, 0.9])
+    a, b = fast.numeric().compile("tape").rhs(0.8, y), closed.numeric().rhs(0.8, y)
+    assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b))
