@@ -48,16 +48,11 @@ def chain_model(n: int):
     import sympy as sp
 
     import lagrangian as lg
+    from lagrangian import models
 
-    m = lg.Model("chain")
-    prev = "ground"
-    for i in range(n):
-        m.add("mass", f"m{i}", f"p{i}", m=0.3 + 0.01 * (i % 7))
-        m.add("spring", f"k{i}", (prev, f"p{i}"), k=40.0 + i % 5)
-        m.add("damper", f"c{i}", (prev, f"p{i}"), c=0.02)
-        prev = f"p{i}"
-    m.add("force", "F", prev, F=0.5 * sp.sin(3 * lg.t))
-    return m, prev
+    m = models.spring_chain(n, m=[0.3 + 0.01 * (i % 7) for i in range(n)], k=[40.0 + i % 5 for i in range(n)], c=0.02,
+                            force=0.5 * sp.sin(3 * lg.t))
+    return m, f"p{n - 1}"
 
 
 def child_chain(n: int, method: str | None = "auto") -> dict:
@@ -81,15 +76,10 @@ def child_fput(n: int) -> dict:
     linear one: strongly nonlinear), default settings, 1 s; the drift of its energy (it has no damping)."""
     import warnings
 
-    import lagrangian as lg
+    from lagrangian import models
 
-    m = lg.Model("fput")
-    prev = "ground"
-    for i in range(n):
-        m.add("mass", f"m{i}", f"p{i}", m=1.0)
-        m.add("spring", f"k{i}", (prev, f"p{i}"), k=100.0, beta=1e6)
-        prev = f"p{i}"
-    m.add("spring", f"k{n}", (prev, "wall"), k=100.0, beta=1e6)
+    m = models.spring_chain(n, m=1.0, k=100.0, beta=1e6)
+    m.add("spring", f"k{n}", (f"p{n - 1}", "wall"), k=100.0, beta=1e6)
     m.add("prescribed_motion", "wall", "wall", position=0)
     mode = max(n // 10, 1)
     start = {f"x_p{i}": 0.05 * np.sin(np.pi * mode * (i + 1) / (n + 1)) for i in range(n)}

@@ -21,8 +21,8 @@ from .base.text import as_expr
 from .errors import ModelError
 from .model import Model
 
-__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "pendulum_chain", "loudspeaker", "rlc_ladder",
-           "whipple_bicycle"]
+__all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "pendulum_chain", "spring_chain", "loudspeaker",
+           "rlc_ladder", "whipple_bicycle"]
 
 
 def spherical_pendulum(m: Any = 1.0, length: Any = 1.0, g: Any = 9.81) -> Model:
@@ -119,9 +119,7 @@ def pendulum_chain(n: int, m: Any = 1.0, length: Any = 0.5, g: Any = 9.81, dynam
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 100_000:
         raise ModelError(f"pendulum_chain: n must be a whole number from 1 to 100000, got {n!r}.")
-    masses = list(m) if isinstance(m, (list, tuple, np.ndarray)) else [m] * n
-    if len(masses) != n:
-        raise ModelError(f"pendulum_chain: {len(masses)} masses given for {n} rods: give one, or one per rod.")
+    masses = _each(m, n, "masses")
     model = Model(f"{n}-link planar chain", dim=2, dynamics=dynamics)
     parent = "ground"
     for k in range(n):
@@ -130,6 +128,40 @@ def pendulum_chain(n: int, m: Any = 1.0, length: Any = 0.5, g: Any = 9.81, dynam
         parent = f"r{k}"
     model.add("gravity", "g", g=g)
     return model
+
+
+def spring_chain(n: int, m: Any = 1.0, k: Any = 1.0, c: Any = None, beta: Any = None, force: Any = None) -> Model:
+    """A chain of ``n`` masses ``m0 … m<n-1>`` at nodes ``p0 … p<n-1>`` (coordinates ``x_p<k>``), each tied to the one
+    before it (the first to ground) by a spring ``k<k>`` of stiffness ``k`` (cubic stiffness ``beta`` when given)
+    and, when ``c`` is given, a damper ``c<k>``; ``force``: a force ``F`` on the last mass.  ``m`` and ``k`` are
+    numbers, or one per mass.
+
+    >>> chain = spring_chain(3, m=[0.3, 0.31, 0.32], k=40.0, c=0.02)
+    >>> chain.coordinate_names, sorted(chain.components)[:3]
+    (['x_p0', 'x_p1', 'x_p2'], ['c0', 'c1', 'c2'])
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= 1_000_000:
+        raise ModelError(f"spring_chain: n must be a whole number from 1 to 1000000, got {n!r}.")
+    masses, stiffness = (_each(value, n, what) for value, what in ((m, "masses"), (k, "stiffnesses")))
+    model = Model("chain")
+    prev = "ground"
+    for i in range(n):
+        model.add("mass", f"m{i}", f"p{i}", m=masses[i])
+        model.add("spring", f"k{i}", (prev, f"p{i}"), k=stiffness[i], **({} if beta is None else {"beta": beta}))
+        if c is not None:
+            model.add("damper", f"c{i}", (prev, f"p{i}"), c=c)
+        prev = f"p{i}"
+    if force is not None:
+        model.add("force", "F", prev, F=force)
+    return model
+
+
+def _each(value: Any, n: int, what: str) -> list:
+    """``value`` once per element of a chain of ``n``: a number repeated, or a sequence of ``n``."""
+    values = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value] * n
+    if len(values) != n:
+        raise ModelError(f"{len(values)} {what} given for a chain of {n}: give one, or one per element.")
+    return values
 
 
 def rlc_ladder(sections: int, seed: int = 1, E: Any = 0) -> Model:

@@ -9,6 +9,7 @@ import sympy as sp
 from hypothesis import given, settings, strategies as st
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.numerics import band
 from lagrangian.numerics.c_source import band_of
 
@@ -17,15 +18,8 @@ pytestmark = pytest.mark.filterwarnings("ignore::lagrangian.InitialConditionWarn
 
 def chain(n: int) -> lg.Model:
     """Masses on absolute coordinates, each tied to the last by a spring and a damper: a diagonal mass matrix."""
-    m = lg.Model("chain")
-    prev = "ground"
-    for i in range(n):
-        m.add("mass", f"m{i}", f"p{i}", m=0.3 + 0.01 * (i % 7))
-        m.add("spring", f"k{i}", (prev, f"p{i}"), k=40.0 + i % 5)
-        m.add("damper", f"c{i}", (prev, f"p{i}"), c=0.02)
-        prev = f"p{i}"
-    m.add("force", "F", prev, F=0.5 * sp.sin(3 * lg.t))
-    return m
+    return models.spring_chain(n, m=[0.3 + 0.01 * (i % 7) for i in range(n)], k=[40.0 + i % 5 for i in range(n)],
+                               c=0.02, force=0.5 * sp.sin(3 * lg.t))
 
 
 def ladder(n: int) -> lg.Model:

@@ -4,6 +4,7 @@ physics, reached from the energy tape's evidence or from the symbolic test where
 import sympy as sp
 
 import lagrangian as lg
+from lagrangian import models
 from lagrangian.numerics.problem import Problem
 
 
@@ -51,12 +52,7 @@ def test_a_prescribed_motion_puts_time_into_the_lagrangian():
 
 def test_a_long_chain_gets_the_verdicts_of_a_short_one():
     for n in (3, 300):
-        chain = lg.Model("chain")
-        prev = "ground"
-        for i in range(n):
-            chain.add("mass", f"m{i}", f"p{i}", m=0.3)
-            chain.add("spring", f"k{i}", (prev, f"p{i}"), k=40.0, beta=1e3)
-            prev = f"p{i}"
+        chain = models.spring_chain(n, m=0.3, k=40.0, beta=1e3)
         assert verdict(chain) == (True, ""), n
         chain.add("damper", "c", ("ground", "p0"), c=0.1)
         assert "dissipates energy" in verdict(chain)[1], n

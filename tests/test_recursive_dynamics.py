@@ -237,7 +237,7 @@ def test_native_code_in_parts_gives_the_tapes_numbers_to_the_bit(monkeypatch, tm
 
 
 @pytest.mark.parametrize("n, m, words", [("3", 1.0, "got '3'"), (0, 1.0, "got 0"), (2.5, 1.0, "got 2.5"),
-                                         (3, [1.0, 2.0], "2 masses given for 3 rods")])
+                                         (3, [1.0, 2.0], "2 masses given for a chain of 3")])
 def test_pendulum_chain_refuses_what_is_no_chain(n, m, words):
     with pytest.raises(lg.ModelError, match=words):
         models.pendulum_chain(n, m=m)
