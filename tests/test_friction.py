@@ -76,6 +76,18 @@ def test_a_steep_tanh_is_a_dependence_not_a_constant_so_friction_is_never_solved
     assert model.simulate(0.5, initial={"x_p": 0.0}, velocity={"x_p": 0.5}, method="auto", points=3).method != "exact"
 
 
+@settings(max_examples=25, deadline=None)
+@given(decade(0.01, 10), decade(1e-6, 1.0))
+def test_friction_over_decades_of_regularization_depends_on_the_velocity(F_c, v_s):
+    """1 − tanh²(v / v_s) is below the float tolerance (1e-11) once |v| > 12 v_s, already at v_s = 0.02 for most
+    points drawn over 0.1–10: such points are redrawn, so the verdict never rests on a saturated tanh, and a
+    velocity-dependent force is never compiled as if it were a function of the positions (a bare NameError)."""
+    v = sp.Symbol("v", real=True)
+    assert depends_on(-F_c * sp.tanh(v / v_s), v)
+    with pytest.raises(lg.ModelError, match="depend on the velocities of x_p"):
+        block(0.3, F_c, v_s).simulate(0.01, initial={"x_p": 0.0}, velocity={"x_p": 0.1}, method="verlet")
+
+
 def slope(m, alpha, mu, v_s=1e-6):
     """A block on a slide inclined at α (``prismatic``, s down the slope) with friction μ m g cos α on the joint."""
     model = lg.Model("block on a slope", dim=2)

@@ -76,9 +76,10 @@ _POINTS = 3
 _TRIES = 12
 _SEED = 20261124
 _FAST_TOLERANCE = 1e-6  # a float evaluation this far from zero proves "not zero" at once
-#: Beyond these arguments tanh is ±1 to within the working precision (e^(−2x) below 1e-35, and below 1e-13 in
-#: double precision): such a point cannot tell an expression in tanh from a constant, and is drawn again.
-_SATURATED, _SATURATED_FLOAT = 40.0, 15.0
+#: Beyond these arguments tanh is ±1 to within the tolerance of the test: 1 − tanh², its derivative, is about
+#: 4·e^(−2x), below 1e-35 past 40 (exact expressions), below 1e-11 past 12 (floating-point ones) and below 1e-13
+#: in double precision past 15.  Such a point cannot tell an expression in tanh from a constant, and is drawn again.
+_SATURATED, _SATURATED_FLOATING, _SATURATED_FLOAT = 40.0, 11.5, 15.0
 
 
 class _Inadmissible(Exception):
@@ -103,9 +104,10 @@ _FLOAT = _FloatContext()
 class _Evaluator:
     """Evaluate an expression and its magnitude (addends taken by absolute value) at one point."""
 
-    def __init__(self, ctx, point: Mapping[Any, Any]):
+    def __init__(self, ctx, point: Mapping[Any, Any], saturated: float | None = None):
         self.ctx = ctx
         self.point = point
+        self.saturated = saturated if saturated is not None else _SATURATED_FLOAT if ctx is _FLOAT else _SATURATED
         self.memo: dict = {}
         self.eps = 2.0**-52 if ctx is _FLOAT else ctx.eps  # (the working precision's unit)
 
@@ -213,7 +215,7 @@ class _Evaluator:
         name = _MP_NAMES.get(type(e))
         if name is not None and len(args) == 1:
             xa, ma = args[0]
-            if name == "tanh" and abs(xa) > (_SATURATED_FLOAT if ctx is _FLOAT else _SATURATED):
+            if name == "tanh" and abs(xa) > self.saturated:
                 # tanh is ±1 there to beyond the working precision, so 1 − tanh² (its derivative) would read 0: a
                 # steep tanh (friction regularized over 1e-4 m/s) would look constant at every point
                 raise _Inadmissible
@@ -427,7 +429,8 @@ def _zero_at_points(expr, values: Mapping, points: int, found: set | None = None
     for _ in range(_TRIES + points):
         point = next(gen)
         try:
-            x, m = _Evaluator(ctx, {k: _mp(ctx, v) for k, v in point.items()})(expr)
+            x, m = _Evaluator(ctx, {k: _mp(ctx, v) for k, v in point.items()},
+                              _SATURATED_FLOATING if floating else _SATURATED)(expr)
         except (_Inadmissible, TypeError, ValueError, OverflowError, ZeroDivisionError):
             continue
         if not (ctx.isfinite(x) and ctx.isfinite(m)):
