@@ -26,9 +26,9 @@ import numpy as np
 import pytest
 
 import lagrangian as lg
-from lagrangian import codegen
+from lagrangian import codegen, models
 from lagrangian.cli import main
-from lagrangian.numerics import c_build, ensemble
+from lagrangian.numerics import c_build, c_units, ensemble, tape
 from lagrangian.numerics.ensemble import Library
 from lagrangian.simulation import NumericModel
 from lagrangian.sweep import design, sweep
@@ -127,10 +127,44 @@ def test_a_full_disk_leaves_no_build_directory(cache, private, monkeypatch, stag
     assert leftovers(cache, private) == []
 
 
+def in_units(monkeypatch) -> lg.Model:
+    """A model whose native library is printed in parts of 30 instructions, so built as several units."""
+    monkeypatch.setattr(tape, "C_PART", 30)
+    model = models.pendulum_chain(3, m=0.3, length=0.7)
+    assert len(c_units.split(codegen.generate_source(model.numeric()))) > 2
+    return model
+
+
+@pytest.mark.parametrize("stage", ["_write_file", "_write_atomic"])
+def test_a_full_disk_leaves_no_build_directory_of_a_library_in_units(cache, private, monkeypatch, stage):
+    model = in_units(monkeypatch)
+    monkeypatch.setattr(c_build, stage, no_space)
+    compiled, note = codegen.compile_model(model.numeric())
+    assert compiled is None and "No space left on device" in note
+    assert leftovers(cache, private) == [] and not list(private.iterdir())
+
+
+def test_a_unit_that_fails_to_compile_stops_the_others_and_is_reported(cache, monkeypatch):
+    """The compiler's message is the note, the other compilers are stopped and nothing is left behind; the same
+    model builds once its units compile."""
+    model = in_units(monkeypatch)
+    real = c_build.split
+    monkeypatch.setattr(c_build, "split", lambda source: real(source)[:-1] + ["#error a broken unit\n"])
+    compiled, note = codegen.compile_model(model.numeric(), "native")
+    assert compiled is None and "failed" in note and "a broken unit" in note
+    assert leftovers(cache) == []
+    monkeypatch.setattr(c_build, "split", real)
+    compiled, note = codegen.compile_model(model.numeric(), "native")
+    assert compiled.kind == "native" and leftovers(cache) == []
+
+
 @pytest.mark.slow
-def test_an_interrupted_build_stops_and_removes_every_compilation(cache, monkeypatch):
+@pytest.mark.parametrize("units", [False, True], ids=["one unit", "units"])
+def test_an_interrupted_build_stops_and_removes_every_compilation(cache, monkeypatch, units):
     """Two libraries compiled at once (a sweep's model and a runtime not yet cached); an interrupt while the first
-    is finished: the second compiler is stopped and both build directories are removed."""
+    is finished: the second compiler is stopped and both build directories are removed; a library built in units
+    stops every compiler of its own."""
+    model = in_units(monkeypatch) if units else oscillator(3.5)
     for f in cache.glob("runtime-*"):
         f.unlink()
     started, real_start, real_finish = [], c_build._start, c_build._finish
@@ -153,8 +187,9 @@ def test_an_interrupted_build_stops_and_removes_every_compilation(cache, monkeyp
     monkeypatch.setattr(c_build, "_start", start)
     monkeypatch.setattr(c_build, "_finish", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        codegen.compile_model(oscillator(3.5).numeric())
+        codegen.compile_model(model.numeric())
     assert len(started) == 2 and all(job[0].poll() is not None for job in started)
+    assert isinstance(started[-1][0], c_units.Compilation) == units
     assert leftovers(cache) == [] and not any(job[1].exists() for job in started)
 
 

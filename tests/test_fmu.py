@@ -254,6 +254,41 @@ def test_the_shipped_source_builds_the_same_fmu(exported, tmp_path):
     assert "double_pendulum_fmi2GetDerivatives" in symbols and " fmi2GetDerivatives" not in symbols
 
 
+@needs_cc
+def test_an_fmu_whose_c_is_in_units_runs_and_ships_one_source(tmp_path, monkeypatch):
+    """A long tape's functions go to units compiled side by side (lagrangian.numerics.c_units); the FMU's binary is
+    built so, its one source compiles alone into the same binary's behaviour, and the part functions stay hidden."""
+    from lagrangian.numerics import c_units, tape
+
+    monkeypatch.setattr(tape, "C_PART", 40)
+    lg.codegen.set_cache_dir(tmp_path / "cache")
+    try:
+        model = models.pendulum_chain(4, m=[0.3, 0.4, 0.5, 0.6], length=0.6, dynamics="recursive")
+        start = {"theta_j0": 0.4, "theta_j2": -0.3}
+        path = model.to_fmu(tmp_path / "chain.fmu", initial=start)
+    finally:
+        lg.codegen.set_cache_dir(None)
+    assert validate_fmu(str(path)) == []
+    folder = Path(fmpy.extract(str(path), str(tmp_path / "unzipped")))
+    source = next((folder / "sources").glob("*.c"))
+    assert len(c_units.split(source.read_text())) > 2
+    names = states(model)
+    run = dict(stop_time=1.0, output_interval=0.01, relative_tolerance=1e-12, output=names)
+    built_in_units = fmpy.simulate_fmu(str(folder), **run)
+    res = model.simulate(1.0, initial={n: start.get(n, 0.0) for n in model.coordinate_names},
+                         velocity={n: 0.0 for n in model.coordinate_names}, t_eval=built_in_units["time"],
+                         rtol=1e-13, atol=1e-15)
+    assert worst(built_in_units, res, names) < 1e-8
+    binary = next((folder / "binaries").rglob("*.so"))
+    symbols = subprocess.run(["nm", "-D", "--defined-only", str(binary)], capture_output=True, text=True).stdout
+    assert "fmi2GetDerivatives" in symbols and "_part_" not in symbols
+    cc = lg.codegen.compiler()
+    subprocess.run([cc, "-O2", "-shared", "-fPIC", "-o", str(binary), str(source), "-lm"], check=True)
+    alone = fmpy.simulate_fmu(str(folder), **run)
+    for n in names:
+        assert np.allclose(alone[n], built_in_units[n], rtol=0, atol=1e-12)
+
+
 _RUNNER = """
 import json, sys
 try:

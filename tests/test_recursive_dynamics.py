@@ -216,13 +216,17 @@ def test_a_sweep_of_a_recursive_chain_is_a_loop_of_simulate_to_the_last_bit():
 def test_native_code_in_parts_gives_the_tapes_numbers_to_the_bit(monkeypatch, tmp_path):
     """A long tape printed as C in parts (functions of at most C_PART instructions, their shared results in a
     scratch array) computes what the tape interpreter does, operation for operation."""
-    from lagrangian.numerics import tape
+    from lagrangian.numerics import c_units, tape
 
     monkeypatch.setattr(tape, "C_PART", 40)
     lg.codegen.set_cache_dir(tmp_path)
     try:
         numeric = chain(9).numeric()
-        assert "matrix_part_3" in lg.codegen.generate_source(numeric) and "energy_part_3" in lg.codegen.generate_source(numeric)
+        source = lg.codegen.generate_source(numeric)
+        assert "matrix_part_3" in source and "energy_part_3" in source
+        units = c_units.split(source)  # the parts in units of their own, compiled side by side, then linked
+        defined = [sum(line.startswith("LG_PART void") and line.endswith("{") for line in u.splitlines()) for u in units]
+        assert defined[0] == 0 and len(units) > 2 and all(1 <= d <= c_units.UNIT_PARTS for d in defined[1:])
         native, _ = lg.codegen.compile_model(numeric, "native")
         tape, _ = lg.codegen.compile_model(numeric, "tape")
         assert native.kind == "native"

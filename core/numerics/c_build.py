@@ -35,6 +35,7 @@ from typing import Any, NamedTuple
 from ..base.limits import limits
 from ..errors import ModelError
 from .c_source import CODEGEN_VERSION, _runtime_source, _Unavailable
+from .c_units import Compilation, split
 
 _log = logging.getLogger("lagrangian")
 
@@ -391,10 +392,13 @@ def _start(directory: Path, key: str, source: str, cc: str) -> tuple:
     work = Path(tempfile.mkdtemp(dir=directory, prefix=".build-"))
     try:
         src, out = work / f"{key}.c", work / f"{key}.so"
-        _write_file(src, source.encode())
+        units = split(source)  # (a long tape's functions: units of bounded size, side by side on the machine's cores)
+        job = Compilation(cc, FLAGS, units, work, out, write=_write_file) if len(units) > 1 else None
+        if job is None:
+            _write_file(src, source.encode())
         try:
-            proc = subprocess.Popen([cc, *FLAGS, "-o", str(out), str(src), "-lm"], stdout=subprocess.PIPE,
-                                    stderr=subprocess.PIPE, text=True)
+            proc = job.start() if job is not None else subprocess.Popen(
+                [cc, *FLAGS, "-o", str(out), str(src), "-lm"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         except OSError as exc:
             raise _Unavailable(f"the C compiler {cc} could not be run ({exc})") from None
     except BaseException:  # a full disk, an interrupt...: no build directory is left behind

@@ -212,12 +212,6 @@ _HEADER = """#include <math.h>
 #define SCRATCH(name, count) double name##_stack[LG_SCRATCH]; \
     double *name = (count) <= LG_SCRATCH ? name##_stack : malloc((size_t)(count) * sizeof(double))
 #define RELEASE(name) do { if (name != name##_stack) free(name); } while (0)
-/* The parts of a long tape stay functions of their own (lagrangian.tape.Program.c_parts). */
-#if defined(__GNUC__)
-#define LG_NOINLINE __attribute__((noinline))
-#else
-#define LG_NOINLINE
-#endif
 """
 
 # The solve and the state derivative: one text, in the runtime library (sizes as arguments) and in every native

@@ -49,6 +49,8 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from .c_units import BEGIN, END, PART, PREAMBLE, UNIT_PARTS
+
 __all__ = ["C_PART", "OPS", "Program", "TapeError", "c_body", "record", "size"]
 
 
@@ -258,14 +260,20 @@ def c_body(program: Program, inputs: dict, targets: list[str], name: str, params
            zeroed: bool = False) -> tuple[list[str], list[str]]:
     """The C of ``program`` writing ``targets``: ``([], lines)`` in one function's body up to :data:`C_PART`
     instructions; beyond, the functions of its parts (``name_k(params, W)``) and the body that calls them in turn,
-    their shared results in a scratch array ``W`` (``fail``: what the body does when no memory is left for it)."""
+    their shared results in a scratch array ``W`` (``fail``: what the body does when no memory is left for it).
+    The parts are grouped :data:`~lagrangian.numerics.c_units.UNIT_PARTS` to a translation unit, compiled in
+    parallel (:mod:`lagrangian.numerics.c_units`); their prototypes stay with the body."""
     if len(program.code) <= C_PART:
         return [], program.c_lines(inputs, targets, "    ", zeroed=zeroed)
     parts, size, final = program.c_parts(inputs, targets, C_PART, zeroed=zeroed)
-    functions = []
+    functions = [PREAMBLE, *(f"{PART} void {name}_{k}({params}, double *W);" for k in range(len(parts)))]
     for k, lines in enumerate(parts):
-        functions += [f"static LG_NOINLINE void {name}_{k}({params}, double *W) {{",
-                      "    (void)P; (void)t; (void)q; (void)W;", *(f"    {line}" for line in lines), "}", ""]
+        if k % UNIT_PARTS == 0:
+            functions += [BEGIN, PREAMBLE]
+        functions += [f"{PART} void {name}_{k}({params}, double *W) {{",
+                      "    (void)P; (void)t; (void)q; (void)W;", *(f"    {line}" for line in lines), "}"]
+        if k % UNIT_PARTS == UNIT_PARTS - 1 or k == len(parts) - 1:
+            functions += [END, ""]
     body = [f"    SCRATCH(W, {max(size, 1)});", "    if (!W) {", *(f"        {line}" for line in fail), "    }",
             *(f"    {name}_{k}({args}, W);" for k in range(len(parts))), *(f"    {line}" for line in final),
             "    RELEASE(W);"]
