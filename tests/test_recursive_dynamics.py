@@ -120,6 +120,138 @@ def test_spatial_trees_agree_with_the_closed_form(tree):
     _check(tree)
 
 
+@st.composite
+def looped(draw, dim):
+    """A random tree (:func:`trees`) with a loop closed by a revolute (planar) or spherical joint between its last
+    body and an earlier body or the ground, at random points, and a constraint of the user's own on two
+    coordinates: loops of every joint kind, and over-constrained ones (refused as redundant, as the closed form's
+    solve is singular)."""
+    tree = draw(trees(dim))
+    n = len(tree[1])
+    depth = {"ground": 0}
+    for i, (parent, *_) in enumerate(tree[1]):
+        depth[f"b{i}"] = depth[parent] + 1
+    # the joint tree is found from the ground outwards, along joints from parent to child: the new joint goes from
+    # the last body to one no farther from the ground (or from the ground, when the last body hangs from it), so
+    # that it closes the loop and every body keeps its own joint
+    last = f"b{n - 1}"
+    other = draw(st.sampled_from([b for b in depth if b != last and 0 < depth[b] <= depth[last]]
+                                 + (["ground"] if depth[last] == 1 else [])))
+    points = [tuple(draw(st.floats(-0.4, 0.4)) for _ in range(dim)) for _ in range(2)]
+    pair = ("ground", last) if other == "ground" else (last, other)
+    return tree, (*pair, points, draw(st.floats(0.5, 2.0)))
+
+
+def build_looped(spec, dynamics):
+    tree, (a, b, (pa, pb), ratio) = spec
+    m = build(tree, dynamics)
+    m.add("revolute" if tree[0] == 2 else "spherical", "close", (a, b),
+          parent_point=pa if a != "ground" else (0.3,) * tree[0], child_point=pb)
+    names = m.coordinate_names
+    m.add("constraint", "gear", f=lg.coordinate(names[0]) - ratio * lg.coordinate(names[-1]))
+    return m
+
+
+def _check_looped(spec):
+    closed = build_looped(spec, "closed")
+    n = len(closed.coordinate_names)
+    rng = np.random.default_rng(1)
+    states = [np.concatenate([rng.uniform(-0.6, 0.6, n), rng.uniform(-1, 1, n)]) for _ in range(3)]
+    c = closed.numeric().compile("tape")
+    systems = [c.matrix(0.4, y[:n], y[n:]) for y in states]
+    try:
+        fast = build_looped(spec, "recursive")
+        fast.eq
+    except lg.ModelError as exc:  # redundant constraints: the closed form's solve is singular as well
+        assert "not independent" in str(exc)
+        assert all(np.linalg.cond(A) > 1e9 for A, _ in systems)
+        return
+    f = fast.numeric().compile("tape")
+    for y, (A, b) in zip(states, systems):
+        if np.linalg.cond(A) > 1e8:  # (near a singular configuration: both are right to rounding alone)
+            continue
+        u_closed = np.linalg.solve(A, b)
+        I, u = f.matrix(0.4, y[:n], y[n:])
+        assert np.array_equal(I, np.eye(len(u))) and u.shape == u_closed.shape  # accelerations, then multipliers
+        assert np.max(np.abs(u - u_closed)) <= 1e-8 * (np.max(np.abs(u_closed)) + 1e-300), (u, u_closed)
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(looped(2))
+def test_planar_loops_and_constraints_on_the_recursion_agree_with_the_closed_form(spec):
+    """The tree's accelerations and M⁻¹Jᵀ by the recursion, the constraint forces from a k × k solve: the same
+    accelerations and multipliers as the closed form's solve of M q̈ − Jᵀλ = f, J q̈ = rhs."""
+    _check_looped(spec)
+
+
+@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(looped(3))
+def test_spatial_loops_and_constraints_on_the_recursion_agree_with_the_closed_form(spec):
+    _check_looped(spec)
+
+
+def four_bar(dynamics):
+    m = lg.Model("four-bar", dim=2, dynamics=dynamics)
+    for name, length, mass in (("crank", 0.3, 0.21), ("coupler", 0.9, 0.47), ("rocker", 0.6, 0.33)):
+        m.add("rod", name, name, m=mass, length=length)
+    m.add("revolute", "A", ("ground", "crank"))
+    m.add("revolute", "B", ("crank", "coupler"), parent_point=(0.3, 0))
+    m.add("revolute", "D", ("ground", "rocker"), parent_point=(0.9, 0))
+    m.add("revolute", "C", ("coupler", "rocker"), parent_point=(0.9, 0), child_point=(0.6, 0))
+    m.add("gravity", "g", g=9.81)
+    return m
+
+
+def test_a_four_bar_on_the_recursion_keeps_its_loop_and_its_energy_and_says_how():
+    """Physics: T + V of a frictionless four-bar under gravity is kept, the loop stays closed (the rocker tip by
+    hand geometry), and the report names the constraint solve."""
+    from lagrangian.plugins.multibody.constraints import consistent_initial
+
+    m = four_bar("recursive")
+    q0, v0 = consistent_initial(m, {"theta_A": 0.6, "theta_D": 1.5, "theta_B": 0.3}, {"theta_A": 1.3},
+                                independent=["theta_A"])
+    res = m.simulate(3.0, initial=q0, velocity=v0, rtol=1e-10, atol=1e-12, points=200)
+    assert any("forces of 2 constraints from a 2 × 2 solve" in note for note in res.notes)
+    assert np.max(np.abs(res.E - res.E[0])) <= 1e-8 * np.max(np.abs(res.V))
+    A, B, D = res["theta_A"], res["theta_B"], res["theta_D"]
+    gap = np.hypot(0.3 * np.cos(A) + 0.9 * np.cos(A + B) - 0.9 - 0.6 * np.cos(D),
+                   0.3 * np.sin(A) + 0.9 * np.sin(A + B) - 0.6 * np.sin(D))
+    assert np.max(gap) <= 1e-8
+
+
+@pytest.mark.parametrize("kind", ["tape", "native"])
+def test_a_four_bar_folded_flat_is_a_singular_configuration_named_so(kind):
+    """Crank, coupler and rocker along one line: the loop's two rows of J are parallel, J M⁻¹ Jᵀ is singular, so
+    the constraint forces are not determined (the closed form's solve is singular there too)."""
+    if kind == "native" and lg.codegen.compiler() is None:
+        pytest.skip("no C compiler")
+    fast = four_bar("recursive").numeric().compile(kind)
+    flat = np.zeros(6)
+    A, b = four_bar("closed").numeric().compile("tape").matrix(0.0, flat[:3], flat[3:])
+    assert np.linalg.matrix_rank(A) < A.shape[0]
+    with pytest.raises(lg.SingularMassMatrixError, match="constraints are not independent at t=0"):
+        fast.rhs(0.0, flat)
+    assert np.all(np.isfinite(fast.rhs(0.0, np.array([0.6, 1.5, 0.3, 0.0, 0.0, 0.0]))))
+
+
+def test_a_knife_edge_on_the_recursion_runs_as_the_closed_form():
+    """A constraint on velocities (Chaplygin's sleigh) on the recursion: the same run as the closed form."""
+    runs = []
+    for dynamics in ("recursive", "closed"):
+        m = lg.Model("sleigh", dim=2, dynamics=dynamics)
+        m.add("body", "b", "b", m=0.7, inertia=0.03, com=(0.1, 0.0), points={"edge": (-0.2, 0.0)})
+        m.add("free", "j", ("ground", "b"))
+        m.add("knife_edge", "k", "b.edge")
+        th, U, w = 0.2, 0.5, 0.8  # (the edge 0.2 behind the origin moves along the body: v·n = 0.2 ω across it)
+        runs.append(m.simulate(2.0, initial={"x_j": 0.0, "y_j": 0.0, "theta_j": th},
+                               velocity={"x_j": U * np.cos(th) - 0.2 * w * np.sin(th),
+                                         "y_j": U * np.sin(th) + 0.2 * w * np.cos(th), "theta_j": w},
+                               rtol=1e-11, atol=1e-13, points=50))
+    assert runs[0].notes != runs[1].notes
+    for name in ("x_j", "y_j", "theta_j"):
+        assert np.max(np.abs(runs[0][name] - runs[1][name])) <= 1e-8
+
+
 def chain(n, dynamics="auto"):
     return models.pendulum_chain(n, m=[0.3 + 0.05 * k for k in range(n)], length=0.7, dynamics=dynamics)
 
@@ -155,15 +287,16 @@ def test_symbolic_parameters_give_the_same_structure_and_the_closed_form_on_dema
 
 
 @pytest.mark.parametrize("case, words", [
-    ("loop", "closes a loop"),
+    ("loop closed twice", "constraints are not independent"),
     ("driven", "is driven"),
     ("point mass", "acts on 'bob', not a rigid body"),
     ("massless end", "have no inertia about their joints' axes"),
 ])
 def test_what_the_recursion_cannot_serve_is_refused_by_name(case, words):
     m = chain(3, "recursive")
-    if case == "loop":
+    if case == "loop closed twice":
         m.add("revolute", "close", ("r2", "r0"), parent_point=(0.7, 0), child_point=(0.3, 0))
+        m.add("revolute", "again", ("r2", "r0"), parent_point=(0.7, 0), child_point=(0.3, 0))
     elif case == "driven":
         m.add("rod", "d", "d", m=0.1, length=0.2)
         m.add("revolute", "jd", ("r2", "d"), angle=lg.t)

@@ -125,13 +125,16 @@ class Recursion:
     ``(symbol, expression)`` pairs in order, each in the coordinates, their rates, the parameters and the symbols
     defined before it; in those, the ``accelerations`` (one per coordinate), the kinetic energy ``kinetic``, the
     momenta ``∂T/∂q̇`` (one per coordinate) and ``pivots``, positive numbers (one per coordinate) where the motion
-    is determined (the articulated inertias about each joint's axis; zero where the mass matrix is singular)."""
+    is determined (the articulated inertias about each joint's axis; zero where the mass matrix is singular).
+    ``responses``: for each column ``c`` of generalized forces ``build`` was given, the accelerations ``M⁻¹ c`` it
+    alone gives the mechanism at rest (one per coordinate)."""
 
     definitions: list[tuple[sp.Symbol, sp.Expr]]
     accelerations: list[sp.Expr]
     kinetic: sp.Expr
     momenta: list[sp.Expr]
     pivots: list[sp.Expr]
+    responses: list[list[sp.Expr]] = field(default_factory=list)
 
 
 @dataclass
@@ -146,14 +149,18 @@ class RecursiveDynamics:
     ``build(q, v, tau)`` gets the plain symbols of the coordinates and their rates (in the model's order, by name
     ``names``) and those generalized forces, and returns the :class:`Recursion`.  ``note`` says in words what the
     recursion is, for reports; ``forced``: the user asked for it (``Model(dynamics="recursive")``), so a model it
-    cannot serve is refused by name rather than derived in closed form.
+    cannot serve is refused by name rather than derived in closed form.  ``responds``: ``build(q, v, tau,
+    columns)`` also takes columns of generalized forces and gives their :attr:`Recursion.responses`, so that
+    constraints (closed loops, constraints on positions or velocities) keep the recursion: their forces ``Jᵀ λ``
+    follow from a solve as small as their number (:mod:`lagrangian.derivation.recursion`).
     """
 
     covers: frozenset[str]
     names: tuple[str, ...]
-    build: Callable[[Sequence[sp.Symbol], Sequence[sp.Symbol], Sequence[sp.Expr]], Recursion]
+    build: Callable[..., Recursion]
     note: str
     forced: bool = False
+    responds: bool = False
 
 
 @dataclass

@@ -40,7 +40,7 @@ from .assembly import Assembly
 from ..base.component import t
 from .calculus import atoms_of, symbols_of
 from .derive import Derivation, Rewriter
-from .recursion import Taken, take
+from .recursion import Taken, position_rows, take, velocity_rows
 from ..errors import ModelError
 from ..base.identity import is_zero
 from ..base.switching import SWITCHES
@@ -116,7 +116,7 @@ class Equations:
         frames = [([self.symbolic(e) for e in f.omega], [[self.symbolic(e) for e in vel] for vel in f.velocities])
                   for f in assembly.frame_list(generic=True)]
         self._values = values  # (read by the recursion's check of its pivots; set again by _derive)
-        taken = take(assembly, self, Q, calc)
+        taken = take(assembly, self, Q, calc, constraints, velocity, rate)
         self._derive(T, V, G, D, Q, constraints, rate, values=values, frames=frames, velocity=velocity, recursion=taken)
 
     def _linear_in_rates(self, name: str, c: sp.Expr) -> sp.Expr:
@@ -244,6 +244,8 @@ class Equations:
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         if name == "L":
             value = _lagrangian(self.T, self.V, self.G)
+        elif name == "A" and self.recursion is not None and self.multipliers:  # (constraints on a recursion)
+            value = self._generic["A"].applyfunc(self._put) if self._values else self._generic["A"]
         elif name == "A":  # (the unconstrained case without first-order coordinates: A is M)
             value = self.M.copy()
         elif not self._values:
@@ -350,6 +352,8 @@ class Equations:
     @property
     def b(self) -> sp.Matrix:
         """The right-hand side of ``A u = b``, with the values in."""
+        if self._b is None and self.recursion is not None and self.multipliers:  # (constraints on a recursion)
+            self._b = self._generic["b"].applyfunc(self._put) if self._values else self._generic["b"]
         if self._b is None:
             self._b = self.f.copy()
         return self._b
@@ -454,8 +458,7 @@ class Equations:
         if involved:
             raise ModelError(f"coordinates {', '.join(involved)} have no inertia but take part in a constraint on "
                              f"velocities: give them mass.")
-        w = sp.Float(self.constraint_rate)
-        return Jv, -(c.jacobian(q) * sp.Matrix(v) + c.diff(t) + w * c)
+        return velocity_rows(c, q, v, sp.Float(self.constraint_rate))
 
     def _with_rows(self, M, f, J, rhs, check: bool):
         """``A`` and ``b`` with constraint rows ``J q̈ = rhs`` and their multipliers (forces ``Jᵀ λ``)."""
@@ -483,9 +486,7 @@ class Equations:
             raise ModelError(
                 f"coordinates {', '.join(involved)} have no inertia but take part in a loop-closure constraint: give them mass."
             )
-        Phi_dot = Jq * sp.Matrix(v) + Phi.diff(t)
-        w = sp.Float(self.constraint_rate)
-        rhs = -(Phi_dot.jacobian(q) * sp.Matrix(v) + Phi_dot.diff(t) + 2 * w * Phi_dot + w**2 * Phi)
+        _, rhs = position_rows(Phi, q, v, sp.Float(self.constraint_rate))
         return Jq, None, rhs
 
     # -- display helpers -------------------------------------------------------

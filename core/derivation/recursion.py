@@ -3,23 +3,28 @@ equations when the rest of the model lets it: see :func:`take`.
 
 The recursion computes the accelerations from the coordinates, their rates and the generalized forces ``τ`` of
 every component it does not cover, which store no kinetic energy: ``τ = Q − ∂V/∂q − ∂D/∂q̇`` over those components
-(springs, dampers, loads), derived from their energies as usual.  The closed-form equations of the same model are
-still there, derived when something asks for them (display, linearization, the Routhian).
+(springs, dampers, loads), derived from their energies as usual.  Constraints ``J q̈ = rhs`` (closed loops, and
+constraints on positions or velocities, stabilized as the closed form's) add forces ``Jᵀ λ``: the recursion gives
+``q̈₀`` and ``Y = M⁻¹ Jᵀ`` (one more pass per constraint), and ``λ`` solves ``(J Y) λ = rhs − J q̈₀``, a system as
+small as the number of constraints (:func:`_constrained`).  The closed-form equations of the same model are still
+there, derived when something asks for them (display, linearization, the Routhian).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sp
 
 from ..base.domain import Recursion, RecursiveDynamics
+from ..base.component import t
 from ..errors import ModelError
 
 #: A pivot of the recursion at most this fraction of the largest, at a random state, is zero: the motion of that
 #: coordinate is not determined by the recursion (a massless end of a chain), and the closed form decides.
 PIVOT_FLOOR = 1e-9
+EPS = sp.Float(2.0**-52)
 
 
 @dataclass
@@ -29,6 +34,8 @@ class Taken:
 
     recursion: Recursion
     note: str
+    #: the constraints' multipliers ``λ`` (after the accelerations in the solve's unknowns), as the recursion's steps
+    multipliers: list = field(default_factory=list)
 
 
 def _offer(assembly) -> RecursiveDynamics | None:
@@ -51,17 +58,76 @@ def _why_not(assembly, offer: RecursiveDynamics, names: list[str]) -> str | None
                 return f"component {name!r} {what}"
         if c.frames:
             return f"component {name!r} moves a frame of its own"
-        if c.constraints or c.velocity_constraints:
+        if (c.constraints or c.velocity_constraints) and not offer.responds:
             return f"component {name!r} adds constraints"
     return None
 
 
-def take(assembly, eq, Q: list[sp.Expr], calc) -> Taken | None:
+def position_rows(Phi: sp.Matrix, q, v, w) -> tuple[sp.Matrix, sp.Matrix]:
+    """The rows ``J q̈ = rhs`` of constraints on positions ``Φ(q, t) = 0``, stabilized as ``Φ̈ + 2ωΦ̇ + ω²Φ = 0``
+    (Baumgarte): ``J = Φ_q`` and ``rhs = −(Φ̇_q q̇ + Φ̇_t + 2ωΦ̇ + ω²Φ)``."""
+    Jq = Phi.jacobian(q)
+    Phi_dot = Jq * sp.Matrix(v) + Phi.diff(t)
+    return Jq, -(Phi_dot.jacobian(q) * sp.Matrix(v) + Phi_dot.diff(t) + 2 * w * Phi_dot + w**2 * Phi)
+
+
+def velocity_rows(c: sp.Matrix, q, v, w) -> tuple[sp.Matrix, sp.Matrix]:
+    """The rows ``J q̈ = rhs`` of constraints on velocities ``c = A(q, t) q̇ + b(q, t) = 0``, stabilized as
+    ``ċ + ω c = 0``: ``J = ∂c/∂q̇`` and ``rhs = −(c_q q̇ + c_t + ω c)``."""
+    return c.jacobian(v), -(c.jacobian(q) * sp.Matrix(v) + c.diff(t) + w * c)
+
+
+def _constrained(rec: Recursion, J: sp.Matrix, rhs: sp.Matrix) -> tuple[Recursion, list, list]:
+    """The tree's accelerations ``a₀`` and responses ``Y = M⁻¹ Jᵀ`` joined by the constraint forces: ``(J Y) λ =
+    rhs − J a₀`` solved by ``LDLᵀ`` (``J M⁻¹ Jᵀ`` is symmetric, positive definite where the constraints are
+    independent), ``q̈ = a₀ + Y λ``; steps of their own, after the recursion's.  Returns the recursion with those
+    accelerations, the multipliers ``λ`` and the solve's pivots over the diagonal they came from (in (0, 1]; zero
+    where constraints are redundant)."""
+    k, n = J.shape
+    defs = list(rec.definitions)
+
+    def step(e):
+        if e.is_Atom:
+            return e
+        d = sp.Dummy("c")
+        defs.append((d, e))
+        return d
+
+    Y = rec.responses
+    S = [[step(sp.Add(*[J[a, i] * Y[b][i] for i in range(n) if J[a, i] != 0 and Y[b][i] != 0])) for b in range(a + 1)]
+         for a in range(k)]
+    r = [step(rhs[a] - sp.Add(*[J[a, i] * rec.accelerations[i] for i in range(n) if J[a, i] != 0]))
+         for a in range(k)]
+    L = [[sp.S.Zero] * k for _ in range(k)]
+    d, dinv = [sp.S.Zero] * k, [sp.S.Zero] * k
+    for j in range(k):
+        d[j] = step(S[j][j] - sp.Add(*[L[j][m] ** 2 * d[m] for m in range(j)]))
+        # a pivot within rounding of zero (against the diagonal it came from): constraints that are redundant here
+        # (exactly zero, or NaN after one: a row no coordinate moves, or a constraint repeated)
+        undefined = d[j] == 0 or d[j].has(sp.nan) or S[j][j].has(sp.nan)
+        dinv[j] = sp.nan if undefined else step(sp.Piecewise((1 / d[j], d[j] > 16 * k * EPS * S[j][j])))
+        for i in range(j + 1, k):
+            L[i][j] = step((S[i][j] - sp.Add(*[L[i][m] * L[j][m] * d[m] for m in range(j)])) * dinv[j])
+    z = [sp.S.Zero] * k
+    for i in range(k):
+        z[i] = step(r[i] - sp.Add(*[L[i][m] * z[m] for m in range(i)]))
+    lam = [sp.S.Zero] * k
+    for i in reversed(range(k)):
+        lam[i] = step(z[i] * dinv[i] - sp.Add(*[L[m][i] * lam[m] for m in range(i + 1, k)]))
+    qdd = [step(rec.accelerations[i] + sp.Add(*[Y[c][i] * lam[c] for c in range(k) if Y[c][i] != 0]))
+           for i in range(n)]
+    ratios = [sp.nan if dinv[j] is sp.nan else d[j] / S[j][j] for j in range(k)]
+    return Recursion(defs, qdd, rec.kinetic, rec.momenta, rec.pivots), lam, ratios
+
+
+def take(assembly, eq, Q: list[sp.Expr], calc, constraints=(), velocity=(), rate: float = 10.0) -> Taken | None:
     """The recursion ``eq`` (an :class:`~lagrangian.derivation.equations.Equations` being built) uses, or None for
     the closed-form equations: when a domain offers one, every coordinate is one of its own, every component it
-    does not cover stores no kinetic energy and adds no constraint, and every pivot is positive at a random state.
-    ``Q``: the generalized forces of the loads, in ``eq``'s plain symbols; ``calc``: the derivation's differentiator.  A recursion the user asked for that
-    cannot serve is refused by name."""
+    does not cover stores no kinetic energy (and adds no constraint, unless the domain's recursion takes constraint
+    forces), and every pivot is positive at a random state.  ``Q``: the generalized forces of the loads, in
+    ``eq``'s plain symbols; ``calc``: the derivation's differentiator; ``constraints`` and ``velocity``: the
+    constraints on positions and on velocities, stabilized at ``rate`` as the closed form's are.  A recursion the
+    user asked for that cannot serve is refused by name."""
     offer = _offer(assembly)
     if offer is None:
         return None
@@ -77,10 +143,23 @@ def take(assembly, eq, Q: list[sp.Expr], calc) -> Taken | None:
     tau = [Q[i] - calc.diff(V, q[i]) - calc.diff(D, v[i]) for i in range(len(q))]
     by_name = dict(zip(eq.names, range(len(q))))
     order = [by_name[n] for n in offer.names]
-    rec = offer.build([q[i] for i in order], [v[i] for i in order], [tau[i] for i in order])
+    w = sp.Float(rate)
+    parts = ([position_rows(sp.Matrix(constraints), q, v, w)] if len(constraints) else []) + \
+            ([velocity_rows(sp.Matrix(list(velocity)), q, v, w)] if len(velocity) else [])
+    J = sp.Matrix.vstack(*(p[0] for p in parts)) if parts else sp.zeros(0, len(q))
+    rhs = sp.Matrix.vstack(*(p[1] for p in parts)) if parts else sp.zeros(0, 1)
+    args = [[q[i] for i in order], [v[i] for i in order], [tau[i] for i in order]]
+    rec = offer.build(*args, [[J[c, i] for i in order] for c in range(J.rows)]) if J.rows else offer.build(*args)
     place = {i: k for k, i in enumerate(order)}  # the model's coordinate i is the recursion's place[i]
-    rec = Recursion(rec.definitions, [rec.accelerations[place[i]] for i in range(len(q))], rec.kinetic,
-                    [rec.momenta[place[i]] for i in range(len(q))], [rec.pivots[place[i]] for i in range(len(q))])
+
+    def ours(values):
+        return [values[place[i]] for i in range(len(q))]
+
+    rec = Recursion(rec.definitions, ours(rec.accelerations), rec.kinetic, ours(rec.momenta), ours(rec.pivots),
+                    [ours(c) for c in rec.responses])
+    multipliers: list = []
+    if J.rows:
+        rec, multipliers, ratios = _constrained(rec, J, rhs)
     bad = _zero_pivots(rec, eq)
     if bad:
         if offer.forced:
@@ -89,22 +168,42 @@ def take(assembly, eq, Q: list[sp.Expr], calc) -> Taken | None:
                              f"give their accelerations. Use dynamics='closed' (or 'auto'), which treats them as "
                              f"first-order coordinates when they are damped.")
         return None
-    return Taken(rec, offer.note)
+    if multipliers:
+        out = _at_random(rec.definitions, ratios, eq)
+        if out is None or not np.all(out > PIVOT_FLOOR):
+            if offer.forced:
+                raise ModelError("dynamics='recursive': the constraints are not independent at a random "
+                                 "configuration (a loop closed twice, or a constraint given twice), so their forces "
+                                 "are not determined. Remove the redundant ones, or use dynamics='closed'.")
+            return None
+    note = offer.note
+    if multipliers:
+        k = len(multipliers)
+        note = (f"{note}; the forces of {k} constraint{'s' if k > 1 else ''} from a {k} × {k} solve on {k} more "
+                f"pass{'es' if k > 1 else ''} of the recursion")
+    return Taken(rec, note, multipliers)
 
 
-def _zero_pivots(rec: Recursion, eq) -> list[str]:
-    """The coordinates whose pivots are zero (or not finite) at a random state, parameters without values drawn at
-    random within a decade of 1 (a model given symbols decides as its twin given numbers)."""
+def _at_random(definitions, exprs, eq) -> np.ndarray | None:
+    """``exprs`` after ``definitions`` at a random state, parameters without values drawn at random within a decade
+    of 1 (a model given symbols decides as its twin given numbers); None where they cannot be evaluated."""
     q, v = eq.sym.q, eq.sym.v
     rng = np.random.default_rng(11)
     env: dict = {s: float(x) for s, x in eq._values.items()}
     env |= dict(zip(q, rng.uniform(-0.7, 0.7, len(q)))) | dict(zip(v, rng.uniform(-0.7, 0.7, len(v))))
     try:
         with np.errstate(all="ignore"):
-            for s, e in rec.definitions:
+            for s, e in definitions:
                 env[s] = _value(e, env, rng)
-            out = np.array([_value(p, env, rng) for p in rec.pivots], dtype=float)
+            return np.array([_value(p, env, rng) for p in exprs], dtype=float)
     except (TypeError, ValueError, ZeroDivisionError, OverflowError):
+        return None
+
+
+def _zero_pivots(rec: Recursion, eq) -> list[str]:
+    """The coordinates whose pivots are zero (or not finite) at a random state."""
+    out = _at_random(rec.definitions, rec.pivots, eq)
+    if out is None:
         return list(eq.names)
     finite = np.isfinite(out)
     top = float(np.max(np.abs(out[finite]))) if finite.any() else 0.0

@@ -102,24 +102,25 @@ def plan(A, constraints: int) -> Band | None:
 
 def solve_size(eq) -> int:
     """The number of unknowns of ``eq``'s solve ``A u = b``."""
-    if eq.recursion is not None:
-        return len(eq.names)
+    if eq.recursion is not None:  # (the accelerations, then the constraints' multipliers)
+        return len(eq.names) + len(eq.recursion.multipliers)
     return int(math.isqrt(len(eq.generic()["A"])))
 
 
 def recursive_arrays(eq) -> tuple[list[sp.Expr], list[sp.Expr], list[sp.Expr]]:
     """A recursion's arrays (:mod:`lagrangian.derivation.recursion`): ``A`` the identity by its diagonal (the
-    :func:`band_of` of a recursion), ``b`` the accelerations, and the energies with its kinetic energy and momenta."""
+    :func:`band_of` of a recursion), ``b`` the accelerations and the constraints' multipliers, and the energies with its kinetic energy and momenta."""
     rec, g = eq.recursion.recursion, eq.generic()
     T, V, D = rec.kinetic, g["V"], g["D"]
-    return [sp.S.One] * len(eq.names), list(rec.accelerations), [T, V, D, T - V, *rec.momenta]
+    u = [*rec.accelerations, *eq.recursion.multipliers]
+    return [sp.S.One] * len(u), u, [T, V, D, T - V, *rec.momenta]
 
 
 def band_of(eq) -> Band | None:
     """The banded solve of ``eq``'s ``A u = b`` (:mod:`lagrangian.numerics.band`), or ``None`` for the dense one;
     decided once per model (a recursion's ``A`` is the identity: a band of no diagonals beside the main one)."""
     if "_band" not in eq.__dict__ and eq.recursion is not None:
-        n = len(eq.names)
+        n = solve_size(eq)
         every = np.arange(n, dtype=np.int32)
         eq.__dict__["_band"] = Band(n, tuple((i, i) for i in range(n)), every, 0, 0, every.copy())
     if "_band" not in eq.__dict__:

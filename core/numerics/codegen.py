@@ -367,6 +367,11 @@ class CompiledModel:
             s = np.linalg.svd(M, compute_uv=False) if np.all(np.isfinite(M)) else np.zeros(1)
             if not s[-1] > 1e3 * self.n * np.finfo(float).eps * s[0]:
                 raise SingularMassMatrixError(self.numeric._singular_message(t, M, y[: self.n]))
+            if self.numeric.eq.recursion.multipliers:  # (a pivot of the constraints' solve: J M⁻¹ Jᵀ singular)
+                raise SingularMassMatrixError(
+                    f"the constraints are not independent at t={t:g} (state "
+                    f"{np.array2string(y, precision=4)}): their forces are not determined there, as at a dead point of "
+                    f"a loop. Start elsewhere, or remove a redundant constraint.")
         raise NumericalError(
             f"the equations are not finite at t={t:g} (state {np.array2string(y, precision=4)}): a singular "
             f"configuration of some component, or a diverging solution. Start elsewhere or reduce the step."

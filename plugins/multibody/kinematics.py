@@ -76,11 +76,6 @@ def build_kinematics(network, view, dynamics: str = "auto") -> None:
         body, _, point = node.partition(".")
         if point and body in bodies:
             view.position(node)  # resolves (and checks) the point
-    if view.closures:
-        if dynamics == "recursive":
-            raise ModelError(f"dynamics='recursive' needs a tree of joints: joint {view.closures[0][0]!r} closes a "
-                             f"loop. Use dynamics='closed' (or 'auto').")
-        return
     order = {name: k for k, name in enumerate(tree_order)}
     view.recursive = offer(sorted((j for j in joints if j.name in used), key=lambda j: order[j.name]), bodies, dim,
                            list(comps), view.coordinates, dynamics)

@@ -16,6 +16,10 @@ coordinates are the model's own.  Quantities are spatial vectors in each frame's
 3. out again: ``a'_i = X_i a_λ + c_i``, ``q̈_i = (u_i − U_iᵀ a'_i) / D_i``, ``a_i = a'_i + S_i q̈_i``, from the ground's
    ``a_0 = −g`` (uniform gravity as an acceleration of the ground).
 
+Constraints (closed loops, constraints on positions or velocities) need ``M⁻¹ c`` for each column ``c`` of ``Jᵀ``:
+passes 2 and 3 again with ``τ = c``, at rest and without gravity, on the articulated inertias already there
+(:meth:`Tree._response`); the core solves for the constraint forces (:mod:`lagrangian.derivation.recursion`).
+
 The kinetic energy ``Σ ½ v_iᵀ I_i v_i`` and the momenta ``∂T/∂q̇_i = S_iᵀ h_i`` (``h_i``: the momentum of the bodies
 beyond joint ``i``) come from the same passes.  Entries that are exactly zero (a planar mechanism's out-of-plane
 motion, an axis along a frame's axis) fold away as the steps are written.
@@ -246,7 +250,7 @@ class Tree:
                 self.elems[-1].body = _body(body, dim)
         self.names = tuple(e.coord for e in self.elems if e.coord is not None)
 
-    def __call__(self, q, v, tau) -> Recursion:
+    def __call__(self, q, v, tau, columns=()) -> Recursion:
         index = {n: k for k, n in enumerate(self.names)}
         w = _Steps()
         N = len(self.elems)
@@ -361,7 +365,41 @@ class Tree:
                 qdd[k] = w((u[i] - _dot(Uw, aw2) - _dot(Uv, av2)) * Dinv[i])
                 aw2, av2 = w.vec(_add(aw2, _scale(qdd[k], S[i][0]))), w.vec(_add(av2, _scale(qdd[k], S[i][1])))
             acc[i] = (aw2, av2)
-        return Recursion(w.definitions, qdd, sp.Add(*T), momenta, pivots)
+        responses = [self._response(w, index, c, E, r, S, U, Dinv) for c in columns]
+        return Recursion(w.definitions, qdd, sp.Add(*T), momenta, pivots, responses)
+
+    def _response(self, w: _Steps, index: dict, tau: list, E, r, S, U, Dinv) -> list:
+        """``M⁻¹ τ``: the accelerations the generalized forces ``τ`` alone give the tree at rest, without gravity
+        (passes 2 and 3 again, on the articulated inertias already there; Featherstone's §7.3 with ``v = 0``)."""
+        N = len(self.elems)
+        pA: list = [[ZERO] * 6 for _ in range(N)]
+        u: list = [ZERO] * N
+        for i in reversed(range(N)):  # in: the bias of τ alone
+            e = self.elems[i]
+            pa = pA[i]
+            if S[i] is not None:
+                sw, sv = S[i]
+                u[i] = w(tau[index[e.coord]] - _dot(sw, pa[:3]) - _dot(sv, pa[3:]))
+                Uw, Uv = U[i]
+                pa = w.vec(_add(pa, _scale(_mul(u[i], Dinv[i]), [*Uw, *Uv])))
+            if e.parent < 0:
+                continue
+            R = E[i]
+            fv = _mv(R, pa[3:])
+            pA[e.parent] = w.vec(_add(pA[e.parent], [*_add(_mv(R, pa[:3]), _cross(r[i], fv)), *fv]))
+        acc: list = [None] * N
+        qdd = [ZERO] * len(self.names)
+        for i, e in enumerate(self.elems):  # out: from a ground at rest
+            aw, av = ([ZERO] * 3, [ZERO] * 3) if e.parent < 0 else acc[e.parent]
+            R = E[i]
+            aw2, av2 = w.vec(_mtv(R, aw)), w.vec(_mtv(R, _sub(av, _cross(r[i], aw))))
+            if S[i] is not None:
+                k = index[e.coord]
+                Uw, Uv = U[i]
+                qdd[k] = w(_mul(u[i] - _dot(Uw, aw2) - _dot(Uv, av2), Dinv[i]))
+                aw2, av2 = w.vec(_add(aw2, _scale(qdd[k], S[i][0]))), w.vec(_add(av2, _scale(qdd[k], S[i][1])))
+            acc[i] = (aw2, av2)
+        return qdd
 
 
 def _add3(A, B, C):
@@ -400,4 +438,5 @@ def offer(joints: list, bodies: dict, dim: int, components: list, coordinates: l
     why = "dynamics='recursive'" if choice == "recursive" else f"the default from {RECURSIVE_FROM} joint coordinates on"
     return RecursiveDynamics(frozenset(covers), tree.names, tree,
                              f"the accelerations by the articulated-body algorithm ({len(tree.names)} joint "
-                             f"coordinates, {len(tree.elems)} elementary joints: {why})", forced=choice == "recursive")
+                             f"coordinates, {len(tree.elems)} elementary joints: {why})", forced=choice == "recursive",
+                             responds=True)
