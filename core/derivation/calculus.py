@@ -13,7 +13,7 @@ substitutes with a memo shared between calls; :func:`trig` builds ``sin`` and
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 
 import sympy as sp
 from sympy.core.function import AppliedUndef
@@ -71,6 +71,46 @@ class Calculus:
         if out is None:
             out = self._rule(e, s)
             self._diff[key] = out
+        return out
+
+    def along(self, e, rates: Mapping, memo: dict):
+        """``Σ_s ∂e/∂s · rates[s]``: the derivative of ``e`` along the direction ``rates`` (``{q_i: q̇_i, t: 1}``
+        for the total time derivative at fixed ``q̇``), in one pass over ``e``'s shared sub-expressions (forward
+        mode), where the gradient symbol by symbol takes one pass per symbol.  ``memo`` is the caller's, one per
+        direction.
+
+        >>> x, y = sp.symbols("x y")
+        >>> Calculus([x, y]).along(sp.sin(x) * y, {x: 2, y: 3}, {})
+        2*y*cos(x) + 3*sin(x)
+        """
+        if self.deps(e).isdisjoint(rates):
+            return _ZERO
+        out = memo.get(e)
+        if out is not None:
+            return out
+        if e.is_Symbol:
+            out = sp.sympify(rates[e])
+        elif e.is_Add:
+            out = sp.Add(*[self.along(a, rates, memo) for a in e.args])
+        elif e.is_Mul:
+            args = e.args
+            terms = []
+            for k, a in enumerate(args):
+                da = self.along(a, rates, memo)
+                if da != 0:
+                    terms.append(sp.Mul(*args[:k], da, *args[k + 1:]))
+            out = sp.Add(*terms)
+        elif e.is_Pow and self.deps(e.args[1]).isdisjoint(rates):
+            base, exp = e.args
+            db = self.along(base, rates, memo)
+            out = sp.Mul(_TWO, base, db) if exp == 2 else sp.Mul(exp, sp.Pow(base, exp - 1), db)
+        elif isinstance(e, sp.sin):
+            out = sp.Mul(trig(sp.cos, e.args[0]), self.along(e.args[0], rates, memo))
+        elif isinstance(e, sp.cos):
+            out = sp.Mul(-_ONE, trig(sp.sin, e.args[0]), self.along(e.args[0], rates, memo))
+        else:
+            out = sp.Add(*[sp.Mul(self.diff(e, s), rates[s]) for s in self.deps(e) if s in rates])
+        memo[e] = out
         return out
 
     def _rule(self, e, s):

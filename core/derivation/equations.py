@@ -452,13 +452,12 @@ class Equations:
     def _velocity_rows(self, c, check: bool = False):
         """The rows of the constraints on velocities ``c = A(q, t) q̇ + b(q, t) = 0``, stabilized as ``ċ + ω c = 0``:
         ``A q̈ = −(c_q q̇ + c_t + ω c)`` (``A = c_q̇``)."""
-        q, v = self.sym.q, self.sym.v
-        Jv = c.jacobian(v)
+        Jv, rhs = velocity_rows(c, self.sym.q, self.sym.v, sp.Float(self.constraint_rate), self._derivation.calc)
         involved = [self.names[i] for i in self.first_order if check and any(not _is_zero(Jv[k, i]) for k in range(Jv.rows))]
         if involved:
             raise ModelError(f"coordinates {', '.join(involved)} have no inertia but take part in a constraint on "
                              f"velocities: give them mass.")
-        return velocity_rows(c, q, v, sp.Float(self.constraint_rate))
+        return Jv, rhs
 
     def _with_rows(self, M, f, J, rhs, check: bool):
         """``A`` and ``b`` with constraint rows ``J q̈ = rhs`` and their multipliers (forces ``Jᵀ λ``)."""
@@ -479,14 +478,12 @@ class Equations:
     def _constrained(self, Phi, check: bool = False):
         """Jacobian ``Φ_q`` and the right-hand sides of the stabilized constraint rows ``Φ̈ + 2ωΦ̇ + ω²Φ = 0``
         (Baumgarte): ``Φ_q q̈ = −(Φ̇_q q̇ + Φ̇_t + 2ωΦ̇ + ω²Φ)``."""
-        q, v = self.sym.q, self.sym.v
-        Jq = Phi.jacobian(q)
+        Jq, rhs = position_rows(Phi, self.sym.q, self.sym.v, sp.Float(self.constraint_rate), self._derivation.calc)
         involved = [self.names[i] for i in self.first_order if check and any(not _is_zero(Jq[k, i]) for k in range(Jq.rows))]
         if involved:
             raise ModelError(
                 f"coordinates {', '.join(involved)} have no inertia but take part in a loop-closure constraint: give them mass."
             )
-        _, rhs = position_rows(Phi, q, v, sp.Float(self.constraint_rate))
         return Jq, None, rhs
 
     # -- display helpers -------------------------------------------------------

@@ -63,18 +63,26 @@ def _why_not(assembly, offer: RecursiveDynamics, names: list[str]) -> str | None
     return None
 
 
-def position_rows(Phi: sp.Matrix, q, v, w) -> tuple[sp.Matrix, sp.Matrix]:
+def position_rows(Phi: sp.Matrix, q, v, w, calc) -> tuple[sp.Matrix, sp.Matrix]:
     """The rows ``J q̈ = rhs`` of constraints on positions ``Φ(q, t) = 0``, stabilized as ``Φ̈ + 2ωΦ̇ + ω²Φ = 0``
-    (Baumgarte): ``J = Φ_q`` and ``rhs = −(Φ̇_q q̇ + Φ̇_t + 2ωΦ̇ + ω²Φ)``."""
-    Jq = Phi.jacobian(q)
-    Phi_dot = Jq * sp.Matrix(v) + Phi.diff(t)
-    return Jq, -(Phi_dot.jacobian(q) * sp.Matrix(v) + Phi_dot.diff(t) + 2 * w * Phi_dot + w**2 * Phi)
+    (Baumgarte): ``J = Φ_q`` and ``rhs = −(Φ̇_q q̇ + Φ̇_t + 2ωΦ̇ + ω²Φ)``.  ``Φ̇`` and ``Φ̇_q q̇ + Φ̇_t`` are
+    derivatives along ``(q̇, 1)`` (:meth:`~lagrangian.derive.Calculus.along`, ``calc`` the derivation's), one pass
+    each over the closure's shared sub-expressions: the Jacobian of ``Φ̇`` took time cubic in a loop's length."""
+    rates = {**dict(zip(q, v)), t: sp.S.One}
+    Jq = sp.Matrix([[calc.diff(phi, s) for s in q] for phi in Phi]) if len(Phi) else sp.zeros(0, len(q))
+    memo: dict = {}
+    Phi_dot = [calc.along(phi, rates, memo) for phi in Phi]
+    bias = [calc.along(e, rates, memo) for e in Phi_dot]  # (the same direction: Φ̇'s own terms are Φ's)
+    return Jq, sp.Matrix([-(b + 2 * w * d + w**2 * phi) for b, d, phi in zip(bias, Phi_dot, Phi)])
 
 
-def velocity_rows(c: sp.Matrix, q, v, w) -> tuple[sp.Matrix, sp.Matrix]:
+def velocity_rows(c: sp.Matrix, q, v, w, calc) -> tuple[sp.Matrix, sp.Matrix]:
     """The rows ``J q̈ = rhs`` of constraints on velocities ``c = A(q, t) q̇ + b(q, t) = 0``, stabilized as
     ``ċ + ω c = 0``: ``J = ∂c/∂q̇`` and ``rhs = −(c_q q̇ + c_t + ω c)``."""
-    return c.jacobian(v), -(c.jacobian(q) * sp.Matrix(v) + c.diff(t) + w * c)
+    rates = {**dict(zip(q, v)), t: sp.S.One}
+    Jv = sp.Matrix([[calc.diff(e, s) for s in v] for e in c]) if len(c) else sp.zeros(0, len(v))
+    memo: dict = {}
+    return Jv, sp.Matrix([-(calc.along(e, rates, memo) + w * e) for e in c])
 
 
 def _constrained(rec: Recursion, J: sp.Matrix, rhs: sp.Matrix) -> tuple[Recursion, list, list]:
@@ -144,8 +152,8 @@ def take(assembly, eq, Q: list[sp.Expr], calc, constraints=(), velocity=(), rate
     by_name = dict(zip(eq.names, range(len(q))))
     order = [by_name[n] for n in offer.names]
     w = sp.Float(rate)
-    parts = ([position_rows(sp.Matrix(constraints), q, v, w)] if len(constraints) else []) + \
-            ([velocity_rows(sp.Matrix(list(velocity)), q, v, w)] if len(velocity) else [])
+    parts = ([position_rows(sp.Matrix(constraints), q, v, w, calc)] if len(constraints) else []) + \
+            ([velocity_rows(sp.Matrix(list(velocity)), q, v, w, calc)] if len(velocity) else [])
     J = sp.Matrix.vstack(*(p[0] for p in parts)) if parts else sp.zeros(0, len(q))
     rhs = sp.Matrix.vstack(*(p[1] for p in parts)) if parts else sp.zeros(0, 1)
     args = [[q[i] for i in order], [v[i] for i in order], [tau[i] for i in order]]
