@@ -32,7 +32,8 @@ def _decade(draw, lo=-1.0, hi=1.0):
 @st.composite
 def trees(draw, dim):
     """A random tree of 2–5 bodies on random joints (each joint's parent one of the bodies before it), masses and
-    sizes over two decades, with a spring, a damper and gravity along a random direction."""
+    sizes over two decades, with a point mass on one body, a spring, a damper and gravity along a random
+    direction."""
     n = draw(st.integers(2, 5 if dim == 2 else 4))
     kinds = draw(st.lists(st.sampled_from(PLANAR_JOINTS if dim == 2 else SPATIAL_JOINTS), min_size=n, max_size=n))
     if all(k == "fixed" for k in kinds):
@@ -51,21 +52,24 @@ def trees(draw, dim):
             axis = (1.0,) + (0.0,) * (dim - 1)
         spec.append((parent, kinds[k], body, m, length, point, child, axis, draw(st.sampled_from(SEQUENCES))))
     direction = tuple(draw(st.floats(-1, 1)) for _ in range(dim - 1)) + (-1.0,)
-    return dim, spec, _decade(draw, 0, 2), _decade(draw, -2, 0), direction
+    # a point mass on a point of one body (folded into its inertia by the recursion), over two decades
+    bob = (draw(st.integers(0, n - 1)), _decade(draw), tuple(draw(st.floats(-0.5, 0.5)) for _ in range(dim)))
+    return dim, spec, _decade(draw, 0, 2), _decade(draw, -2, 0), direction, bob
 
 
 def build(tree, dynamics):
-    dim, spec, k, c, direction = tree
+    dim, spec, k, c, direction, (carrier, bob, tip) = tree
     m = lg.Model("tree", dim=dim, dynamics=dynamics)
     for i, (parent, kind, body, mass, length, point, child, axis, seq) in enumerate(spec):
         name = f"b{i}"
+        points = {"points": {"tip": tip}} if i == carrier else {}
         if body == "rod":
-            m.add("rod", name, name, m=mass, length=length)
+            m.add("rod", name, name, m=mass, length=length, **points)
         elif body == "disc":
-            m.add("disc", name, name, m=mass, radius=length / 2)
+            m.add("disc", name, name, m=mass, radius=length / 2, **points)
         else:
             inertia = mass * length**2 / 12 if dim == 2 else tuple(mass * length**2 * f for f in (0.1, 0.12, 0.15))
-            m.add("body", name, name, m=mass, inertia=inertia, com=tuple(x / 3 for x in child))
+            m.add("body", name, name, m=mass, inertia=inertia, com=tuple(x / 3 for x in child), **points)
         extra = {}
         if kind in ("revolute", "prismatic") and (dim == 3 or kind == "prismatic"):
             extra["axis"] = axis
@@ -74,6 +78,7 @@ def build(tree, dynamics):
         if kind == "fixed" and dim == 2:
             extra["angle"] = 0.3
         m.add(kind, f"j{i}", (parent, name), parent_point=point if parent != "ground" else None, child_point=child, **extra)
+    m.add("mass", "bob", f"b{carrier}.tip", m=bob)
     last = f"b{len(spec) - 1}"
     m.add("spring", "k", ("ground", f"{last}.com"), k=k)
     m.add("damper", "c", ("ground", "b0.com"), c=c)  # (the centre of mass is off the joint: never a zero length)
@@ -289,7 +294,7 @@ def test_symbolic_parameters_give_the_same_structure_and_the_closed_form_on_dema
 @pytest.mark.parametrize("case, words", [
     ("loop closed twice", "constraints are not independent"),
     ("driven", "is driven"),
-    ("point mass", "acts on 'bob', not a rigid body"),
+    ("mass on a spring", "acts on 'bob', not a rigid body"),
     ("massless end", "have no inertia about their joints' axes"),
 ])
 def test_what_the_recursion_cannot_serve_is_refused_by_name(case, words):
@@ -300,8 +305,9 @@ def test_what_the_recursion_cannot_serve_is_refused_by_name(case, words):
     elif case == "driven":
         m.add("rod", "d", "d", m=0.1, length=0.2)
         m.add("revolute", "jd", ("r2", "d"), angle=lg.t)
-    elif case == "point mass":
-        m.add("mass", "bob", "r2.end", m=0.2)
+    elif case == "mass on a spring":
+        m.add("mass", "bob", "hung", m=0.2)
+        m.add("spring", "s", ("r2.end", "hung"), k=30.0)
     else:
         m.add("link", "l", "l", points={"tip": (0.2, 0)})
         m.add("revolute", "jl", ("r2", "l"), parent_point=(0.7, 0))
@@ -311,7 +317,8 @@ def test_what_the_recursion_cannot_serve_is_refused_by_name(case, words):
 
 def test_auto_falls_back_to_the_closed_form_where_the_recursion_cannot_serve():
     m = chain(recursive.RECURSIVE_FROM)
-    m.add("mass", "bob", f"r{recursive.RECURSIVE_FROM - 1}.end", m=0.2)
+    m.add("mass", "bob", "hung", m=0.2)
+    m.add("spring", "s", (f"r{recursive.RECURSIVE_FROM - 1}.end", "hung"), k=30.0)
     assert m.eq.recursion is None
     res = m.simulate(0.2, points=2)
     assert res.t[-1] == pytest.approx(0.2)

@@ -24,6 +24,8 @@ The kinetic energy ``Σ ½ v_iᵀ I_i v_i`` and the momenta ``∂T/∂q̇_i = S_
 beyond joint ``i``) come from the same passes.  Entries that are exactly zero (a planar mechanism's out-of-plane
 motion, an axis along a frame's axis) fold away as the steps are written.
 
+Point masses on a body's node or points are folded into its inertia (:func:`_point_masses`).
+
 ``Model(dynamics="recursive")`` asks for it at any size, ``"closed"`` never; the default, ``"auto"``, takes it from
 :data:`RECURSIVE_FROM` joint coordinates.  A double pendulum both ways:
 
@@ -169,7 +171,8 @@ def _pad(v, dim: int) -> list:
 class _Elem:
     """An elementary joint: its frame's parent (−1: ground), a turn about or a slide along ``axis`` (parent frame) at
     ``P`` (parent frame), the child's point ``C`` on it (child frame), a fixed turn ``R0`` (fixed joints), the
-    coordinate's name (None: fixed) and the body carried, ``(m, c, Ic)`` or None (a massless frame)."""
+    coordinate's name (None: fixed) and the body carried, a list of parts ``(m, c, Ic)`` (the body's own, and the
+    point masses on its points, ``Ic`` zero) or None (a massless frame)."""
 
     parent: int
     kind: str
@@ -219,24 +222,28 @@ def _revolute_axis(joint) -> list:
     return list(_unit(_vec(joint.params.get("axis"), 3, joint, "axis", E3[2]), joint, "axis"))
 
 
-def _body(body, dim: int) -> tuple | None:
+def _body(body, dim: int, points: list) -> list | None:
+    """The parts of a body's inertia in its frame: its own ``(m, c, Ic)`` and the point masses ``(m, offset)`` on
+    its points (``points``), or None when none has mass."""
+    parts = []
     m = body.mass_value
-    if m == 0:
-        return None
-    c = _pad(body.com_offset(dim), dim)
-    I = body.inertia_matrix(dim)
-    if dim == 2:
-        Ic = [[ZERO, ZERO, ZERO], [ZERO, ZERO, ZERO], [ZERO, ZERO, I]]
-    else:
-        Ic = [[I[i, j] for j in range(3)] for i in range(3)]
-    return m, c, Ic
+    if m != 0:
+        c = _pad(body.com_offset(dim), dim)
+        I = body.inertia_matrix(dim)
+        if dim == 2:
+            Ic = [[ZERO, ZERO, ZERO], [ZERO, ZERO, ZERO], [ZERO, ZERO, I]]
+        else:
+            Ic = [[I[i, j] for j in range(3)] for i in range(3)]
+        parts.append((m, c, Ic))
+    parts += [(mp, _pad(offset, dim), _zeros()) for mp, offset in points]
+    return parts or None
 
 
 class Tree:
     """A tree of rigid bodies as elementary joints, and its articulated-body recursion (``__call__``: the ``build``
     of :class:`lagrangian.RecursiveDynamics`)."""
 
-    def __init__(self, joints: list, bodies: dict, dim: int, fields: list):
+    def __init__(self, joints: list, bodies: dict, dim: int, fields: list, points: dict | None = None):
         self.dim = dim
         self.fields = fields  # the accelerations of uniform fields (gravity), dim × 1 each
         self.elems: list[_Elem] = []
@@ -247,7 +254,7 @@ class Tree:
             frame[j.nodes[1]] = len(self.elems) - 1
             body = bodies.get(j.nodes[1])
             if body is not None:
-                self.elems[-1].body = _body(body, dim)
+                self.elems[-1].body = _body(body, dim, (points or {}).get(j.nodes[1], []))
         self.names = tuple(e.coord for e in self.elems if e.coord is not None)
 
     def __call__(self, q, v, tau, columns=()) -> Recursion:
@@ -287,11 +294,13 @@ class Tree:
                 cor[i] = [ZERO] * 6
             vel[i] = (om, vv)
             if e.body is not None:
-                m, cc, Ic = e.body
-                X = _skew(cc)
-                J = w.mat(_msub(Ic, [[_mul(m, x) for x in row] for row in _mm(X, X)]))
-                H = w.mat([[_mul(m, x) for x in row] for row in X])
-                M = [[m if a == b else ZERO for b in range(3)] for a in range(3)]
+                J, H, M = _zeros(), _zeros(), _zeros()
+                for m, cc, Ic in e.body:  # (about the frame's origin: Ic − m [c×]², m [c×], m 1)
+                    X = _skew(cc)
+                    J = _madd(J, _msub(Ic, [[_mul(m, x) for x in row] for row in _mm(X, X)]))
+                    H = _madd(H, [[_mul(m, x) for x in row] for row in X])
+                    M = _madd(M, [[m if a == b else ZERO for b in range(3)] for a in range(3)])
+                J, H = w.mat(J), w.mat(H)
                 hw = w.vec(_add(_mv(J, om), _mv(H, vv)))
                 hv = w.vec(_add(_mtv(H, om), _mv(M, vv)))
                 T.append((_dot(om, hw) + _dot(vv, hv)) / 2)
@@ -406,6 +415,21 @@ def _add3(A, B, C):
     return [[A[i][j] + B[i][j] + C[i][j] for j in range(3)] for i in range(3)]
 
 
+def _point_masses(components: list, bodies: dict, dim: int) -> dict:
+    """``[(body node, offset, component)]``: the point masses (``mass``) on a body's node or one of its points, which
+    the recursion folds into that body's inertia."""
+    out = []
+    for c in components:
+        if getattr(c, "kind", None) != "mass" or getattr(c, "gravitational_mass", None) is None:
+            continue
+        node = c.nodes[0]
+        body, _, point = node.partition(".")
+        offsets = bodies[body].point_offsets(dim) if body in bodies else {}
+        if body in bodies and (not point or point in offsets):
+            out.append((body, list(offsets[point or "origin"]), c))
+    return out
+
+
 def offer(joints: list, bodies: dict, dim: int, components: list, coordinates: list, choice: str) -> RecursiveDynamics | None:
     """The multibody plugin's offer of recursive dynamics for a tree of ``joints`` (parent before child), or None:
     ``choice`` is the model's ``dynamics`` option (``"auto"``: from :data:`RECURSIVE_FROM` joint coordinates)."""
@@ -413,10 +437,12 @@ def offer(joints: list, bodies: dict, dim: int, components: list, coordinates: l
         return None
     why = None
     fields, covers = [], {b.name for b in bodies.values()} | {j.name for j in joints}
+    points = _point_masses(components, bodies, dim)
+    covers |= {c.name for _, _, c in points}
     for c in components:
         if hasattr(c, "field_acceleration"):
             held = [o for o in components if getattr(o, "gravitational_mass", None) is not None]
-            others = [o.name for o in held if o not in bodies.values()]
+            others = [o.name for o in held if o not in bodies.values() and o.name not in covers]
             if others:
                 why = (f"gravity {c.name!r} acts on {', '.join(map(repr, others))}, "
                        f"{'not a rigid body' if len(others) == 1 else 'not rigid bodies'} of the tree")
@@ -434,7 +460,10 @@ def offer(joints: list, bodies: dict, dim: int, components: list, coordinates: l
             raise ModelError(f"dynamics='recursive' needs a tree of joints with coordinates relative to their parents "
                              f"and uniform gravity on the bodies alone: {why}. Use dynamics='closed' (or 'auto').")
         return None
-    tree = Tree(joints, bodies, dim, fields)
+    carried: dict = {}
+    for node, offset, c in points:
+        carried.setdefault(node, []).append((c.gravitational_mass[1], offset))
+    tree = Tree(joints, bodies, dim, fields, carried)
     why = "dynamics='recursive'" if choice == "recursive" else f"the default from {RECURSIVE_FROM} joint coordinates on"
     return RecursiveDynamics(frozenset(covers), tree.names, tree,
                              f"the accelerations by the articulated-body algorithm ({len(tree.names)} joint "
