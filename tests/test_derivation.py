@@ -9,6 +9,8 @@ import random
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import given, settings
+from hypothesis import strategies as st
 import sympy.physics.mechanics as me
 
 import lagrangian as lg
@@ -302,6 +304,32 @@ def test_time_derivative_and_partial_derivatives_agree_with_sympy():
     for e in [sp.sin(s1) ** 3 * s2 + t * sp.cos(s1 * s2), s1 ** sp.Rational(1, 2) * sp.exp(s2 * t), sp.Abs(s1) + sp.atan(s2)]:
         for s in (s1, s2, t):
             assert sp.simplify(calc.diff(e, s) - sp.diff(e, s)) == 0
+
+
+@st.composite
+def _expressions(draw, atoms, depth=3):
+    """Random expressions of ``atoms``: sums, products, powers, sin, cos, sqrt and exp, sharing sub-expressions."""
+    if depth == 0:
+        return draw(st.sampled_from(atoms)) * draw(st.sampled_from([1, 2, sp.Rational(3, 10), sp.Float(0.7)]))
+    a, b = draw(_expressions(atoms, depth - 1)), draw(_expressions(atoms, depth - 1))
+    return draw(st.sampled_from([a + b, a * b, a**2 * b, sp.sin(a) * b, sp.cos(a + b), sp.sqrt(1 + a**2) + b,
+                                 sp.exp(a / 3) * a, a * sp.sin(a)]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.data())
+def test_the_derivative_along_a_direction_is_the_chain_rule_of_sympys_derivatives(data):
+    """Calculus.along (one forward pass) against Σ ∂e/∂s · rate_s by SymPy's own diff, at random points."""
+    s1, s2, v1, v2 = sp.symbols("s1 s2 v1 v2", real=True)
+    e = data.draw(_expressions([s1, s2, t]))
+    rates = {s1: v1, s2: v2 * s1, t: sp.S.One}
+    got = Calculus([s1, s2, t]).along(e, rates, {})
+    want = sum(sp.diff(e, s) * r for s, r in rates.items())
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        point = dict(zip((s1, s2, v1, v2, t), rng.uniform(-1.5, 1.5, 5)))
+        a, b = complex(got.evalf(subs=point)), complex(want.evalf(subs=point))
+        assert abs(a - b) <= 1e-9 * (1 + abs(b))
 
 
 def test_zero_tests_are_exact_about_identical_zeros():
