@@ -52,6 +52,7 @@ from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..derivation.calculus import Rewriter, symbols_of
+from ..derivation.recursion import tangents
 from .lti import _number, numeric, stamped
 from .control import state_space_system
 from .motion import kane_state_space, null_space, number, rates, steady_check
@@ -400,6 +401,10 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                              fast["point"], time, False, (fast["M"], fast["C"], fast["K"], Jq, fast["Bw"]),
                              fast["rows"])
     eq = twin.eq
+    if eq.recursion is not None and not (is_symbolic or moving or channels or eq.multipliers):
+        by_recursion = _by_recursion(model, twin, eq, values, outputs, point, time, tol, settle=at is None)
+        if by_recursion is not None:
+            return by_recursion
     names = eq.names
     q, v = list(eq.sym.q), list(eq.sym.v)
     n = len(q)
@@ -523,6 +528,51 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
     lin.velocity = dict(moving)
     lin.Phi_v = (sp.Matrix(Av) if is_symbolic else np.array(Av, dtype=float)) if mv else None
     return lin
+
+
+def _by_recursion(model: Model, twin: Model, eq, values, outputs, point, time, tol, settle: bool):
+    """The linearization of a model its recursion serves (numbers, at rest, no inputs or constraints), from forward
+    derivatives through the recursion's steps (:func:`lagrangian.derivation.recursion.tangents`): ``M = ∂p/∂q̇``,
+    ``K = −∂(M q̈)/∂q``, ``C = −M ∂q̈/∂q̇``, never the closed form (which a 10-body spatial chain did not finish in
+    300 s).  ``settle``: Newton's method on ``q̈(q) = 0`` first, as :func:`_settle` does on ``f``.  None where
+    the steps hold what the forward rules do not know (the closed form then decides)."""
+    names, q, v, n = eq.names, list(eq.sym.q), list(eq.sym.v), len(eq.names)
+    env = {**{s: float(x) for s, x in values.items() if isinstance(x, (int, float))}, t: float(time)}
+    env.update({s: 0.0 for s in v})
+    x = np.array([float(point[nm]) for nm in names])
+
+    def at(x):
+        env.update(zip(q, x.tolist()))
+        return tangents(eq.recursion.recursion, env, q, v)
+
+    out = at(x)
+    for _ in range(50 if settle and out is not None else 0):
+        qdd, J, _ = out
+        step, *_ = np.linalg.lstsq(J[:, :n], qdd, rcond=None)
+        if not np.all(np.isfinite(step)):
+            break
+        x, out = x - step, at(x - step)
+        if out is None or np.abs(step).max(initial=0.0) <= 1e-14 * max(1.0, np.abs(x).max(initial=0.0)):
+            break
+    if out is None:
+        return None
+    if settle:
+        point.update({nm: sp.Float(float(value)) for nm, value in zip(names, x)})
+    qdd, J, P = out
+    M0 = P[:, n:]
+    env.update(zip(v, qdd.tolist()))  # (∂p/∂q at q̇ = q̈ is (∂M/∂q) q̈: f = M q̈ off an exact rest point too)
+    moved = tangents(eq.recursion.recursion, env, q, v)
+    if moved is None or not all(np.all(np.isfinite(a)) for a in (*out, *moved)):
+        return None  # (a pivot of the recursion is zero there, a gimbal lock: the closed form says what it can)
+    C0, K0 = -M0 @ J[:, n:], -(M0 @ J[:, :n] + moved[2][:, :n])
+    _check_rest(model.name, M0 @ qdd, names, False, tol, K0, M0, point)
+    subs = {**{s: sp.Float(float(point[nm])) for s, nm in zip(q, names)}, **{s: sp.Integer(0) for s in v},
+            t: sp.Float(time) if time else sp.Integer(0),
+            **{s: sp.Float(x) if isinstance(x, float) else x for s, x in values.items()}}
+    rewrite = Rewriter(subs)
+    rows = _outputs(twin, eq, outputs, None, {}, lambda e: _number(rewrite(sp.sympify(e, strict=True)), model.name))
+    return _linear_model(model, twin, {}, values, outputs, names, [], point, time, False,
+                         (M0, C0, K0, np.zeros((0, n)), [np.zeros((n, 0))] * 2), rows)
 
 
 def _linear_model(model: Model, twin: Model, channels, values, outputs, names, first, point, time, is_symbolic,

@@ -250,3 +250,78 @@ def _value(e: sp.Expr, env: dict, rng) -> float:
     if e.func in _UNARY:
         return float(_UNARY[e.func](args[0]))
     return float(e.xreplace({a: sp.Float(x) for a, x in zip(e.args, args)}))
+
+
+_DUAL_UNARY = {sp.sin: (np.sin, np.cos), sp.cos: (np.cos, lambda x: -np.sin(x)), sp.exp: (np.exp, np.exp),
+               sp.tanh: (np.tanh, lambda x: 1 - np.tanh(x) ** 2), sp.log: (np.log, lambda x: 1 / x),
+               sp.atan: (np.arctan, lambda x: 1 / (1 + x * x)), sp.Abs: (np.abs, np.sign)}
+
+
+def tangents(rec: Recursion, env: dict, q, v) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """The accelerations of ``rec`` at a point (``env``: every symbol's value: coordinates, rates, parameters, ``t``),
+    their derivatives by the coordinates and the rates (``n × 2n``: ``∂q̈/∂q`` then ``∂q̈/∂q̇``) and those of the
+    momenta ``p = M(q) q̇`` (``∂p/∂q = (∂M/∂q) q̇``, then the mass matrix ``∂p/∂q̇``): forward-mode derivatives carried through the recursion's steps, all ``2n`` directions at once, in
+    work of the steps' number times ``n`` (the closed form's derivatives grow with its equations, as ``n⁴`` and
+    beyond).  None where a step holds something this evaluator does not know (the closed form then decides)."""
+    n = len(q)
+    dual: dict = {}
+    for k, s in enumerate([*q, *v]):
+        tangent = np.zeros(2 * n)
+        tangent[k] = 1.0
+        dual[s] = (float(env[s]), tangent)
+    try:
+        with np.errstate(all="ignore"):
+            for s, e in rec.definitions:
+                dual[s] = _dual(e, dual, env)
+            acc = [_dual(e, dual, env) for e in rec.accelerations]
+            momenta = [_dual(e, dual, env) for e in rec.momenta]
+    except (TypeError, ValueError, KeyError, ZeroDivisionError, OverflowError):
+        return None
+
+    def grad(x):
+        return x[1] if x[1] is not None else np.zeros(2 * n)
+
+    qdd = np.array([a[0] for a in acc])
+    J = np.array([grad(a) for a in acc]).reshape(n, 2 * n)
+    P = np.array([grad(p) for p in momenta]).reshape(n, 2 * n)
+    return qdd, J, P
+
+
+def _dual(e, dual: dict, env: dict):
+    """``(value, tangent or None)`` of ``e`` (its symbols' from ``dual``, else constants from ``env``)."""
+    if e in dual:
+        return dual[e]
+    if e.is_Number:
+        return float(e), None
+    if e.is_Symbol:
+        return float(env[e]), None
+    if isinstance(e, sp.Piecewise):
+        for expr, cond in e.args:
+            compare = _RELATIONS.get(type(cond))
+            if cond is sp.true or (compare is not None and compare(_dual(cond.lhs, dual, env)[0],
+                                                                    _dual(cond.rhs, dual, env)[0])):
+                return _dual(expr, dual, env)
+        return float("nan"), None
+    args = [_dual(a, dual, env) for a in e.args]
+    if e.is_Add:
+        moving = [a[1] for a in args if a[1] is not None]
+        return float(sum(a[0] for a in args)), (sum(moving[1:], moving[0].copy()) if moving else None)
+    if e.is_Mul:
+        value = float(np.prod([a[0] for a in args]))
+        tangent = None
+        for k, (_, tk) in enumerate(args):
+            if tk is not None:
+                others = float(np.prod([a[0] for j, a in enumerate(args) if j != k]))
+                tangent = tk * others if tangent is None else tangent + tk * others
+        return value, tangent
+    if e.is_Pow:
+        (b, tb), (x, tx) = args
+        value = float(np.float64(b) ** x)
+        if tx is not None:
+            raise ValueError("a power with a moving exponent")
+        return value, (None if tb is None else tb * (x * np.float64(b) ** (x - 1)))
+    if e.func in _DUAL_UNARY and len(args) == 1:
+        f, df = _DUAL_UNARY[e.func]
+        (x, tx), = args
+        return float(f(x)), (None if tx is None else tx * float(df(x)))
+    raise ValueError(f"no forward rule for {e.func}")
