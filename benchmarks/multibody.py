@@ -48,6 +48,8 @@ Figures (CPU time, ``time.process_time``; ours and Pinocchio interleaved, best o
   loop against ``abaInParallel``), ``call_vs_pinocchio`` (the same called from Python), ``run_vs_pinocchio_scipy`` (Pinocchio's run
   time ÷ ours); summaries ``rhs_vs_pinocchio_worst`` (the largest over the sizes), ``run_vs_pinocchio_scipy_worst``
   (the smallest), ``build_exponent`` (least-squares slope of log build_s against log n over the planar sizes).
+- ``linearize_s``: ours, ``frequency.linearize`` of the built model about its hanging rest, in the build's process
+  (forward derivatives through the recursion's steps; ``linearize_worst_s``, the largest over the sizes).
 
 **MuJoCo** (``mujoco``, the ``bench`` extra) gets the same models in MJCF: hinge joints, a spatial body turned by
 three hinges about its x, y and z axes in that order (MuJoCo's R = R_x(α) R_y(β) R_z(γ), the same coordinates).  Its
@@ -183,6 +185,11 @@ def start(kind: str, n: int) -> tuple[np.ndarray, np.ndarray]:
     return q0, rng.uniform(-0.2, 0.2, n)
 
 
+def rest(kind: str, n: int) -> dict:
+    """The chain at rest, hanging: the operating point of its linearization (``linearize_s``)."""
+    return {"theta_j0": -math.pi / 2} if kind == "planar" else {}
+
+
 def random_states(kind: str, n: int, count: int, seed: int) -> np.ndarray:
     """Rows ``(q, q̇)`` at random (the spatial angles away from the gimbal lock at β = ±π/2)."""
     rng = np.random.default_rng(seed)
@@ -204,7 +211,7 @@ def child_build(kind: str, n: int, out: str) -> dict:
     built model is pickled to ``out`` (with its derivation) for the timings that follow, which load it with this
     process's cache and its native library rather than derive it again."""
     import lagrangian as lg
-    from lagrangian import codegen
+    from lagrangian import codegen, frequency
 
     warnings.simplefilter("ignore", lg.InitialConditionWarning)
     lg.default_registry()
@@ -225,9 +232,13 @@ def child_build(kind: str, n: int, out: str) -> dict:
     marks.append((time.process_time(), os.times()))
     own = [b[0] - a[0] for a, b in zip(marks, marks[1:])]
     cc = [cpu(b[1])[1] - cpu(a[1])[1] for a, b in zip(marks, marks[1:])]
+    began = time.process_time()
+    linear = frequency.linearize(model, rest(kind, n))  # (through the recursion: the closed form is never derived)
+    linearize_s = time.process_time() - began
+    lowest = float(np.sqrt(np.min(np.abs(np.linalg.eigvals(np.linalg.solve(linear.M, linear.K))))))
     with open(out, "wb") as fh:
         pickle.dump(model, fh)
-    return {"build_s": sum(own) + sum(cc), "own_s": sum(own), "cc_s": sum(cc), "derive_s": own[0] + cc[0],
+    return {"linearize_s": linearize_s, "lowest_rad_s": lowest, "build_s": sum(own) + sum(cc), "own_s": sum(own), "cc_s": sum(cc), "derive_s": own[0] + cc[0],
             "first_run_s": own[1] + cc[1], "native_s": own[2] + cc[2], "runtime_once_s": runtime_s,
             "first_by": first.notes[0] if first.notes else "", "native_by": native.notes[0] if native.notes else ""}
 
@@ -605,6 +616,7 @@ def main() -> None:
             f"{key}_rhs_vs_pinocchio": r["rhs_ratio"], f"{key}_call_vs_pinocchio": r["call_ratio"],
             f"{key}_run_vs_pinocchio_scipy": r["run_ratio"], f"{key}_agreement_rel": r.get("agreement_rel"),
             f"{key}_build_derive_s": b.get("derive_s"), f"{key}_build_cc_s": b.get("cc_s"),
+            f"{key}_linearize_s": b.get("linearize_s"),
         })
         if "error" in b:
             figures[f"{key}_build_note"] = b["error"]
@@ -635,6 +647,8 @@ def main() -> None:
     exponent = float(np.polyfit(np.log([n for n, _ in planar]), np.log([s for _, s in planar]), 1)[0]) if len(planar) > 1 else None
     agreement = [r["agreement_rel"] for r in results if "agreement_rel" in r]
     runtime = next((r["build"]["runtime_once_s"] for r in results if "runtime_once_s" in r["build"]), None)
+    linearize = [r["build"]["linearize_s"] for r in results if r["build"].get("linearize_s") is not None]
+    figures.update(linearize_worst_s=max(linearize) if linearize else None)
     figures.update(rhs_vs_pinocchio_worst=max(rhs_ratios) if rhs_ratios else None,
                    run_vs_pinocchio_scipy_worst=min(run_ratios) if run_ratios else None, build_exponent=exponent,
                    agreement_max_rel=max(agreement) if agreement else None,
