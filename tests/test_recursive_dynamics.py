@@ -259,21 +259,29 @@ def test_a_knife_edge_on_the_recursion_runs_as_the_closed_form():
 
 def _check_linearization(tree):
     """The closed form's linearization about the rest point its Newton iteration finds, and the recursion's about the
-    same point (forward derivatives through its steps): the same M, C and K."""
+    same point (forward derivatives through its steps): the same M, C, K and input matrices."""
     from hypothesis import assume
 
     from lagrangian import frequency
 
+    def driven(dynamics):  # inputs: a force on the last body, a generalized force on the first coordinate
+        m = build(tree, dynamics)
+        m.add("force", "F", f"b{len(tree[1]) - 1}.com", F=(0.0,) * tree[0])
+        m.add("generalized_force", "tq", coordinate=m.coordinate_names[0], Q=0.0)
+        return m
+
+    inputs = {"inputs": ["F[0]", "tq"]}
     try:
-        closed = frequency.linearize(build(tree, "closed"))
+        closed = frequency.linearize(driven("closed"), **inputs)
     except lg.ModelError:  # no rest point found from the origin (a tree that topples): nothing to compare
         assume(False)
-    fast = build(tree, "recursive")
-    lin = frequency.linearize(fast, closed.at)
+    fast = driven("recursive")
+    lin = frequency.linearize(fast, closed.at, **inputs)
     if np.linalg.cond(closed.M) < 1e8:  # (at a gimbal lock the recursion's pivots vanish: the closed form decides)
         assert "M" not in fast.eq._generic  # the recursion's derivatives, never the closed form
-    for name in ("M", "C", "K"):
-        a, b = getattr(lin, name), getattr(closed, name)
+    pairs = [(getattr(lin, k), getattr(closed, k), k) for k in ("M", "C", "K", "Bi")]
+    assert len(lin.B) == len(closed.B)
+    for a, b, name in pairs + [(x, y, "B") for x, y in zip(lin.B, closed.B)]:
         assert np.max(np.abs(a - b), initial=0.0) <= 1e-8 * (np.max(np.abs(b), initial=0.0) + 1e-300), name
 
 

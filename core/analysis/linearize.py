@@ -401,8 +401,8 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                              fast["point"], time, False, (fast["M"], fast["C"], fast["K"], Jq, fast["Bw"]),
                              fast["rows"])
     eq = twin.eq
-    if eq.recursion is not None and not (is_symbolic or moving or channels or eq.multipliers):
-        by_recursion = _by_recursion(model, twin, eq, values, outputs, point, time, tol, settle=at is None)
+    if eq.recursion is not None and not (is_symbolic or moving or eq.multipliers):
+        by_recursion = _by_recursion(model, twin, eq, channels, values, outputs, point, time, tol, settle=at is None)
         if by_recursion is not None:
             return by_recursion
     names = eq.names
@@ -530,20 +530,26 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
     return lin
 
 
-def _by_recursion(model: Model, twin: Model, eq, values, outputs, point, time, tol, settle: bool):
-    """The linearization of a model its recursion serves (numbers, at rest, no inputs or constraints), from forward
+def _by_recursion(model: Model, twin: Model, eq, channels, values, outputs, point, time, tol, settle: bool):
+    """The linearization of a model its recursion serves (numbers, at rest, no constraints), from forward
     derivatives through the recursion's steps (:func:`lagrangian.derivation.recursion.tangents`): ``M = ∂p/∂q̇``,
-    ``K = −∂(M q̈)/∂q``, ``C = −M ∂q̈/∂q̇``, never the closed form (which a 10-body spatial chain did not finish in
-    300 s).  ``settle``: Newton's method on ``q̈(q) = 0`` first, as :func:`_settle` does on ``f``.  None where
-    the steps hold what the forward rules do not know (the closed form then decides)."""
+    ``K = −∂(M q̈)/∂q``, ``C = −M ∂q̈/∂q̇`` and, for each input's signal and derivative, ``B = M ∂q̈/∂u``; never
+    the closed form (which a 10-body spatial chain did not finish in 300 s).  ``settle``: Newton's method on
+    ``q̈(q) = 0`` first, as :func:`_settle` does on ``f``.  None where the steps hold what the forward rules do
+    not know (the closed form then decides)."""
     names, q, v, n = eq.names, list(eq.sym.q), list(eq.sym.v), len(eq.names)
+    rec = eq.recursion.recursion
+    found = sorted(_atoms([e for _, e in rec.definitions] + list(rec.accelerations), channels), key=sp.default_sort_key)
     env = {**{s: float(x) for s, x in values.items() if isinstance(x, (int, float))}, t: float(time)}
     env.update({s: 0.0 for s in v})
+    env.update({a: 0.0 for a in found if isinstance(a, AppliedUndef) and a.args != (t,)})  # (w(0): 0 at the point)
+    inputs = [a for a in found if not (isinstance(a, AppliedUndef) and a.args != (t,))]
+    slots = [_channel(a, channels) for a in inputs]  # (derivative order k, input column)
     x = np.array([float(point[nm]) for nm in names])
 
     def at(x):
         env.update(zip(q, x.tolist()))
-        return tangents(eq.recursion.recursion, env, q, v)
+        return tangents(rec, env, q, v, inputs)
 
     out = at(x)
     for _ in range(50 if settle and out is not None else 0):
@@ -564,15 +570,26 @@ def _by_recursion(model: Model, twin: Model, eq, values, outputs, point, time, t
     moved = tangents(eq.recursion.recursion, env, q, v)
     if moved is None or not all(np.all(np.isfinite(a)) for a in (*out, *moved)):
         return None  # (a pivot of the recursion is zero there, a gimbal lock: the closed form says what it can)
-    C0, K0 = -M0 @ J[:, n:], -(M0 @ J[:, :n] + moved[2][:, :n])
+    C0, K0 = -M0 @ J[:, n:2 * n], -(M0 @ J[:, :n] + moved[2][:, :n])
     _check_rest(model.name, M0 @ qdd, names, False, tol, K0, M0, point)
+    Bw = [np.zeros((n, len(channels))) for _ in range(max([k for k, _ in slots] + [1]) + 1)]
+    for j, (k, col) in enumerate(slots):  # the k-th derivative of w is s^(k−1) u: B_(k−1), or Bi (u/s) for w itself
+        Bw[k][:, col] += M0 @ J[:, 2 * n + j]
     subs = {**{s: sp.Float(float(point[nm])) for s, nm in zip(q, names)}, **{s: sp.Integer(0) for s in v},
             t: sp.Float(time) if time else sp.Integer(0),
             **{s: sp.Float(x) if isinstance(x, float) else x for s, x in values.items()}}
-    rewrite = Rewriter(subs)
-    rows = _outputs(twin, eq, outputs, None, {}, lambda e: _number(rewrite(sp.sympify(e, strict=True)), model.name))
-    return _linear_model(model, twin, {}, values, outputs, names, [], point, time, False,
-                         (M0, C0, K0, np.zeros((0, n)), [np.zeros((n, 0))] * 2), rows)
+    symbol_of: dict = {}
+
+    def usym(col: int, k: int) -> sp.Symbol:
+        if (col, k) not in symbol_of:  # (an output's dependence on an input: at its operating value, 0)
+            symbol_of[col, k] = sym = sp.Dummy(f"u{col}_{k}", real=True)
+            subs[sym] = sp.Integer(0)
+        return symbol_of[col, k]
+
+    rows = _outputs(twin, eq, outputs, usym, channels,
+                    lambda e: _number(Rewriter(subs)(sp.sympify(e, strict=True)), model.name))
+    return _linear_model(model, twin, channels, values, outputs, names, [], point, time, False,
+                         (M0, C0, K0, np.zeros((0, n)), Bw), rows)
 
 
 def _linear_model(model: Model, twin: Model, channels, values, outputs, names, first, point, time, is_symbolic,

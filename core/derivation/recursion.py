@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from ..base.domain import Recursion, RecursiveDynamics
 from ..base.component import t
@@ -230,7 +231,7 @@ def _value(e: sp.Expr, env: dict, rng) -> float:
     """``e`` in floats, its symbols from ``env`` (a symbol without a value gets one drawn within a decade of 1)."""
     if e.is_Number:
         return float(e)
-    if e.is_Symbol:
+    if e.is_Symbol or isinstance(e, (AppliedUndef, sp.Derivative)):  # (a signal u(t), its rates: values at random)
         if e not in env:
             env[e] = float(10 ** rng.uniform(-0.5, 0.5))
         return env[e]
@@ -257,18 +258,21 @@ _DUAL_UNARY = {sp.sin: (np.sin, np.cos), sp.cos: (np.cos, lambda x: -np.sin(x)),
                sp.atan: (np.arctan, lambda x: 1 / (1 + x * x)), sp.Abs: (np.abs, np.sign)}
 
 
-def tangents(rec: Recursion, env: dict, q, v) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def tangents(rec: Recursion, env: dict, q, v, inputs=()) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """The accelerations of ``rec`` at a point (``env``: every symbol's value: coordinates, rates, parameters, ``t``),
     their derivatives by the coordinates and the rates (``n × 2n``: ``∂q̈/∂q`` then ``∂q̈/∂q̇``) and those of the
     momenta ``p = M(q) q̇`` (``∂p/∂q = (∂M/∂q) q̇``, then the mass matrix ``∂p/∂q̇``): forward-mode derivatives carried through the recursion's steps, all ``2n`` directions at once, in
     work of the steps' number times ``n`` (the closed form's derivatives grow with its equations, as ``n⁴`` and
-    beyond).  None where a step holds something this evaluator does not know (the closed form then decides)."""
+    beyond).  ``inputs``: more directions after those (sub-expressions, such as an input's signal ``u(t)``, taken as
+    unknowns at 0), whose derivatives follow the rates'.  None where a step holds something this evaluator does
+    not know (the closed form then decides)."""
     n = len(q)
+    width = 2 * n + len(inputs)
     dual: dict = {}
-    for k, s in enumerate([*q, *v]):
-        tangent = np.zeros(2 * n)
+    for k, s in enumerate([*q, *v, *inputs]):
+        tangent = np.zeros(width)
         tangent[k] = 1.0
-        dual[s] = (float(env[s]), tangent)
+        dual[s] = (float(env[s]) if k < 2 * n else 0.0, tangent)
     try:
         with np.errstate(all="ignore"):
             for s, e in rec.definitions:
@@ -279,11 +283,11 @@ def tangents(rec: Recursion, env: dict, q, v) -> tuple[np.ndarray, np.ndarray, n
         return None
 
     def grad(x):
-        return x[1] if x[1] is not None else np.zeros(2 * n)
+        return x[1] if x[1] is not None else np.zeros(width)
 
     qdd = np.array([a[0] for a in acc])
-    J = np.array([grad(a) for a in acc]).reshape(n, 2 * n)
-    P = np.array([grad(p) for p in momenta]).reshape(n, 2 * n)
+    J = np.array([grad(a) for a in acc]).reshape(n, width)
+    P = np.array([grad(p) for p in momenta]).reshape(n, width)
     return qdd, J, P
 
 
