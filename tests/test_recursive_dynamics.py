@@ -314,6 +314,21 @@ def test_a_hanging_chain_of_forty_rods_swings_at_the_continuous_chains_frequenci
     assert abs(w[0] / continuous[0] - 1) < 1e-4 and abs(w[1] / continuous[1] - 1) < 2e-3
 
 
+def test_the_numpy_path_runs_the_recursion_and_never_the_closed_form():
+    """compiled=False (as where no C compiler is at hand): the recursion's steps as NumPy code, its energies and
+    Jacobi integral from the energy tape on NumPy arrays; the same run as the tape interpreter's."""
+    m = chain(9, "recursive")
+    init = {f"theta_j{k}": 0.2 * (-1) ** k for k in range(9)}
+    rates = {f"theta_j{k}": 0.1 * k for k in range(9)}
+    a = m.simulate(0.3, initial=init, velocity=rates, points=5, compiled=False, rtol=1e-10, atol=1e-12)
+    assert "M" not in m.eq._generic  # (the closed form of nine links is never derived)
+    b = m.simulate(0.3, initial=init, velocity=rates, points=5, compiled="tape", rtol=1e-10, atol=1e-12)
+    for name in m.coordinate_names:
+        assert np.max(np.abs(a[name] - b[name])) <= 1e-12
+    assert np.max(np.abs(a.E - b.E)) <= 1e-12 * np.max(np.abs(b.V))
+    assert "energy (Jacobi integral) kept" in a.notes[-1]
+
+
 def chain(n, dynamics="auto"):
     return models.pendulum_chain(n, m=[0.3 + 0.05 * k for k in range(n)], length=0.7, dynamics=dynamics)
 

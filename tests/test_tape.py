@@ -182,6 +182,21 @@ def test_python_reference_matches_sympy(case):
     np.testing.assert_allclose(got, expected(case), rtol=RTOL, atol=ATOL)
 
 
+@pytest.mark.parametrize("case", ALL_CASE_PARAMS)
+def test_numpy_arrays_match_sympy(case):
+    """Program.evaluate_many (every operation on arrays of all the points at once) against SymPy's values."""
+    prog = record(case.exprs, INPUTS)
+    got = prog.evaluate_many(np.array(case.points(), dtype=float).T).T
+    np.testing.assert_allclose(got, expected(case), rtol=RTOL, atol=ATOL)
+
+
+@pytest.mark.parametrize("expr, at, value", [
+    pytest.param(sp.Heaviside(X), 0.0, 0.5, id="Heaviside(0)=1/2"), pytest.param(sp.sign(X), 0.0, 0.0, id="sign(0)=0"),
+    pytest.param(sp.Mod(X, -3), 7.0, -2.0, id="Mod(7,-3)=-2"), pytest.param(sp.Min(X, 1, -4), 0.0, -4.0, id="Min")])
+def test_numpy_arrays_keep_the_special_values(expr, at, value):
+    assert record([expr], INPUTS).evaluate_many(np.array([[at], [0.0], [0.0]]))[0, 0] == value
+
+
 # Values that follow from the definitions (SymPy's conventions): checked in both interpreters.
 SPECIAL_VALUES = [
     pytest.param(sp.Heaviside(X), 0.0, 0.5, id="Heaviside(0)=1/2"),

@@ -653,6 +653,11 @@ class Problem:
         fast = getattr(self.numeric, "_fast", None)  # compiled code in use (lagrangian.codegen)
         if fast is not None and t.ndim == 1:
             return fast.jacobi(t, q, v)
+        tape = getattr(self.numeric, "_energy_tape", None)  # (a recursion's energy tape: T, V, D, L, p)
+        if tape is not None:
+            q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
+            out = tape.evaluate_many(np.vstack([np.broadcast_to(t, q.shape[1:])[None], q, v]))
+            return np.sum(out[4:] * v, axis=0) - out[3]
         return np.broadcast_to(np.asarray(self._jacobi_fn(t, q, v), dtype=float), t.shape).copy()
 
 

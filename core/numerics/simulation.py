@@ -17,7 +17,8 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from .codegen import compile_model
+from .band import recursive_arrays
+from .codegen import _Unavailable, compile_model, programs
 from .result import Result
 from ..base.component import StateCall, refuse_unpicklable, t
 from ..derivation.assembly import Signals, refuse_eliminated
@@ -205,7 +206,9 @@ def _floated(exprs: Any) -> Any:
     return exprs.xreplace(big) if big else exprs
 
 
-def _lambdify(args, exprs, signals):
+def _lambdify(args, exprs, signals, definitions=()):
+    """A NumPy function of ``exprs``; ``definitions`` (``(symbol, expression)`` in order, a recursion's steps) are
+    computed first, in that order, as the function's common sub-expressions."""
     every = [e for e in (exprs if isinstance(exprs, (list, tuple)) else [exprs]) if hasattr(e, "has")]
     if any(e.has(sp.zoo, sp.nan) for e in every):
         raise ModelError("the equations of motion hold an undefined constant (a division by zero that SymPy wrote as "
@@ -215,6 +218,9 @@ def _lambdify(args, exprs, signals):
     owners = getattr(signals, "owners", {})
     modules = [{f.__name__: _checked_signal(f.__name__, fn, owners.get(f.__name__)) for f, fn in signals.items()},
                *special, "numpy"]
+    if definitions:
+        steps = [(w, _floated(e)) for w, e in definitions]
+        return sp.lambdify(args, _floated(exprs), modules=modules, cse=lambda e: (steps, e))
     return sp.lambdify(args, _floated(exprs), modules=modules, cse=True)
 
 
@@ -273,7 +279,7 @@ class NumericModel:
     #: What a pickle leaves out: compiled code (native libraries, tape programs, ctypes handles) and the NumPy
     #: functions lambdified from the equations, all rebuilt on first use where it is unpickled (native code from
     #: the disk cache, or compiled again) — never unpickled as machine code.
-    _UNPICKLED = ("_builds", "_fast", "_flat_fn", "_solve_fn", "_energy_fn", "_tapes_by_layout")
+    _UNPICKLED = ("_builds", "_fast", "_flat_fn", "_solve_fn", "_energy_fn", "_energy_tape", "_tapes_by_layout")
 
     def __getstate__(self) -> dict[str, Any]:
         for f, fn in self.signals.items():  # (a load's callable of the state is held by a StateCall)
@@ -295,7 +301,11 @@ class NumericModel:
         """The generic equations with the values in, for the NumPy functions (large: built only when they are)."""
         subs = {s: sp.Float(v) for s, v in self.values.items()}
         generic = self.eq.generic()  # values given as numbers are symbols there: every value comes from ``values``
-        A, b = generic["A"].xreplace(subs), generic["b"].xreplace(subs)
+        if self.eq.recursion is not None:  # the recursion's steps (_solve_steps), never the closed form's A and b
+            _, u, _ = recursive_arrays(self.eq)
+            A, b = sp.eye(len(u)), sp.Matrix(u).xreplace(subs)
+        else:
+            A, b = generic["A"].xreplace(subs), generic["b"].xreplace(subs)
         energies = [generic[k].xreplace(subs) for k in ("T", "V", "D")]
         q, v = self.eq.sym.q, self.eq.sym.v
         return (t, q, self.vI), [A, b], (t, q, v), energies
@@ -320,7 +330,11 @@ class NumericModel:
     @functools.cached_property
     def _solve_fn(self):
         args, exprs, _, _ = self._solve_args
-        return _lambdify(args, exprs, self.signals)
+        steps = ()
+        if self.eq.recursion is not None:  # (a tree of 30 bodies in work linear in its size, on NumPy too)
+            subs = {s: sp.Float(v) for s, v in self.values.items()}
+            steps = [(w, e.xreplace(subs)) for w, e in self.eq.recursion.recursion.definitions]
+        return _lambdify(args, exprs, self.signals, steps)
 
     @functools.cached_property
     def _energy_fn(self):
@@ -615,8 +629,23 @@ class NumericModel:
     def energies(self, time: np.ndarray, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, ...]:
         if self._fast is not None:
             return self._fast.energies(time, q, v)
+        if self._energy_tape is not None:  # (a recursion's energies: the tape's steps, not the trees of T and V)
+            times = np.broadcast_to(np.asarray(time, dtype=float), np.shape(q)[1:])
+            out = self._energy_tape.evaluate_many(np.vstack([times[None], np.asarray(q, float), np.asarray(v, float)]))
+            return tuple(np.array(out[k]) for k in range(3))
         out = self._energy_fn(time, q, v)
         return tuple(np.broadcast_to(np.asarray(e, dtype=float), time.shape).copy() for e in out)
+
+    @functools.cached_property
+    def _energy_tape(self):
+        """The energy tape of a model its recursion serves (NumPy on every point at once), or None: the energies
+        of a tree written out as expressions (lambdified, walked as trees) grow exponentially with its depth."""
+        if self.eq.recursion is None:
+            return None
+        try:
+            return programs(self)[1]
+        except _Unavailable:  # (Python-callable signals: the expressions, as for any other model)
+            return None
 
 
 def initial_state(
