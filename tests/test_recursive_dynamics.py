@@ -276,9 +276,14 @@ def _check_linearization(tree):
     except lg.ModelError:  # no rest point found from the origin (a tree that topples): nothing to compare
         assume(False)
     fast = driven("recursive")
-    lin = frequency.linearize(fast, closed.at, **inputs)
-    if np.linalg.cond(closed.M) < 1e8:  # (at a gimbal lock the recursion's pivots vanish: the closed form decides)
-        assert "M" not in fast.eq._generic  # the recursion's derivatives, never the closed form
+    from lagrangian.analysis import linearize as module
+
+    taken, real = [], module._by_recursion
+    with pytest.MonkeyPatch.context() as mp:  # (which path gave the result: the twin with inputs is a model of its own)
+        mp.setattr(module, "_by_recursion", lambda *a, **k: taken.append(real(*a, **k)) or taken[-1])
+        lin = frequency.linearize(fast, closed.at, **inputs)
+    if taken and np.linalg.cond(closed.M) < 1e8:  # (none: a linear tree, read off its stamps; at a gimbal lock the
+        assert taken[0] is not None                 # recursion's pivots vanish and the closed form decides)
     pairs = [(getattr(lin, k), getattr(closed, k), k) for k in ("M", "C", "K", "Bi")]
     assert len(lin.B) == len(closed.B)
     for a, b, name in pairs + [(x, y, "B") for x, y in zip(lin.B, closed.B)]:
@@ -307,8 +312,12 @@ def test_a_hanging_chain_of_forty_rods_swings_at_the_continuous_chains_frequenci
 
     n, length = 40, 0.2
     m = models.pendulum_chain(n, m=0.3, length=length)
-    lin = frequency.linearize(m, {"theta_j0": -np.pi / 2})
+    m.add("force", "F", f"r{n - 1}.end", F=(0.0, 0.0))
+    lin = frequency.linearize(m, {"theta_j0": -np.pi / 2}, inputs=["F[0]"])
     assert m.eq.recursion is not None and "M" not in m.eq._generic
+    # a horizontal force F at the free end: on the relative angle θ_i it acts through the n − i rods beyond joint i,
+    # each hanging straight down (absolute angle −π/2): ∂x_end/∂θ_i = (n − i) L
+    assert np.allclose(lin.B[0][:, 0], length * (n - np.arange(n)), rtol=1e-12)
     w = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(lin.M, lin.K)).real))[:2]
     continuous = jn_zeros(0, 2) / 2 * np.sqrt(9.81 / (n * length))
     assert abs(w[0] / continuous[0] - 1) < 1e-4 and abs(w[1] / continuous[1] - 1) < 2e-3

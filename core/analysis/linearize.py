@@ -565,9 +565,9 @@ def _by_recursion(model: Model, twin: Model, eq, channels, values, outputs, poin
     if settle:
         point.update({nm: sp.Float(float(value)) for nm, value in zip(names, x)})
     qdd, J, P = out
-    M0 = P[:, n:]
+    M0 = P[:, n:2 * n]
     env.update(zip(v, qdd.tolist()))  # (∂p/∂q at q̇ = q̈ is (∂M/∂q) q̈: f = M q̈ off an exact rest point too)
-    moved = tangents(eq.recursion.recursion, env, q, v)
+    moved = tangents(rec, env, q, v, inputs)
     if moved is None or not all(np.all(np.isfinite(a)) for a in (*out, *moved)):
         return None  # (a pivot of the recursion is zero there, a gimbal lock: the closed form says what it can)
     C0, K0 = -M0 @ J[:, n:2 * n], -(M0 @ J[:, :n] + moved[2][:, :n])
