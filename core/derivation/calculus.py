@@ -89,7 +89,7 @@ class Calculus:
         if out is not None:
             return out
         if e.is_Symbol:
-            out = sp.sympify(rates[e])
+            out = sp.sympify(rates[e], strict=True)  # (an expression of the caller's, never text)
         elif e.is_Add:
             out = sp.Add(*[self.along(a, rates, memo) for a in e.args])
         elif e.is_Mul:
