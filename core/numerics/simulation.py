@@ -301,7 +301,7 @@ class NumericModel:
         """The generic equations with the values in, for the NumPy functions (large: built only when they are)."""
         subs = {s: sp.Float(v) for s, v in self.values.items()}
         generic = self.eq.generic()  # values given as numbers are symbols there: every value comes from ``values``
-        if self.eq.recursion is not None:  # the recursion's steps (_solve_steps), never the closed form's A and b
+        if self.eq.recursion is not None:  # the recursion's steps (in _solve_fn), never the closed form's A and b
             _, u, _ = recursive_arrays(self.eq)
             A, b = sp.eye(len(u)), sp.Matrix(u).xreplace(subs)
         else:
