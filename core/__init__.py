@@ -21,7 +21,7 @@ from .base.component import GROUND, Component, Contribution, Example, Load, Movi
 from .base.domain import (Context, Coordinate, Domain, DomainView, Incidence, Network, Option, Recursion, RecursiveDynamics,
                           coordinate, rate)
 from .base.limits import limits
-from .base.linear import Linear, LinearContext, Quantity
+from .base.linear import Linear, LinearContext, Potential, Quantity
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
 from .plugin.hookspecs import hookimpl
@@ -114,6 +114,7 @@ __all__ = [
     "Incidence",
     "Linear",
     "LinearContext",
+    "Potential",
     "Quantity",
     "Coordinate",
     "coordinate",

@@ -40,6 +40,7 @@ from .numerics.events import Event
 from .numerics.events import check as check_events
 from .numerics.linear import prepared, simulate_exact, state_space
 from .numerics.fmu import export as export_fmu
+from .numerics import assembled as _assembled
 from .numerics import sensitivity as _sensitivity
 
 __all__ = ["Model"]
@@ -563,6 +564,11 @@ class Model:
         model the energy (Jacobi integral) is checked after the run: a drift
         beyond ``energy_tol`` warns (:class:`~lagrangian.integrate.EnergyDriftWarning`).
 
+        A model of at least ``lagrangian.numerics.assembled.ASSEMBLED_MIN`` coordinates whose components all say their
+        energies in numbers (masses, springs, cubic ones too, dampers, forces: a chain of 10⁴) runs with the default
+        method from its numeric assembly, nothing derived symbolically (:mod:`lagrangian.numerics.assembled`;
+        ``Result.notes`` says so); ``params``, events, sensitivities, ``step`` or ``compiled`` take the symbolic path.
+
         ``method="exact"`` solves a linear time-invariant model exactly by
         matrix exponentials (:func:`lagrangian.linear.simulate_exact`; no
         tolerances apply).  A model that is not linear time-invariant, or an
@@ -630,7 +636,11 @@ class Model:
 
         # a large linear model with every parameter valued is solved from its stamps, never derived symbolically
         # (nor assembled symbolically, when its components say their contributions in numbers)
-        st, names, params, numeric = prepared(self, params, method in ("auto", "exact") and not events, initial, velocity)
+        # so is a large one of many lumped components under the default method, nonlinear ones included
+        local = _assembled.stamps_for_run(self) if _assembled.wanted(method, params, events, sensitivities, compiled,
+                                                                     step) else None
+        st, names, params, numeric = (local, list(local.names), {}, True) if local is not None else \
+            prepared(self, params, method in ("auto", "exact") and not events, initial, velocity)
         dim = len(names) + len(st.inertial if st is not None else self.eq.inertial)
         span = check_span(t_end)
         run = RunOptions(
@@ -656,6 +666,8 @@ class Model:
         if run.events and method == "exact":
             raise ModelError("method='exact' solves the whole span at once and takes no events: use an adaptive "
                              "method (DOP853, RK45, Radau) or method='auto'.")
+        if local is not None:
+            return _assembled.simulate_assembled(self, run, local, self.registry.integrators)
         if _sensitivity.asked(sensitivities):
             return _sensitivity.simulate(self, run, sensitivities)
         if method == "auto" and st is not None:

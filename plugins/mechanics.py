@@ -16,6 +16,7 @@ of time (a rheonomic constraint).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -37,6 +38,7 @@ from lagrangian import (
     Network,
     Option,
     Parameter,
+    Potential,
     dot,
     hookimpl,
     rate,
@@ -195,6 +197,15 @@ class Mass(Component):
         return Example("p", {"m": 2}, context=[("spring", "k", ("ground", "p"), {"k": 3})])
 
 
+@functools.cache
+def _spring_energy() -> sp.Expr:
+    """A 1-D spring's energy ``½ k e² + ¼ β e⁴`` over its branch ``x = x_a − x_b``, whose extension
+    ``x_b − x_a − ℓ₀`` is ``−(x + ℓ₀)``: one expression for every spring (``p0, p1, p2`` = ``k, ℓ₀, β``)."""
+    (x,), (k, rest, beta) = Potential.placeholders(1, 3)
+    e = x + rest
+    return k * e**2 / 2 + beta * e**4 / 4
+
+
 class Spring(Component):
     """Spring along the line between its nodes: V = ½ k e² + ¼ β e⁴ for its extension e = |r_b − r_a| − ℓ₀.
 
@@ -244,10 +255,18 @@ class Spring(Component):
         return Contribution(V=_half_square(self.k, e) + quartic)
 
     def linear(self, ctx: LinearContext) -> Linear | None:
+        """``½ k x²`` in numbers; with a rest length (a constant force too) or a ``beta`` given (even 0, which
+        ``params=`` may change: a cubic force), the whole energy as a :class:`~lagrangian.Potential` of the branch,
+        which only the numeric runs of large models take (the linear analyses refuse it)."""
         k = ctx.number(self, "k")
-        if k is None or not _one_axis(ctx) or self.rest_length != 0 or "beta" in self._given:  # (a rest length:
-            return None  # a constant force too; beta, even 0, which params= may change: a cubic one)
-        return Linear(V={(0, 0): k})
+        if k is None or not _one_axis(ctx):
+            return None
+        if self.rest_length == 0 and "beta" not in self._given:
+            return Linear(V={(0, 0): k})
+        beta = ctx.number(self, "beta")
+        if beta is None:
+            return None
+        return Linear(potential=Potential(_spring_energy(), (k, float(self.rest_length), beta)))
 
     @classmethod
     def example(cls) -> Example:

@@ -28,6 +28,16 @@ so a symmetric cross term is given both ways.
 ...                                                  "v": Quantity(((0, 2, 7e-3),))})
 >>> inductor.T, inductor.quantities["v"].terms   # ½ L i², v = L di/dt
 ({(0, 0): 0.007}, ((0, 2, 0.007),))
+
+A component whose energy is not quadratic in its variables may still say it
+in numbers for the runs of a large model (:mod:`lagrangian.numerics.assembled`):
+a :class:`Potential` ``V(x, p)`` of its variables ``x_k`` and parameters
+``p_j``, written once per kind with the same placeholder symbols for every
+component of that kind and given this component's numbers for ``p``.  The
+energy is then differentiated once per kind, not once per component, and
+evaluated for all components of the kind at once.  A model with a potential
+is not linear: the exact solution, transfer functions and other linear
+analyses refuse it in numbers and take the symbolic path.
 """
 
 from __future__ import annotations
@@ -36,7 +46,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Linear", "LinearContext", "Quantity"]
+import sympy as sp
+
+__all__ = ["Linear", "LinearContext", "Potential", "Quantity"]
 
 
 @dataclass(frozen=True)
@@ -48,6 +60,34 @@ class Quantity:
     signal: float = 0.0
 
 
+@dataclass(frozen=True)
+class Potential:
+    """A nonlinear energy ``V(x, p)`` of a component's variables (see the module documentation).
+
+    ``energy``: a SymPy expression in the placeholders ``x0, x1, …`` (the
+    component's variables, in the order of :attr:`Linear.branches`) and
+    ``p0, p1, …`` (its parameters), built once per kind and structure: every
+    component whose energy has the same expression shares one derivation.
+    ``values``: this component's number for each ``p_j``.  :meth:`placeholders`
+    gives the symbols.
+
+    >>> from lagrangian.base.linear import Potential
+    >>> (x0,), (p0,) = Potential.placeholders(1, 1)
+    >>> duffing = Potential(p0 * x0**4 / 4, (2e4,))      # ¼ β x⁴
+    >>> duffing.energy, duffing.values
+    (p0*x0**4/4, (20000.0,))
+    """
+
+    energy: Any
+    values: tuple[float, ...] = ()
+
+    @staticmethod
+    def placeholders(variables: int, parameters: int) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+        """The symbols ``(x0, …), (p0, …)`` a potential is written in (real symbols: the same objects every call)."""
+        return (tuple(sp.Symbol(f"x{k}", real=True) for k in range(variables)),
+                tuple(sp.Symbol(f"p{j}", real=True) for j in range(parameters)))
+
+
 @dataclass
 class Linear:
     """One component's share of a linear time-invariant model (see the module documentation).
@@ -55,7 +95,8 @@ class Linear:
     ``branches``: the variables, as ``(component name, branch index)`` pairs; ``None`` for the component's own
     branches in order.  ``T``, ``V``, ``D``, ``G``: coefficients by pair of variable indices.  ``force``: by variable
     index, the generalized force per unit of the component's signal.  ``quantities``: by name (those of
-    :attr:`lagrangian.Component.quantities` it can give in numbers).
+    :attr:`lagrangian.Component.quantities` it can give in numbers).  ``potential``: a nonlinear energy of the
+    variables (:class:`Potential`), added to ``V``; ``None`` for a linear component.
     """
 
     branches: tuple[tuple[str, int], ...] | None = None
@@ -65,6 +106,7 @@ class Linear:
     G: Mapping[tuple[int, int], float] = field(default_factory=dict)
     force: Mapping[int, float] = field(default_factory=dict)
     quantities: Mapping[str, Quantity] = field(default_factory=dict)
+    potential: Potential | None = None
 
 
 @dataclass

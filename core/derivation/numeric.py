@@ -43,11 +43,11 @@ import sympy as sp
 from ..base.component import GROUND, Component, _CallableSignal
 from ..base.component import t as _t
 from ..base.domain import Network
-from ..base.linear import Linear, LinearContext, Quantity
+from ..base.linear import Linear, LinearContext, Potential, Quantity
 from ..base.network import check_topology
 from .stamps import NotStampable, Quadratic, Stamps
 
-__all__ = ["NumericAssembly", "assemble_numeric", "numeric_branches", "numeric_stamps"]
+__all__ = ["NumericAssembly", "assemble_local", "assemble_numeric", "local_stamps", "numeric_branches", "numeric_stamps"]
 
 
 @dataclass
@@ -62,7 +62,10 @@ class NumericAssembly:
     column its signal ``s_c`` multiplies; ``linears``: each component's
     :class:`~lagrangian.base.linear.Linear`; ``rows``: each variable of each
     component (by name) as ``{coordinate index: coefficient}``, for its
-    quantities; ``branch``: every branch quantity by edge key, likewise.
+    quantities; ``branch``: every branch quantity by edge key, likewise;
+    ``potentials``: the nonlinear energies of the components that give one
+    (:class:`~lagrangian.base.linear.Potential`), by name: only
+    :func:`assemble_local` keeps a model that has any.
     """
 
     names: list[str]
@@ -71,6 +74,7 @@ class NumericAssembly:
     linears: dict[str, Linear] = field(default_factory=dict)
     rows: dict[str, list[dict[int, float]]] = field(default_factory=dict)
     branch: dict[str, dict[int, float]] = field(default_factory=dict)
+    potentials: dict[str, Potential] = field(default_factory=dict)
 
     def dense(self, which: str) -> np.ndarray:
         """Matrix ``which`` (``"M"``, ``"C"``, ``"K"``, ``"Cd"``) as a read-only array, made on first use."""
@@ -137,13 +141,34 @@ class NumericAssembly:
 
 def assemble_numeric(model: Any) -> NumericAssembly:
     """The :class:`lagrangian.Model` ``model`` in numbers (see the module documentation), or
-    :class:`NotStampable` saying why not.
+    :class:`NotStampable` saying why not (a component with a nonlinear potential among them: see
+    :func:`assemble_local`).
 
     The topology is checked as the symbolic assembly checks it (the same
     errors); coordinates come in the order of the symbolic assembly's.  The
     result (or the refusal) is kept with the model until it changes, its
     arrays read-only: a netlist's initial state, a linearization and an
     analogy's check share one assembly.
+    """
+    asm = assemble_local(model)
+    if asm.potentials:
+        name = next(iter(asm.potentials))
+        raise NotStampable(f"{model._graph.components[name].kind} {name!r} is nonlinear (its energy is a potential "
+                           f"of its variables, not a quadratic form)")
+    return asm
+
+
+def assemble_local(model: Any) -> NumericAssembly:
+    """:func:`assemble_numeric`, also for a model whose components give nonlinear energies as
+    :class:`~lagrangian.base.linear.Potential` (in :attr:`NumericAssembly.potentials`): what the runs of
+    :mod:`lagrangian.numerics.assembled` read.  Kept with the model.
+
+    >>> import lagrangian as lg
+    >>> from lagrangian import models
+    >>> chain = models.spring_chain(2, m=0.3, k=40.0, beta=2e4)
+    >>> asm = assemble_local(chain)
+    >>> sorted(asm.potentials), asm.potentials["k1"].values, asm.rows["k1"]      # k, ℓ₀, β; x_p0 − x_p1
+    (['k0', 'k1'], (40.0, 0.0, 20000.0), [{0: 1.0, 1: -1.0}])
     """
     return _kept(model, "numeric", _assemble)
 
@@ -236,6 +261,9 @@ def _assemble(model: Any) -> NumericAssembly:
                 for j, c in sparse[i].items():
                     force[j] += f * c
             out.forces[comp.name] = force
+        if lin.potential is not None:
+            _check_potential(comp, lin.potential, len(sparse))
+            out.potentials[comp.name] = lin.potential
         out.linears[comp.name] = lin
         out.rows[comp.name] = sparse
     out.entries = {which: _summed(*triplets, n) for which, triplets in (("M", M), ("C", C), ("K", K), ("Cd", Cd))}
@@ -243,6 +271,22 @@ def _assemble(model: Any) -> NumericAssembly:
         array.setflags(write=False)
     return out
 
+
+
+def _check_potential(comp: Component, potential: Any, variables: int) -> None:
+    """Refuse a potential that is not an expression in the placeholders of ``variables`` variables and as many
+    parameters as it gives values, each a finite number (a plugin's fault, named)."""
+    where = f"{comp.kind} {comp.name!r}"
+    if not isinstance(potential, Potential) or not isinstance(potential.energy, sp.Expr):
+        raise NotStampable(f"{where}: its potential is not a lagrangian.Potential of a SymPy expression")
+    values = potential.values
+    if not isinstance(values, tuple) or not all(isinstance(v, float) and np.isfinite(v) for v in values):
+        raise NotStampable(f"{where}: its potential's values are not a tuple of finite floats")
+    x, p = Potential.placeholders(variables, len(values))
+    stray = potential.energy.free_symbols - set(x) - set(p)
+    if stray:
+        raise NotStampable(f"{where}: its potential holds {', '.join(sorted(map(str, stray)))[:80]}, which is no "
+                           f"placeholder of its {variables} variable(s) and {len(values)} value(s)")
 
 
 def _scatter(target: tuple[list, list, list], a: dict[int, float], b: dict[int, float], c: float) -> None:
@@ -307,6 +351,12 @@ def numeric_stamps(model: Any) -> Stamps:
     ([1, sin(3*t)], array([[1., 2.]]))
     """
     return _kept(model, "numeric_stamps", lambda m: _stamps(m, assemble_numeric(m)))
+
+
+def local_stamps(model: Any) -> Stamps:
+    """:func:`numeric_stamps` of :func:`assemble_local`: ``M``, ``C``, ``K``, ``B`` and the quadratic energies of a
+    model that may hold potentials besides (which the stamps leave out).  Kept with the model."""
+    return _kept(model, "local_stamps", lambda m: _stamps(m, assemble_local(m)))
 
 
 def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
