@@ -7,6 +7,7 @@ from hypothesis import given, settings, strategies as st
 from sympy.core.function import AppliedUndef
 
 from lagrangian.base import identity
+from lagrangian.derivation.calculus import Calculus
 
 x, y = sp.symbols("x y", real=True)
 f = sp.Function("f")
@@ -28,6 +29,17 @@ def test_a_deeply_shared_expression_is_decided_without_visiting_every_occurrence
     assert identity.is_zero(e) is False
     assert identity.is_zero(e - e) is True  # (SymPy cancels it: zero without any point)
     assert [s.name for s in identity._opaque(e)] == ["x", "y"]
+
+
+@pytest.mark.timeout(60)
+def test_dependence_and_equality_of_deeply_shared_expressions_visit_each_part_once():
+    e = nested(60)
+    z = sp.Symbol("z", real=True)
+    diff = Calculus([x, y, z]).diff  # (memoized on shared parts: SymPy's diff walks every occurrence)
+    assert identity.depends_on(e * z + x, z, diff=diff) is True and identity.depends_on(e, z) is False
+    assert identity.symbols_of([e]) == {x, y} == nested(6).free_symbols
+    assert identity.equal(e, e + 0 * z) is True
+    assert identity.equal(e, e + sp.Mul(2, z, evaluate=False)) is False
 
 
 ATOMS = st.sampled_from([x, y, f(t), sp.Derivative(f(t), t), sp.Integer(2), sp.Float(0.5)])

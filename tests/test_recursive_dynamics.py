@@ -9,6 +9,7 @@ import subprocess
 import sys
 
 import numpy as np
+import sympy as sp
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -497,3 +498,46 @@ def test_rotational_springs_dampers_torques_and_forces_enter_as_generalized_forc
     y = np.array([0.3, -0.4, 0.2, 0.5, -0.7, 0.9])
     a, b = fast.numeric().compile("tape").rhs(0.8, y), closed.numeric().rhs(0.8, y)
     assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b))
+
+
+def spatial_chain(n):
+    m = lg.Model(f"{n} bodies", dim=3)
+    parent = "ground"
+    for k in range(n):
+        m.add("body", f"B{k}", f"B{k}", m=0.3 + 0.07 * k, inertia=(0.02, 0.03, 0.04), com=(0, 0, -0.25))
+        m.add("spherical", f"j{k}", (parent, f"B{k}"), **({"parent_point": (0, 0, -0.5)} if k else {}))
+        parent = f"B{k}"
+    m.add("gravity", "g", g=9.81)
+    return m
+
+
+@pytest.mark.timeout(300)
+def test_the_displayed_equations_and_jacobi_integral_of_a_large_spatial_chain_hold_for_the_recursions_motion():
+    """Six bodies on spherical joints (18 coordinates, the recursion's): ``m.equations`` (the closed form, unevaluated
+    products of its large entries) are satisfied by the accelerations of the articulated-body algorithm, and the
+    Jacobi integral, conserved, equals the energy tape's T + V; deciding either walked the whole trees before."""
+    from lagrangian.derivation.derive import Rewriter
+    from lagrangian.numerics.tape import record
+    from lagrangian import routh
+
+    m = spatial_chain(6)
+    numeric = m.numeric()
+    eq = m.eq
+    assert eq.recursion is not None
+    n = len(eq.names)
+    back = Rewriter({**eq._to_sym, **{sp.Derivative(c.function, (lg.t, 2)): a
+                                      for c, a in zip(eq.coordinates, eq.sym.a)}})
+    rows = [back(sp.Add(e.lhs, sp.Mul(-1, e.rhs, evaluate=False), evaluate=False)) for e in m.equations]
+    sizes = [back(e.lhs) for e in m.equations]
+    h = routh.jacobi_integral(m)
+    assert h.conserved and h.energy_conserved
+    tape = record([*rows, *sizes, back(h.expr)], [*eq.sym.q, *eq.sym.v, *eq.sym.a])
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        q, v = rng.uniform(-0.6, 0.6, n), rng.uniform(-1.0, 1.0, n)
+        a = numeric.rhs(0.0, np.concatenate([q, v]))[n:]
+        out = np.array(tape.evaluate([*q, *v, *a]))
+        residual, size, jacobi = out[:n], out[n:2 * n], out[-1]
+        assert np.max(np.abs(residual)) <= 1e-9 * max(np.max(np.abs(size)), 1.0)
+        T, V, _ = numeric.energies(np.array([0.0]), q[:, None], v[:, None])
+        assert abs(jacobi - (T[0] + V[0])) <= 1e-10 * (abs(T[0]) + abs(V[0]))

@@ -65,7 +65,7 @@ from sympy.core.function import AppliedUndef
 
 from .budget import BudgetExceeded, interruptible
 
-__all__ = ["is_zero", "equal", "depends_on", "negligible", "FLOAT_TOLERANCE", "EXACT_TOLERANCE"]
+__all__ = ["is_zero", "equal", "depends_on", "negligible", "nodes", "symbols_of", "FLOAT_TOLERANCE", "EXACT_TOLERANCE"]
 
 #: Relative size below which a value counts as zero when floating-point numbers take part.
 FLOAT_TOLERANCE = 1e-11
@@ -313,6 +313,18 @@ def entries(matrix: sp.MatrixBase) -> list:
     return out
 
 
+def symbols_of(exprs: Iterable) -> set:
+    """The free symbols of ``exprs``, visiting each distinct sub-expression once (:func:`nodes`; SymPy's
+    ``free_symbols`` walks a shared one once per occurrence)."""
+    out: set = set()
+    for e in nodes(exprs):
+        if e.is_Symbol:
+            out.add(e)
+        elif e.args and getattr(e, "bound_symbols", None):
+            out |= e.free_symbols
+    return out
+
+
 def _has_float(expr, values: Mapping, found: set | None = None) -> bool:
     found = nodes([expr]) if found is None else found
     return any(e.is_Float for e in found) or any(isinstance(v, float) or getattr(v, "is_Float", False)
@@ -376,14 +388,14 @@ def is_zero(expr, values: Mapping[Any, Any] | None = None, *, points: int = _POI
         return all(is_zero(e, values, points=points) for e in expr)
     if expr == 0:
         return True
-    if expr.is_number and not expr.free_symbols:
+    found = nodes([expr])  # (SymPy's is_number and free_symbols walk a shared sub-expression once per occurrence)
+    if not _opaque(expr, found):
         value = expr.evalf(_DIGITS)
         if value.is_real and value.is_finite:
             return bool(value == 0)
         return False
     # the values of the symbols the expression holds, looked up from them: every value of a model of 10⁴
     # parameters, for each of its 10⁴ mass-matrix entries, took 20 of 28 s for 1,000 masses
-    found = nodes([expr])
     given = values or {}
     return _zero_at_points(expr, {k: sp.sympify(given[k]) for k in found if k in given}, points, found)
 
@@ -495,10 +507,11 @@ def equal(a, b, values: Mapping[Any, Any] | None = None, *, points: int = _POINT
         return True
     pair = sp.Tuple(a, b)
     given = values or {}
-    values = {k: sp.sympify(given[k]) for k in nodes([pair]) if k in given}  # (the values of its symbols alone)
+    found = nodes([pair])
+    values = {k: sp.sympify(given[k]) for k in found if k in given}  # (the values of its symbols alone)
     # the difference, kept unevaluated so its addends are a's and b's own
     diff = sp.Add(a, sp.Mul(-1, b, evaluate=False), evaluate=False)
-    if not pair.free_symbols and not pair.atoms(AppliedUndef):
+    if not _opaque(pair, found):
         try:
             x, m = _Evaluator(_context(), {})(diff)
         except _Inadmissible:
@@ -525,7 +538,7 @@ def depends_on(expr, symbol, values: Mapping[Any, Any] | None = None, *, diff: C
     (False, True)
     """
     expr = sp.sympify(expr)
-    if symbol not in expr.free_symbols:
+    if symbol not in (symbols_of([expr]) if symbol.is_Symbol else nodes([expr])):  # (each shared part once)
         return False
     derivative = (diff or sp.diff)(expr, symbol)
     return not is_zero(derivative, values)

@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterable, Mapping
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
-from ..base.identity import entries, nodes  # noqa: F401 - (defined there; named here too)
+from ..base.identity import entries, nodes, symbols_of  # noqa: F401 - (defined there; named here too)
 from ..errors import ModelError
 
 __all__ = ["Calculus", "Rewriter", "atoms_of", "cross", "nodes", "symbols_of", "time_derivative", "time_integral", "trig"]
@@ -176,17 +176,6 @@ def dense(matrix: sp.MatrixBase) -> list:
 def atoms_of(exprs: Iterable, *types) -> set:
     """``atoms(*types)`` of ``exprs``, visiting each distinct sub-expression once (:func:`nodes`)."""
     return {e for e in nodes(exprs) if isinstance(e, types)}
-
-
-def symbols_of(exprs: Iterable) -> set:
-    """The free symbols of ``exprs``, visiting each distinct sub-expression once (:func:`nodes`)."""
-    out: set = set()
-    for e in nodes(exprs):
-        if e.is_Symbol:
-            out.add(e)
-        elif e.args and getattr(e, "bound_symbols", None):
-            out |= e.free_symbols
-    return out
 
 
 def cross(a, b) -> list:

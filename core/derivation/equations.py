@@ -42,7 +42,7 @@ from .calculus import atoms_of, symbols_of
 from .derive import Derivation, Rewriter
 from .recursion import Taken, position_rows, take, velocity_rows
 from ..errors import ModelError
-from ..base.identity import is_zero
+from ..base.identity import is_zero, nodes
 from ..base.switching import SWITCHES
 
 __all__ = ["Equations"]
@@ -497,8 +497,23 @@ class Equations:
 
     def as_equalities(self) -> list[sp.Eq]:
         """One ``Eq(Σ_j M_ij q̈_j, f_i)`` per coordinate, in terms of ``q(t)``."""
-        lhs = self.M * sp.Matrix(self.sym.a)
-        return [sp.Eq(self.display(l), self.display(r)) for l, r in zip(lhs, self.f)]
+        M, a = self.M, self.sym.a
+        lhs = [sp.Add(*[_times(M[i, j], a[j]) for j in range(M.cols) if M[i, j] != 0]) for i in range(M.rows)]
+        # unevaluated: deciding whether the sides are equal walks each whole tree (hours for ten bodies in space)
+        return [sp.Eq(self.display(l), self.display(r), evaluate=False) for l, r in zip(lhs, self.f)]
+
+
+#: A mass-matrix entry of more distinct sub-expressions than this is multiplied by its acceleration unevaluated in
+#: :meth:`Equations.as_equalities`: SymPy's product asks the entry's assumptions by walking it as a tree, not a DAG
+#: (100 s for the equations of ten bodies on spherical joints, whose entries nest each body's pose in the next).
+DISPLAY_EVALUATED_MAX = 200
+
+
+def _times(m: sp.Expr, a: sp.Symbol) -> sp.Expr:
+    """``m · a``, evaluated (SymPy's canonical form) unless ``m`` is large (:data:`DISPLAY_EVALUATED_MAX`)."""
+    if len(nodes([m])) > DISPLAY_EVALUATED_MAX:
+        return sp.Mul(m, a, evaluate=False)
+    return m * a
 
 
 #: What :class:`Equations` puts together on first use (its ``__getattr__``; ``A`` when it is ``M``).
