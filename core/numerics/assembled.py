@@ -216,7 +216,8 @@ class AssembledModel:
     def note(self) -> str:
         kinds = len(self.kernels)
         shared = sum(len(k.names) for k in self.kernels)
-        return (f"the model assembled in numbers, nothing derived symbolically: {self.n} coordinates, sparse "
+        return (f"the model assembled in numbers, nothing derived symbolically (the default from {ASSEMBLED_MIN} "
+                f"coordinates on, for components that say their energies in numbers): {self.n} coordinates, sparse "
                 f"matrices ({'diagonal' if self.diagonal else 'factorized'} mass matrix)"
                 + (f", {shared} nonlinear potentials derived once for each of their {kinds} expression(s)"
                    if kinds else "") + "; SciPy's DOP853 steps")
