@@ -23,7 +23,7 @@ from lagrangian import Linear, Potential, models
 from lagrangian.derivation.numeric import assemble_local, assemble_numeric, local_stamps
 from lagrangian.derivation.stamps import NotStampable
 from lagrangian.numerics import assembled
-from lagrangian.numerics.assembled import AssembledModel, AssembledProblem
+from lagrangian.numerics.assembled import AssembledModel
 
 
 def _decades(lo: float, hi: float):
