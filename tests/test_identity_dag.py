@@ -73,3 +73,17 @@ def test_a_contributions_functions_are_found_once_per_node_as_sympy_finds_them(e
     for expr in (e, integral):
         assert _every(expr, AppliedUndef) == expr.atoms(AppliedUndef)
         assert _every(expr, sp.Derivative) == expr.atoms(sp.Derivative)
+
+
+@pytest.mark.timeout(60)
+def test_values_go_into_deeply_shared_contributions_and_cached_parts_visiting_each_part_once():
+    """The values of parameters put into a contribution (the model's valued assembly) and into a cached reduction's
+    parts (lagrangian.routh): a memoized xreplace, where SymPy's walked the 2^60 leaves."""
+    import lagrangian as lg
+    from lagrangian.analysis.routh.cache import _put
+    from lagrangian.derivation.assembly import _with_values
+
+    e, k = nested(60), sp.Symbol("k", positive=True)
+    valued = _with_values(lg.Contribution(T=k * e, V=e + k), {k: 2})
+    assert valued.T == 2 * e and valued.V == e + 2
+    assert _put([k * e, (e, k)], {k: sp.Integer(3)}) == [3 * e, (e, 3)]

@@ -21,6 +21,7 @@ from ..base.domain import Context, Coordinate, DomainView, Network
 from ..errors import DomainError, LagrangianError, ModelError, UnknownNameError, closest
 from ..base.graph import ComponentGraph
 from ..base.identity import is_zero, nodes
+from .calculus import Rewriter
 from ..base.network import check_topology
 from ..plugin.registry import Registry
 
@@ -244,11 +245,12 @@ class _Valued(Mapping):
 
     def __init__(self, generic: Mapping[str, Contribution], values: Mapping):
         self._generic, self._values, self._done = generic, values, {}
+        self._put = Rewriter(dict(values))  # (one memo for all: the bodies of a chain share their poses)
 
     def __getitem__(self, name: str) -> Contribution:
         out = self._done.get(name)
         if out is None:
-            out = self._done[name] = _with_values(self._generic[name], self._values)
+            out = self._done[name] = _with_values(self._generic[name], self._values, self._put)
         return out
 
     def __iter__(self):
@@ -258,13 +260,17 @@ class _Valued(Mapping):
         return len(self._generic)
 
 
-def _with_values(c: Contribution, values: Mapping) -> Contribution:
-    """``c`` with its parameter symbols replaced by their values."""
+def _with_values(c: Contribution, values: Mapping, rewriter: Rewriter | None = None) -> Contribution:
+    """``c`` with its parameter symbols replaced by their values (by ``rewriter``, a memoized ``xreplace`` of them:
+    SymPy's walks a shared sub-expression once per occurrence, exponential in the depth of a spatial chain)."""
     if not values:
         return c
+    rewrite = rewriter if rewriter is not None else Rewriter(dict(values))
 
     def put(expr):
-        return sp.sympify(expr).xreplace(values) if isinstance(expr, (sp.Basic, sp.MatrixBase)) else expr
+        if isinstance(expr, sp.MatrixBase):
+            return expr.applyfunc(rewrite)
+        return rewrite(sp.sympify(expr)) if isinstance(expr, sp.Basic) else expr
 
     return Contribution(put(c.T), put(c.V), put(c.D), put(c.G),
                         [Load(put(load.force), put(load.velocity)) for load in c.loads],

@@ -15,6 +15,8 @@ from typing import Any
 
 import sympy as sp
 
+from ...derivation.calculus import Rewriter
+
 
 #: Reductions kept by structure (least recently used dropped first).
 CACHE_SIZE = 128
@@ -31,7 +33,8 @@ def _by_structure(key: tuple, values: Mapping[sp.Symbol, sp.Expr], compute) -> d
     on the way out, so the same components given other numbers reuse the work.
     """
     canon = {s: sp.Symbol(s.name, **s.assumptions0) for s in values}
-    key = tuple(_put(k, canon) for k in key)
+    to_canon = Rewriter(dict(canon))
+    key = tuple(_put(k, canon, to_canon) for k in key)
     with _CACHE_LOCK:
         cached = _CACHE.get(key)
         if cached is not None:
@@ -39,20 +42,24 @@ def _by_structure(key: tuple, values: Mapping[sp.Symbol, sp.Expr], compute) -> d
     if cached is None:
         parts = compute()
         with _CACHE_LOCK:
-            _CACHE[key] = {k: _put(part, canon) for k, part in parts.items()}
+            _CACHE[key] = {k: _put(part, canon, to_canon) for k, part in parts.items()}
             while len(_CACHE) > CACHE_SIZE:
                 _CACHE.popitem(last=False)
         return parts
     back = {c: s for s, c in canon.items()}
-    return {k: _put(part, back) for k, part in cached.items()}
+    from_canon = Rewriter(dict(back))
+    return {k: _put(part, back, from_canon) for k, part in cached.items()}
 
 
-def _put(part: Any, values: Mapping[sp.Symbol, sp.Expr]) -> Any:
-    """A part of the reduction with the values of parameters given as numbers put in (lists part by part)."""
+def _put(part: Any, values: Mapping[sp.Symbol, sp.Expr], rewrite: Rewriter | None = None) -> Any:
+    """A part of the reduction with the values of parameters given as numbers put in (lists part by part), by a
+    memoized ``xreplace`` (:class:`~lagrangian.derivation.calculus.Rewriter`: SymPy's walks a shared sub-expression
+    once per occurrence, minutes for the Jacobi integral of eight bodies on spherical joints)."""
     if not values or isinstance(part, (bool, int)):
         return part
+    rewrite = rewrite if rewrite is not None else Rewriter(dict(values))
     if isinstance(part, list):
-        return [_put(e, values) for e in part]
+        return [_put(e, values, rewrite) for e in part]
     if isinstance(part, tuple):
-        return tuple(_put(e, values) for e in part)
-    return part.xreplace(values) if isinstance(part, sp.Basic) else part
+        return tuple(_put(e, values, rewrite) for e in part)
+    return rewrite(part) if isinstance(part, sp.Basic) else part
