@@ -202,15 +202,24 @@ def driven(model: Any, chosen: Mapping[str, tuple[str, int | None]]) -> tuple[An
     """A copy of ``model`` (a :class:`lagrangian.Model`: the copy is built by its own type) whose components named
     in ``chosen`` carry an input on a signal parameter, ``{name: (parameter, index or None, ...)}``
     (:meth:`lagrangian.Component.with_input`); returns the copy and each name's input function ``w``."""
-    twin = type(model)(model.name, registry=model.registry, **model._options)
-    twin._graph.declared = list(model._graph.declared)
     functions: dict[str, Any] = {}
+    components = []
     for comp in model.components.values():
         if comp.name in chosen:
             pname, index = chosen[comp.name][:2]
             comp, functions[comp.name] = comp.with_input(pname, f"w_{comp.name}", index)
-        twin._graph.add(comp)
-    return twin, functions
+        components.append(comp)
+    return twin(model, components), functions
+
+
+def twin(model: Any, components: Any = None, **options: Any) -> Any:
+    """A model of ``model``'s type, name, registry and declared nodes holding ``components`` (default: ``model``'s
+    own), with ``options`` over ``model``'s."""
+    out = type(model)(model.name, registry=model.registry, **{**model._options, **options})
+    out._graph.declared = list(model._graph.declared)
+    for comp in model.components.values() if components is None else components:
+        out._graph.add(comp)
+    return out
 
 
 def _views(graph: ComponentGraph, registry: Registry, options: Mapping[str, Any], components: list[Component],

@@ -77,6 +77,7 @@ import sympy as sp
 
 from ..base.arguments import check_grid
 from ..base.component import t as time_symbol
+from ..derivation.assembly import twin
 from ..derivation.calculus import Calculus
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError, UnknownNameError
 from ..plugin.contracts import resolve
@@ -408,22 +409,13 @@ def _method(method: Any, integrators: Mapping[str, Any]) -> tuple[str | None, st
                      f"the augmented system with an adaptive method, {supported}.")
 
 
-def _closed(model):
-    """A twin of ``model`` (the same components) with ``dynamics="closed"``: the equations the sensitivities are
-    taken of (the derivatives of ``A u = b``), which the recursion of the model itself does not give."""
-    twin = type(model)(model.name, registry=model.registry, **{**model._options, "dynamics": "closed"})
-    twin._graph.declared = list(model._graph.declared)
-    for comp in model.components.values():
-        twin._graph.add(comp)
-    return twin
-
-
 def simulate(model, run, names: Sequence[str]):
     """``Model.simulate`` with ``sensitivities=names``: the run ``run`` (a checked
     :class:`~lagrangian.base.arguments.RunOptions`) of ``model`` with the forward sensitivities, as a
     :class:`~lagrangian.Result` whose :meth:`~lagrangian.Result.sensitivity` gives them (see the module)."""
     if getattr(model.eq, "recursion", None) is not None:  # (the recursion's accelerations carry no derivatives)
-        res = simulate(model._get(("closed twin",), lambda: _closed(model)), run, names)
+        # (a twin with the same components and dynamics="closed": the derivatives of A u = b are its)
+        res = simulate(model._get(("closed twin",), lambda: twin(model, dynamics="closed")), run, names)
         res.notes.insert(0, "sensitivities: from the model's closed-form equations (its runs take the recursion's "
                             "accelerations, which give no derivatives)")
         return res
