@@ -511,11 +511,11 @@ def test_rotational_springs_dampers_torques_and_forces_enter_as_generalized_forc
     assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b))
 
 
-def spatial_chain(n):
+def spatial_chain(n, first_mass=0.3):
     m = lg.Model(f"{n} bodies", dim=3)
     parent = "ground"
     for k in range(n):
-        m.add("body", f"B{k}", f"B{k}", m=0.3 + 0.07 * k, inertia=(0.02, 0.03, 0.04), com=(0, 0, -0.25))
+        m.add("body", f"B{k}", f"B{k}", m=0.3 + 0.07 * k if k else first_mass, inertia=(0.02, 0.03, 0.04), com=(0, 0, -0.25))
         m.add("spherical", f"j{k}", (parent, f"B{k}"), **({"parent_point": (0, 0, -0.5)} if k else {}))
         parent = f"B{k}"
     m.add("gravity", "g", g=9.81)
@@ -580,3 +580,25 @@ def test_sensitivities_of_a_chain_the_recursion_serves_equal_differences_of_runs
     if wrt == "m_r3":
         closed = chain(10, "closed").simulate(0.3, initial=init, sensitivities=[wrt], **kw)
         assert np.max(np.abs(closed.sensitivity("theta_j5", wrt) - res.sensitivity("theta_j5", wrt))) <= 1e-9
+
+
+@pytest.mark.timeout(300)
+def test_a_large_spatial_chain_linearizes_symbolically_as_the_recursion_does_in_numbers():
+    """Six bodies on spherical joints, the first one's mass a symbol: the closed form's linearization (forward
+    derivatives at the point), with the mass given afterwards, equals the articulated-body algorithm's tangents for
+    the same mass in numbers (an independent derivation).  The numeric chain is linearized first, so the symbolic
+    one's forces share parts with its derivation: lookups by equality compared those as trees (10⁷ comparisons)."""
+    from lagrangian import frequency
+
+    n = 6
+    numbers = spatial_chain(n)
+    rest = {f"{a}_j{k}": 0.0 for k in range(n) for a in ("alpha", "beta", "gamma")}
+    reference = frequency.linearize(numbers, rest)
+    m0 = sp.Symbol("m0", positive=True)
+    lin = frequency.linearize(spatial_chain(n, first_mass=m0), rest)
+    assert lin.symbolic and m0 in lin.parameters
+    value = 0.3  # (spatial_chain's first mass)
+    for name in ("M", "C", "K"):
+        got = np.array(sp.Matrix(getattr(lin, name)).xreplace({m0: value}), dtype=float)
+        want = np.asarray(getattr(reference, name), dtype=float)
+        assert np.max(np.abs(got - want)) <= 1e-10 * np.max(np.abs(want)), name

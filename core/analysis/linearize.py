@@ -51,7 +51,7 @@ from ..base.component import check_value, t
 from ..base.identity import is_zero
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
-from ..derivation.calculus import Rewriter, symbols_of
+from ..derivation.calculus import Calculus, Rewriter, symbols_of
 from ..derivation.recursion import tangents
 from .lti import _number, numeric, stamped
 from .control import state_space_system
@@ -436,12 +436,21 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
             **{us: sp.Integer(0) for us in u_syms}, t: sp.Float(time) if time else sp.Integer(0)}
     subs.update({sym: (sp.Float(val) if isinstance(val, float) else val) for sym, val in values.items()})
 
-    rewrite = [Rewriter(subs), dict(subs)]  # memoized: the derivatives share sub-expressions; renewed when subs moves
+    rewrite = [Rewriter(subs), dict(subs), {}]  # memoized values and slopes at the point; renewed when subs moves
+
+    def fresh():
+        if rewrite[1] != subs:
+            rewrite[:] = [Rewriter(subs), dict(subs), {}]
+        return rewrite
 
     def at_point(expr):
-        if rewrite[1] != subs:
-            rewrite[:] = [Rewriter(subs), dict(subs)]
-        out = rewrite[0](sp.sympify(expr, strict=True))
+        out = fresh()[0](sp.sympify(expr, strict=True))
+        return out if is_symbolic else _number(out, model.name)
+
+    def slope(expr, x, by=calc):
+        """``∂expr/∂x`` at the point, in forward mode (:meth:`Calculus.at`): never built as an expression."""
+        value, _, memo = fresh()
+        out = by.at(sp.sympify(expr, strict=True), x, value, memo)
         return out if is_symbolic else _number(out, model.name)
 
     def matrix(rows, cols, entries):
@@ -462,8 +471,8 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                          f"have no operating value to linearize about; give them as numbers or SymPy expressions of t.")
     free = [symbols_of([e]) for e in f_u]
     index_v, index_q = {x: j for j, x in enumerate(v)}, {x: j for j, x in enumerate(q)}
-    dC = {(i, index_v[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_v}
-    dK = {(i, index_q[x]): calc.diff(f_u[i], x) for i in range(n) for x in free[i] if x in index_q}
+    by_v = [(i, index_v[x], x) for i in range(n) for x in free[i] if x in index_v]
+    by_q = [(i, index_q[x], x) for i in range(n) for x in free[i] if x in index_q]
     mv = len(c_g)
     c_u = c_g.xreplace(replace) if (mv and replace) else c_g
     at_rest_inputs = {us: sp.Integer(0) for us in u_syms}  # the inputs at their operating values
@@ -471,23 +480,24 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                  [e.xreplace(at_rest_inputs) for e in [*M_u.todok().values(), *f_u, *Phi_g, *c_u]],
                  {k: x for k, x in values.items() if isinstance(x, (int, float))}, calc.diff)
     if at is None and not is_symbolic and not len(Phi_g) and not mv and not moving:
-        _settle(f_u, dK, q, names, point, subs, at_point, n)  # a nonlinear model's rest point nearest the origin
+        _settle(f_u, lambda: {(i, j): slope(f_u[i], x) for i, j, x in by_q}, q, names, point, subs, at_point, n)  # a nonlinear model's rest point nearest the origin
     f0 = sp.Matrix([at_point(e) for e in f_u])
     M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
-    C0 = matrix(n, n, {ij: -at_point(e) for ij, e in dC.items()})
-    K0 = matrix(n, n, {ij: -at_point(e) for ij, e in dK.items()})
+    C0 = matrix(n, n, {(i, j): -slope(f_u[i], x) for i, j, x in by_v})
+    K0 = matrix(n, n, {(i, j): -slope(f_u[i], x) for i, j, x in by_q})
     # linear (no coefficient depends on the state): the same linearization about every point, rest or not (a DC
     # current through a loop without a capacitor): nothing to check
     state = set(q) | set(v)
-    linear = not symbols_of(list(dC.values()) + list(dK.values()) + list(M_u.todok().values())) & state
+    linear = not symbols_of(list(M_u.todok().values())) & state and Calculus(state).affine(f_u)
     # the k-th derivative of w is s^(k−1) u: B_(k−1), or Bi (u/s) for w itself
     n_in = len(channels)
     channels_by_col = {c[1]: c[0] for c in channels.values()}
     Bw = [sp.zeros(n, n_in) for _ in range(max(order, 1) + 1)]
+    by_u = Calculus(u_syms)
     for us, (col, k) in u_syms.items():
         for i in range(n):
             if us in free[i]:
-                Bw[k][i, col] += at_point(sp.diff(f_u[i], us))  # calc differentiates by q, v and t only
+                Bw[k][i, col] += slope(f_u[i], us, by_u)
     m = len(Phi_g)
     Phi_u = Phi_g.xreplace(replace) if (m and replace) else Phi_g
     driven = sorted({channels_by_col[u_syms[x][0]] for c in Phi_u for x in sp.sympify(c, strict=True).free_symbols if x in u_syms})
@@ -502,10 +512,10 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
     if driven:
         raise ModelError(f"model {model.name!r}: inputs {', '.join(driven)} enter its constraints on velocities; "
                          f"linearizing about them is not supported. Drive the model with a force or torque instead.")
-    Jq = matrix(m, n, {(k, j): at_point(calc.diff(Phi_u[k], q[j])) for k in range(m) for j in range(n)})
+    Jq = matrix(m, n, {(k, j): slope(Phi_u[k], q[j]) for k in range(m) for j in range(n)})
     # constraints on velocities c = A(q, t) q̇ + b: rows (∂c/∂q + A s) δq = 0, multipliers along A
-    Gq = matrix(mv, n, {(k, j): at_point(calc.diff(c_u[k], q[j])) for k in range(mv) for j in range(n)})
-    Av = matrix(mv, n, {(k, j): at_point(calc.diff(c_u[k], v[j])) for k in range(mv) for j in range(n)})
+    Gq = matrix(mv, n, {(k, j): slope(c_u[k], q[j]) for k in range(mv) for j in range(n)})
+    Av = matrix(mv, n, {(k, j): slope(c_u[k], v[j]) for k in range(mv) for j in range(n)})
     W = Jq.col_join(Av) if is_symbolic else np.vstack([Jq, Av])
     if m + mv:
         _check_closure(model.name, [at_point(c) for c in Phi_u], is_symbolic, tol)
@@ -517,8 +527,9 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                 continue
             row, by = (Phi_u[k], q) if k < m else (c_u[k - m], v)
             for i in range(n):
+                first = calc.diff(row, by[i])
                 for j in range(n):
-                    K0[i, j] -= lam0[k] * at_point(calc.diff(calc.diff(row, by[i]), q[j]))
+                    K0[i, j] -= lam0[k] * slope(first, q[j])
     elif not linear:
         _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point, moving=moving)
     Phi = Jq.col_join(Gq) if is_symbolic else np.vstack([Jq, Gq])
@@ -615,16 +626,16 @@ def _linear_model(model: Model, twin: Model, channels, values, outputs, names, f
     )
 
 
-def _settle(f_u, dK, q, names, point, subs, at_point, n) -> None:
+def _settle(f_u, slopes, q, names, point, subs, at_point, n) -> None:
     """With no point given: Newton's method from the origin on ``f(q) = 0`` at rest (SPICE's operating point), the
     point and ``subs`` moved to where it converges; left at the origin when it does not (the rest check then says
-    so).  A linear model converges in one step, or is left where it is (no rest point: a DC current flows)."""
+    so).  ``slopes()``: ``{(i, j): ∂f_i/∂q_j}`` at the current point.  A linear model converges in one step, or is left where it is (no rest point: a DC current flows)."""
     x = np.array([float(point[nm]) for nm in names])
     for _ in range(50):
         f = np.array([at_point(e) for e in f_u])
         K = np.zeros((n, n))
-        for (i, j), e in dK.items():
-            K[i, j] = -at_point(e)
+        for (i, j), value in slopes().items():
+            K[i, j] = -value
         scale = max(float(np.abs(K).max(initial=0.0)) * max(1.0, float(np.abs(x).max(initial=0.0))), 1e-300)
         if np.abs(f).max(initial=0.0) <= 1e-12 * scale:
             break
