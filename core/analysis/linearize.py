@@ -55,6 +55,7 @@ from ..derivation.calculus import Calculus, Rewriter, symbols_of
 from ..derivation.recursion import tangents
 from .lti import _number, numeric, stamped
 from .control import state_space_system
+from .equilibrium import check_closure, check_rest, check_rolling, multipliers, settle
 from .motion import kane_state_space, null_space, number, rates, steady_check
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
 
@@ -480,7 +481,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                  [e.xreplace(at_rest_inputs) for e in [*M_u.todok().values(), *f_u, *Phi_g, *c_u]],
                  {k: x for k, x in values.items() if isinstance(x, (int, float))}, calc.diff)
     if at is None and not is_symbolic and not len(Phi_g) and not mv and not moving:
-        _settle(f_u, lambda: {(i, j): slope(f_u[i], x) for i, j, x in by_q}, q, names, point, subs, at_point, n)  # a nonlinear model's rest point nearest the origin
+        settle(f_u, lambda: {(i, j): slope(f_u[i], x) for i, j, x in by_q}, q, names, point, subs, at_point, n)  # a nonlinear model's rest point nearest the origin
     f0 = sp.Matrix([at_point(e) for e in f_u])
     M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
     C0 = matrix(n, n, {(i, j): -slope(f_u[i], x) for i, j, x in by_v})
@@ -518,10 +519,10 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
     Av = matrix(mv, n, {(k, j): slope(c_u[k], v[j]) for k in range(mv) for j in range(n)})
     W = Jq.col_join(Av) if is_symbolic else np.vstack([Jq, Av])
     if m + mv:
-        _check_closure(model.name, [at_point(c) for c in Phi_u], is_symbolic, tol)
+        check_closure(model.name, [at_point(c) for c in Phi_u], is_symbolic, tol)
         if mv:
-            _check_rolling(model.name, [at_point(c) for c in c_u], eq.velocity_owners, Av, moving, is_symbolic, tol)
-        lam0 = _multipliers(model.name, f0, W, is_symbolic, names, tol, K0, point, check=not linear, moving=moving)
+            check_rolling(model.name, [at_point(c) for c in c_u], eq.velocity_owners, Av, moving, is_symbolic, tol)
+        lam0 = multipliers(model.name, f0, W, is_symbolic, names, tol, K0, point, check=not linear, moving=moving)
         for k in range(m + mv):
             if is_zero(lam0[k]) if is_symbolic else lam0[k] == 0:
                 continue
@@ -531,7 +532,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                 for j in range(n):
                     K0[i, j] -= lam0[k] * slope(first, q[j])
     elif not linear:
-        _check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point, moving=moving)
+        check_rest(model.name, f0, names, is_symbolic, tol, K0, M0, point, moving=moving)
     Phi = Jq.col_join(Gq) if is_symbolic else np.vstack([Jq, Gq])
     Cq, Dw, y0 = _outputs(twin, eq, outputs, usym, channels, at_point)
     lin = _linear_model(model, twin, channels, values, outputs, names, [names[i] for i in eq.first_order], point,
@@ -546,7 +547,7 @@ def _by_recursion(model: Model, twin: Model, eq, channels, values, outputs, poin
     derivatives through the recursion's steps (:func:`lagrangian.derivation.recursion.tangents`): ``M = ∂p/∂q̇``,
     ``K = −∂(M q̈)/∂q``, ``C = −M ∂q̈/∂q̇`` and, for each input's signal and derivative, ``B = M ∂q̈/∂u``; never
     the closed form (which a 10-body spatial chain did not finish in 300 s).  ``settle``: Newton's method on
-    ``q̈(q) = 0`` first, as :func:`_settle` does on ``f``.  None where the steps hold what the forward rules do
+    ``q̈(q) = 0`` first, as :func:`~lagrangian.analysis.equilibrium.settle` does on ``f``.  None where the steps hold what the forward rules do
     not know (the closed form then decides)."""
     names, q, v, n = eq.names, list(eq.sym.q), list(eq.sym.v), len(eq.names)
     rec = eq.recursion.recursion
@@ -582,7 +583,7 @@ def _by_recursion(model: Model, twin: Model, eq, channels, values, outputs, poin
     if moved is None or not all(np.all(np.isfinite(a)) for a in (*out, *moved)):
         return None  # (a pivot of the recursion is zero there, a gimbal lock: the closed form says what it can)
     C0, K0 = -M0 @ J[:, n:2 * n], -(M0 @ J[:, :n] + moved[2][:, :n])
-    _check_rest(model.name, M0 @ qdd, names, False, tol, K0, M0, point)
+    check_rest(model.name, M0 @ qdd, names, False, tol, K0, M0, point)
     Bw = [np.zeros((n, len(channels))) for _ in range(max([k for k, _ in slots] + [1]) + 1)]
     for j, (k, col) in enumerate(slots):  # the k-th derivative of w is s^(k−1) u: B_(k−1), or Bi (u/s) for w itself
         Bw[k][:, col] += M0 @ J[:, 2 * n + j]
@@ -624,35 +625,6 @@ def _linear_model(model: Model, twin: Model, channels, values, outputs, names, f
         u0={c[0]: c[2] for c in channels.values()}, y0=y0, first_order=first, units=units,
         parameters=[] if twin is None else sorted(_unvalued(twin, values), key=lambda p: p.name),
     )
-
-
-def _settle(f_u, slopes, q, names, point, subs, at_point, n) -> None:
-    """With no point given: Newton's method from the origin on ``f(q) = 0`` at rest (SPICE's operating point), the
-    point and ``subs`` moved to where it converges; left at the origin when it does not (the rest check then says
-    so).  ``slopes()``: ``{(i, j): ∂f_i/∂q_j}`` at the current point.  A linear model converges in one step, or is left where it is (no rest point: a DC current flows)."""
-    x = np.array([float(point[nm]) for nm in names])
-    for _ in range(50):
-        f = np.array([at_point(e) for e in f_u])
-        K = np.zeros((n, n))
-        for (i, j), value in slopes().items():
-            K[i, j] = -value
-        scale = max(float(np.abs(K).max(initial=0.0)) * max(1.0, float(np.abs(x).max(initial=0.0))), 1e-300)
-        if np.abs(f).max(initial=0.0) <= 1e-12 * scale:
-            break
-        step, *_ = np.linalg.lstsq(K, f, rcond=None)
-        if not np.all(np.isfinite(step)) or np.abs(K @ step - f).max() > 1e-9 * max(np.abs(f).max(), 1e-300):
-            x = None  # no rest point (a singular stiffness the forces do not balance)
-            break
-        x = x + step
-        for qs, nm, value in zip(q, names, x):
-            point[nm] = sp.Float(value)
-            subs[qs] = point[nm]
-    else:
-        x = None
-    if x is None:
-        for qs, nm in zip(q, names):
-            point[nm] = sp.Integer(0)
-            subs[qs] = point[nm]
 
 
 def _parameter_values(model: Model, params: Mapping[str, Any], symbolic: bool | None) -> dict[sp.Symbol, Any]:
@@ -711,92 +683,3 @@ def _operating_point(model: Model, names: list[str], at: Mapping[str, Any] | Non
             raise UnknownNameError("coordinate", key, names)
         point[key] = number("at", key, val)
     return point
-
-
-def _scale(K0, M0, point, names) -> float:
-    K = np.abs(np.asarray(K0, dtype=float) if isinstance(K0, np.ndarray) else np.array(K0.tolist(), dtype=float))
-    x = max([abs(float(point[nm])) for nm in names] + [1.0])
-    return float(K.max() * x) if K.size else 1.0
-
-
-def _not_steady(model: str, moving) -> str:
-    """The start of the message refusing a point that is not an equilibrium (a steady motion, given rates)."""
-    if moving:
-        return f"model {model!r} is not in steady motion at this point and these rates"
-    return f"model {model!r} is not at rest at this operating point"
-
-
-def _give(moving) -> str:
-    return ("Give at= and velocity= a steady motion (a point and rates where every rate stays constant)" if moving
-            else "Give at= an equilibrium")
-
-
-def _check_rest(model: str, f0, names, symbolic: bool, tol: float, K0, M0, point, moving=None) -> None:
-    if symbolic:
-        accelerating = [nm for nm, e in zip(names, f0) if not is_zero(e)]
-        if accelerating:
-            i = names.index(accelerating[0])
-            raise ModelError(f"{_not_steady(model, moving)}: the equation of {accelerating[0]!r} has a net force "
-                             f"{f0[i]} there. {_give(moving)}.")
-        return
-    residual = np.abs(np.array([float(e) for e in f0]))
-    scale = _scale(K0, M0, point, names)
-    bad = [nm for nm, r in zip(names, residual) if r > tol * max(scale, 1e-300)]
-    if bad:
-        worst = int(np.argmax(residual))
-        raise ModelError(f"{_not_steady(model, moving)}: the net force on {', '.join(bad)} is {residual[worst]:.3g} "
-                         f"(against a stiffness scale of {scale:.3g}). {_give(moving)} (the coordinates' values where "
-                         f"the forces balance).")
-
-
-def _check_closure(model: str, residual, symbolic: bool, tol: float) -> None:
-    if symbolic:
-        if any(not is_zero(r) for r in residual):
-            raise ModelError(f"model {model!r}: the operating point does not close the model's kinematic loops "
-                             f"(Φ = {residual}). Give at= a point that satisfies them.")
-        return
-    worst = max((abs(r) for r in residual), default=0.0)
-    if worst > tol:
-        raise ModelError(f"model {model!r}: the operating point does not close the model's kinematic loops "
-                         f"(|Φ| = {worst:.3g}). Give at= a point that satisfies them.")
-
-
-def _check_rolling(model: str, residual, owners, Av, moving, symbolic: bool, tol: float) -> None:
-    """Refuse rates that violate the constraints on velocities, naming their components."""
-    if symbolic:
-        held = sorted({o for o, r in zip(owners, residual) if not is_zero(r)})
-        worst = ""
-    else:
-        speed = max([abs(float(x)) for x in moving.values()] + [1.0])
-        scale = speed * max(float(np.abs(np.asarray(Av, dtype=float)).max(initial=0.0)), 1.0)
-        held = sorted({o for o, r in zip(owners, residual) if abs(r) > tol * scale})
-        worst = f" (|c| = {max((abs(r) for r in residual), default=0.0):.3g})"
-    if held:
-        raise ModelError(f"model {model!r}: the rates given violate the constraints on velocities of "
-                         f"{', '.join(map(repr, held))}{worst}. Give velocity= rates that satisfy them "
-                         f"(lagrangian.plugins.multibody.consistent_initial solves the dependent ones).")
-
-
-def _multipliers(model: str, f0, Jq, symbolic: bool, names, tol: float, K0, point, check: bool = True, moving=None):
-    """The multipliers ``λ₀`` with ``f₀ + Wᵀ λ₀ = 0`` (``W`` the directions the constraints' forces act along), or
-    an error when none holds the point at rest (in steady motion, given ``moving`` rates)."""
-    if symbolic:
-        JT = Jq.T
-        lam = (JT.T * JT).LUsolve(-JT.T * f0)
-        rest = f0 + JT * lam
-        if check and any(not is_zero(r) for r in rest):
-            raise ModelError(f"{_not_steady(model, moving)}: the constraints cannot balance the net forces "
-                             f"{list(rest)}. {_give(moving)}.")
-        return list(lam)
-    J = np.asarray(Jq, dtype=float)
-    f = np.array([float(e) for e in f0])
-    lam, *_ = np.linalg.lstsq(J.T, -f, rcond=None)
-    rest = f + J.T @ lam
-    scale = max(_scale(K0, None, point, names), float(np.abs(f).max(initial=0.0)))
-    if check and np.abs(rest).max(initial=0.0) > tol * max(scale, 1e-300):
-        i = int(np.argmax(np.abs(rest)))
-        raise ModelError(f"{_not_steady(model, moving)}: a net force {rest[i]:.3g} on {names[i]!r} that the "
-                         f"constraints do not balance. {_give(moving)}.")
-    return [sp.Float(x) for x in lam]
-
-
