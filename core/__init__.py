@@ -17,26 +17,31 @@ import importlib.abc as _importlib_abc
 import importlib.util as _importlib_util
 import sys as _sys
 
-from .base.component import GROUND, Component, Contribution, Example, Load, MovingFrame, Parameter, dot, t
-from .base.domain import (Context, Coordinate, Domain, DomainView, Incidence, Network, Option, Recursion, RecursiveDynamics,
-                          coordinate, rate)
+import lazy_loader as _lazy_loader
+
 from .base.limits import limits
-from .base.linear import Linear, LinearContext, Potential, Quantity
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
-from .plugin.hookspecs import hookimpl
-from .numerics.events import Event, Occurrence
-from .numerics.integrate import EnergyDriftWarning, StiffnessWarning
-from .numerics.problem import SlowRunWarning
-from .model import Model, NodeNameWarning
-from .plugin.registry import Registry, default_registry
-from .numerics.simulation import InitialConditionWarning, Result
 
 __version__ = "0.1.0"
 
-#: ``lagrangian.load("m.json")``: the model a model file describes (:meth:`Model.load`, :mod:`lagrangian.modelfile`).
-load = Model.load
-
+#: The public names and the modules they live in, imported when first asked for (SPEC 1, :mod:`lazy_loader`):
+#: ``import lagrangian`` loads neither SymPy, SciPy, NumPy nor networkx until a feature needs them
+#: (``EAGER_IMPORT=1`` loads every one of them at once, as a check).
+_NAMES = {
+    "model": ["Model", "NodeNameWarning"],
+    "base.component": ["GROUND", "Component", "Contribution", "Example", "Load", "MovingFrame", "Parameter", "dot", "t"],
+    "base.domain": ["Context", "Coordinate", "Domain", "DomainView", "Incidence", "Network", "Option", "Recursion",
+                    "RecursiveDynamics", "coordinate", "rate"],
+    "base.linear": ["Linear", "LinearContext", "Potential", "Quantity"],
+    "plugin.hookspecs": ["hookimpl"],
+    "plugin.registry": ["Registry", "default_registry"],
+    "numerics.events": ["Event", "Occurrence"],
+    "numerics.integrate": ["EnergyDriftWarning", "StiffnessWarning"],
+    "numerics.problem": ["SlowRunWarning"],
+    "numerics.simulation": ["InitialConditionWarning", "Result"],
+    "analysis.fitting": ["fit", "Fit", "FrequencyData", "TimeSeries"],
+}
 #: Every module keeps the name it had before the package was layered (``lagrangian.integrate``,
 #: ``lagrangian.routh``, ...): ``import lagrangian.routh`` gives the same module object as
 #: ``lagrangian.analysis.routh``, imported when first asked for.
@@ -77,17 +82,23 @@ _Alias._specs = {}
 
 _sys.meta_path.append(_Alias())
 
-
-#: Names of the package that live in a module imported when first asked for.
-_LAZY = {"fit": "fitting", "Fit": "fitting", "FrequencyData": "fitting", "TimeSeries": "fitting"}
+_attribute, _, _ = _lazy_loader.attach(__name__, submod_attrs=_NAMES)
 
 
 def __getattr__(name: str):
     if name in _WHERE:
         return _importlib.import_module(f"{__name__}.{name}")
-    if name in _LAZY:
-        return getattr(_importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    if name == "load":  # ``lagrangian.load("m.json")``: the model a model file describes (:meth:`Model.load`)
+        return _attribute("Model").load
+    try:
+        return _attribute(name)
+    except AttributeError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__, *_WHERE})
+
 
 __all__ = [
     "Model",

@@ -67,17 +67,24 @@ import warnings
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
-from .numerics.bench import run as run_benchmarks
+import lazy_loader
+
 from .errors import LagrangianError, ModelError, UnknownNameError
-from .model import Model
-from .analysis.frequency import frequency_response, sweep
-from .analysis import sweep as sweeps
-from .circuits.ac import compare_ac_with_ngspice
-from .circuits.netlist import read_netlist_file
-from .plugin.registry import default_registry
-from .analysis.scene import Scene
 from .base.limits import refuse
-from .numerics.c_build import cache_usage, clear_cache
+
+# The modules a command needs, imported when it first uses them (SPEC 1): ``lagrangian --help`` loads neither
+# SymPy, SciPy nor NumPy.  (lazy_loader warns that their parent packages load at once: those are empty.)
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", RuntimeWarning)
+    _benchmarks = lazy_loader.load("lagrangian.numerics.bench")
+    _model = lazy_loader.load("lagrangian.model")
+    _frequency = lazy_loader.load("lagrangian.analysis.frequency")
+    _sweeps = lazy_loader.load("lagrangian.analysis.sweep")
+    _ac_module = lazy_loader.load("lagrangian.circuits.ac")
+    _netlist = lazy_loader.load("lagrangian.circuits.netlist")
+    _registry = lazy_loader.load("lagrangian.plugin.registry")
+    _scenes = lazy_loader.load("lagrangian.analysis.scene")
+    _c_build = lazy_loader.load("lagrangian.numerics.c_build")
 
 __all__ = ["main"]
 
@@ -209,7 +216,7 @@ def _methods(extra: tuple[str, ...], single: bool):
         if not names or not names[0]:
             raise argparse.ArgumentTypeError(f"expected {'a method name' if single else 'comma-separated method names'} "
                                              f"(see 'lagrangian integrators'), got {text!r}")
-        known = [*default_registry().integrators, *extra]
+        known = [*_registry.default_registry().integrators, *extra]
         for name in names:
             if name not in known:
                 raise argparse.ArgumentTypeError(
@@ -297,7 +304,7 @@ def _bench(args, registry) -> int:
     if problem:
         return _fail(problem)
     try:
-        results = run_benchmarks(args.names, args.methods, out=args.out, tolerances=args.tolerances, steps=args.steps,
+        results = _benchmarks.run(args.names, args.methods, out=args.out, tolerances=args.tolerances, steps=args.steps,
                       repeat=args.repeat, registry=registry, progress=not args.quiet, chart=not args.no_chart)
     except BrokenPipeError:
         raise
@@ -322,11 +329,11 @@ def _load_model(source: str):
         raise ModelError(f"source {path!r} is a directory: give a netlist file or a Python file (file.py[:name]).")
     try:
         if file.suffix.lower() in _NETLISTS:
-            imported = read_netlist_file(file)
+            imported = _netlist.read_netlist_file(file)
             span = (imported.tran.start, imported.tran.stop) if imported.tran else None
             return imported.model, imported.initial, imported.velocity, span
         if file.suffix.lower() == ".json":
-            return Model.load(file), {}, {}, None
+            return _model.Model.load(file), {}, {}, None
         if file.suffix != ".py":
             raise ModelError(f"source {path!r}: expected a netlist (.cir, .net, .sp, .spice), a model file (.json) or a "
                              f"Python file (.py).")
@@ -344,8 +351,8 @@ def _load_model(source: str):
         obj = getattr(module, name, None)
         if obj is None:
             continue
-        model = obj() if callable(obj) and not isinstance(obj, Model) else obj
-        if not isinstance(model, Model):
+        model = obj() if callable(obj) and not isinstance(obj, _model.Model) else obj
+        if not isinstance(model, _model.Model):
             raise ModelError(f"{file}:{name} is not a lagrangian Model (nor a function returning one).")
         return model, {}, {}, None
     raise ModelError(f"{file} defines none of {', '.join(names)}: name the model with {file}:NAME.")
@@ -368,7 +375,7 @@ def _scene(args) -> int:
     initial = {**initial, **_merged(args.initial)}
     velocity = {**velocity, **_merged(args.velocity)}
     t_end = args.t_end if args.t_end is not None else (span or 10.0)
-    scene = Scene(model, args.output, t_end, tol=args.tol, initial=initial, velocity=velocity,
+    scene = _scenes.Scene(model, args.output, t_end, tol=args.tol, initial=initial, velocity=velocity,
                   params=_merged(args.param), points=args.points, method=args.method,
                   reduce={"auto": "auto", "always": True, "never": False}[args.reduce])
     print(scene.report())
@@ -402,7 +409,7 @@ def _ac(args) -> int:
         if problem:
             return _fail(problem)
     path = args.source.partition(":")[0] if not Path(args.source).exists() else args.source
-    net = read_netlist_file(path) if Path(path).suffix.lower() in _NETLISTS and Path(path).is_file() else None
+    net = _netlist.read_netlist_file(path) if Path(path).suffix.lower() in _NETLISTS and Path(path).is_file() else None
     model = net.model if net is not None else _load_model(args.source)[0]
     deck = net.ac if net is not None and net.ac is not None else None
     kind = args.sweep or (deck.kind if deck else "dec")
@@ -411,13 +418,13 @@ def _ac(args) -> int:
     points = args.points or (deck.points if deck else 20)
     if not start < stop:
         return _fail(f"--start {start:g} Hz must be below --stop {stop:g} Hz.")
-    frequencies = sweep(kind, points, start, stop)
+    frequencies = _frequency.sweep(kind, points, start, stop)
     kwargs = {"params": _merged(args.param), "at": _merged(args.at) or None}
     if net is not None and args.input is None:
         resp = net.frequency_response(args.output, frequencies, **kwargs)
     else:
         inputs = [args.input] if args.input else None
-        resp = frequency_response(model, frequencies, inputs=inputs, outputs=args.output, **kwargs)
+        resp = _frequency.frequency_response(model, frequencies, inputs=inputs, outputs=args.output, **kwargs)
         if len(resp.inputs) != 1:
             return _fail(f"model {model.name!r} has {len(resp.inputs)} inputs ({', '.join(resp.inputs) or 'none'}): "
                          f"choose one with --input.")
@@ -448,7 +455,7 @@ def _ac(args) -> int:
             return _fail(_write_failure("--chart", args.chart, exc))
         print(f"written: {args.chart}")
     if args.ngspice:
-        cmp = compare_ac_with_ngspice(net if net is not None else model, input=args.input or (
+        cmp = _ac_module.compare_ac_with_ngspice(net if net is not None else model, input=args.input or (
             None if net is not None else resp.inputs[0]), outputs=resp.outputs, start=start, stop=stop, points=points,
             sweep=kind, params=kwargs["params"], at=kwargs["at"])
         print(cmp.table())
@@ -608,13 +615,13 @@ def _sweep(args) -> int:
         name, eq, spec = text.partition("=")
         if not eq or not name.strip():
             return _fail(f"--param {text!r}: write NAME=VALUES, as in k_k1=1:10:50 or c=log:1e-3:1:20.")
-        params[name.strip()] = sweeps.parse_axis(spec, f"--param {name.strip()}")
+        params[name.strip()] = _sweeps.parse_axis(spec, f"--param {name.strip()}")
     where = {"client": "serial"} if args.serial else {"address": args.address}
-    ds = sweeps.sweep(model, params, design=args.design, samples=args.samples, seed=args.seed,
+    ds = _sweeps.sweep(model, params, design=args.design, samples=args.samples, seed=args.seed,
                       initial={**initial, **_merged(args.initial)}, velocity={**velocity, **_merged(args.velocity)},
                       outputs=args.output, t_end=args.t_end or (span or (0.0, 10.0))[1], points=args.points,
                       method=args.method, rtol=args.rtol, chunk=args.chunk, progress=not args.quiet, **where)
-    print(sweeps.describe(ds))
+    print(_sweeps.describe(ds))
     if args.out:
         try:
             ds.to_netcdf(args.out)
@@ -624,7 +631,7 @@ def _sweep(args) -> int:
     if args.chart:
         output = (args.output or [model.coordinate_names[0]])[0]
         try:
-            sweeps.plot(ds, output, path=args.chart)
+            _sweeps.plot(ds, output, path=args.chart)
         except OSError as exc:
             return _fail(_write_failure("--chart", args.chart, exc))
         print(f"written: {args.chart}")
@@ -695,14 +702,14 @@ def _convert(args) -> int:
 def _cache(args) -> int:
     """``lagrangian cache [--clear]``: the compiled-code cache (see :mod:`lagrangian.numerics.c_build`)."""
     if args.clear:
-        done = clear_cache()
+        done = _c_build.clear_cache()
         if not done["directory"].is_dir():
             print(f"{done['directory']}: nothing to clear (no such directory)")
             return 0
         left = f"; {done['left']} files left (a build running now, or not the cache's)" if done["left"] else ""
         print(f"{done['directory']}: removed {done['files']} files ({done['bytes'] / 2**20:.1f} MiB){left}")
         return 0
-    usage = cache_usage()
+    usage = _c_build.cache_usage()
     print(f"directory: {usage['directory']}{'' if usage['exists'] else ' (not made yet)'}\n"
           f"files: {usage['files']} ({usage['libraries']} libraries)\nsize: {usage['bytes'] / 2**20:.1f} MiB "
           f"(bound {usage['bound'] / 2**20:.1f} MiB: lagrangian.limits.cache_bytes)")
@@ -732,7 +739,7 @@ def _run(argv: list[str] | None) -> int:
             print("lagrangian: error: no command given: choose one of plugins, kinds, integrators, bench, scene, ac, sweep, "
                   "simulate, convert, equations, cache (see 'lagrangian --help')", file=sys.stderr)
             return EXIT_USAGE
-        registry = default_registry()
+        registry = _registry.default_registry()
         if args.command == "bench":
             return _bench(args, registry)
         if args.command == "scene":

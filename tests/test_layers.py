@@ -74,3 +74,39 @@ def test_every_module_keeps_its_short_name():
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip() == "ok"
+
+
+HEAVY = ("sympy", "scipy", "numpy", "networkx", "matplotlib", "pint", "dask", "PySpice", "pandas", "xarray", "mpmath")
+
+
+@pytest.mark.parametrize("start", ["import lagrangian", "import lagrangian.cli as c\ntry:\n    c.main(['--help'])\n"
+                                                       "except SystemExit:\n    pass"])
+def test_import_and_cli_help_load_no_heavy_library_until_a_name_is_used(start):
+    """SPEC 1: ``import lagrangian`` and ``lagrangian --help`` load none of the heavy libraries (SymPy, SciPy, NumPy,
+    networkx, matplotlib, pint, Dask, PySpice, pandas, xarray); every public name then resolves, to the object its
+    module defines."""
+    code = (
+        f"import sys, importlib\n{start}\n"
+        f"loaded = sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r}))\n"
+        "import lagrangian\n"
+        "for name in lagrangian.__all__:\n"
+        "    assert getattr(lagrangian, name) is not None, name\n"
+        "assert lagrangian.Model is importlib.import_module('lagrangian.model').Model\n"
+        "assert lagrangian.load == lagrangian.Model.load and lagrangian.t.name == 't'\n"
+        "print(loaded)\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines()[-1] == "[]", run.stdout
+    assert not run.stderr, run.stderr
+
+
+def test_eager_import_loads_every_public_name_at_once():
+    """``EAGER_IMPORT=1`` (SPEC 1's check that the lazy names all exist) imports every module behind them."""
+    import os
+
+    code = "import sys, lagrangian\nprint('lagrangian.model' in sys.modules and 'sympy' in sys.modules)"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env={**os.environ, "EAGER_IMPORT": "1"})
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "True"
