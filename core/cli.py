@@ -85,6 +85,7 @@ with warnings.catch_warnings():
     _registry = lazy_loader.load("lagrangian.plugin.registry")
     _scenes = lazy_loader.load("lagrangian.analysis.scene")
     _c_build = lazy_loader.load("lagrangian.numerics.c_build")
+    _channels = lazy_loader.load("lagrangian.analysis.channels")
 
 __all__ = ["main"]
 
@@ -567,6 +568,8 @@ def _parser() -> _Parser:
     sim.add_argument("--initial", action="append", type=_pairs, help="initial coordinates name=value[,name=value]")
     sim.add_argument("--velocity", action="append", type=_pairs, help="initial velocities name=value[,name=value]")
     sim.add_argument("--param", action="append", type=_pairs, help="parameter values name=value[,name=value]")
+    sim.add_argument("--output", action="append", help="what to report instead of every coordinate: names such as "
+                     "x_p, x_p' (its rate), v(C1), i(L1), v(n3) (a node's voltage)[,…]")
     sim.add_argument("--out", help="write the result: .csv (t, coordinates, rates), .nc (netCDF) or .png (a chart)")
     conv = sub.add_parser("convert", help="write a netlist or model as a model file (JSON)")
     conv.add_argument("source", help="a netlist (.cir/.net/.sp/.spice) or file.py[:name]")
@@ -660,28 +663,41 @@ def _simulate(args) -> int:
                          velocity={**velocity, **_merged(args.velocity)}, params=_merged(args.param) or None,
                          points=args.points, method=args.method)
     print(f"{model.name}: {len(res.t)} points from t = {res.t[0]:g} to {res.t[-1]:g}, method {res.method}")
+    labels = [label.strip() for group in args.output or [] for label in group.split(",") if label.strip()]
+    columns = {label: _channels.output_series(model, res, label) for label in labels} or None
+    shown = columns or {name: res[name] for name in res.names}
     if not args.out:
-        for name in res.names:
-            print(f"  {name} = {res[name][-1]:.10g}, {name}' = {res.velocity(name)[-1]:.10g}")
+        for name, values in shown.items():
+            rate = f", {name}' = {res.velocity(name)[-1]:.10g}" if columns is None else ""
+            print(f"  {name} = {values[-1]:.10g}{rate}")
         return 0
     try:
         suffix = Path(args.out).suffix.lower()
         if suffix == ".csv":
-            table = res.to_pandas()
-            table.index.name = "t"
-            table.to_csv(args.out, float_format="%.17g")
+            res.to_csv(args.out, columns)
         elif suffix == ".nc":
-            res.to_xarray().to_netcdf(args.out)
+            data = res.to_xarray()
+            if columns:
+                data = data.assign({label: ("time", values) for label, values in columns.items()})[list(columns)]
+            data.to_netcdf(args.out)
         else:
             import matplotlib.pyplot as plt
 
-            ax = res.plot()
+            if columns:
+                fig, ax = plt.subplots()
+                for label, values in columns.items():
+                    ax.plot(res.t, values, label=label)
+                ax.set_xlabel("t (s)")
+                ax.legend()
+            else:
+                ax = res.plot()
             ax.figure.savefig(args.out, dpi=110)
             plt.close(ax.figure)
     except OSError as exc:
         return _fail(_write_failure("--out", args.out, exc))
-    print(f"written: {args.out} ({kinds[suffix]}; final {', '.join(f'{n} = {res[n][-1]:.6g}' for n in res.names[:4])}"
-          f"{', …' if len(res.names) > 4 else ''}; max |x| {max(float(np.max(np.abs(res[n]))) for n in res.names):.6g})")
+    names = list(shown)
+    print(f"written: {args.out} ({kinds[suffix]}; final {', '.join(f'{n} = {shown[n][-1]:.6g}' for n in names[:4])}"
+          f"{', …' if len(names) > 4 else ''}; max |x| {max(float(np.max(np.abs(v))) for v in shown.values()):.6g})")
     return 0
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import networkx as nx
@@ -178,6 +179,8 @@ def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
         quantity, name = branch.groups()
         if name not in model.components and quantity.lower() == "v" and name in model.nodes:
             return output, _node_voltage(model, name)
+        if name not in model.components and quantity.lower() == "v":
+            raise UnknownNameError("component or node", name, [*model.components, *model.nodes])
         comp = model.component(name)
         return output, comp.quantity(_context(model, comp), quantity.lower())
     base, primes = _PRIMES.match(output.strip()).groups()
@@ -189,6 +192,51 @@ def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
     else:
         f = eq.coordinates[names.index(base)].function
     return output, f if not primes else sp.Derivative(f, (t, len(primes)))
+
+
+def output_series(model: Model, result: Any, label: str) -> Any:
+    """The values along ``result`` (a :class:`~lagrangian.Result` of ``model``) of the output ``label``: a
+    coordinate (``"x_p"``) or its rate (``"x_p'"``), a quantity a component names (``"v(C1)"``, ``"i(L1)"``) or a
+    circuit node's voltage to ground (``"v(n3)"``), as :func:`~lagrangian.frequency.linearize` reads outputs.  A
+    quantity that needs accelerations (an inductor's voltage in loop charges) is refused by name: a result holds
+    coordinates and rates.
+
+    >>> import lagrangian as lg
+    >>> c = lg.Model("rc", formulation="charge")
+    >>> _ = c.add("voltage_source", "V1", ("in", "0"), E=1.0)
+    >>> _ = c.add("resistor", "R1", ("in", "out"), R=1e3)
+    >>> _ = c.add("capacitor", "C1", ("out", "0"), C=1e-6)
+    >>> res = c.simulate(5e-3, initial={"q_R1": 0.0}, points=3)
+    >>> v = output_series(c, res, "v(out)")       # 1 − exp(−t/RC)
+    >>> bool(abs(v[-1] - (1 - 2.718281828459045 ** -5)) < 1e-6)
+    True
+    """
+    if not isinstance(label, str):
+        raise ModelError(f"an output is a name such as 'x_p', \"x_p'\", 'v(C1)' or 'v(n3)'; got {label!r:.80}.")
+    base, primes = _PRIMES.match(label.strip()).groups()
+    if base in result.names or base in result.derived:
+        if not primes:
+            return result[base]
+        if len(primes) == 1:
+            return result.velocity(base)
+    eq = _Coordinates(model.coordinate_names, model.coordinates, model.assembly.eliminated)
+    _, expr = _output_expr(model, eq, label)
+    expr = _solved(expr, eq.eliminated)
+    accelerations = [d for d in sp.sympify(expr, strict=True).atoms(sp.Derivative) if d.derivative_count > 1]
+    if accelerations:
+        raise ModelError(f"output {label!r} depends on an acceleration ({accelerations[0]}), and a result holds "
+                         f"coordinates and rates only: give a quantity of those (a capacitor's voltage, an inductor's "
+                         f"current, a node voltage along capacitors).")
+    return result.quantity(expr)
+
+
+@dataclass(frozen=True)
+class _Coordinates:
+    """What :func:`_output_expr` reads of a model's equations, from the model alone (nothing derived)."""
+
+    names: list
+    coordinates: list
+    eliminated: dict
 
 
 def _solved(expr: Any, eliminated) -> Any:
