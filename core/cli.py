@@ -60,7 +60,6 @@ Exit status:
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import warnings
@@ -69,8 +68,10 @@ from pathlib import Path
 
 import lazy_loader
 
-from .errors import LagrangianError, ModelError, UnknownNameError
-from .base.limits import refuse
+from .errors import LagrangianError, ModelError
+from .cli_args import (methods as _methods, numbers as _numbers, out_problem as _out_problem,
+                       output_problem as _output_problem, pairs as _pairs, positive as _positive,
+                       tolerance as _tolerance, whole as _whole, write_failure as _write_failure)
 
 # The modules a command needs, imported when it first uses them (SPEC 1): ``lagrangian --help`` loads neither
 # SymPy, SciPy nor NumPy.  (lazy_loader warns that their parent packages load at once: those are empty.)
@@ -122,139 +123,6 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 # ---------------------------------------------------------------------------
 # Option values: argparse ``type=`` functions, so a bad value is a usage error naming its option
 # ---------------------------------------------------------------------------
-
-
-def _whole(minimum: int, what: str, bound: str | None = None):
-    """A whole number of at least ``minimum``, written ``1000`` or ``1e3``; with ``bound`` (a field of
-    :data:`lagrangian.limits`), at most that bound."""
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            number = _number(text, -math.inf)  # 1e3; 2.5, nan, inf and 1e400 are no whole numbers
-            value = int(number) if number is not None and number == int(number) else None
-        if value is None or value < minimum:
-            raise argparse.ArgumentTypeError(f"expected a whole number of at least {minimum} ({what}), got {text!r}")
-        if bound is not None:
-            try:
-                refuse(f"{text.strip()} ({what})", value, bound)
-            except ModelError as exc:
-                raise argparse.ArgumentTypeError(str(exc)) from None
-        return value
-
-    return parse
-
-
-def _number(text: str, lo: float = 0.0, hi: float = math.inf) -> float | None:
-    """``text`` as a float with ``lo < value < hi`` (finite), else None."""
-    try:
-        value = float(text)
-    except ValueError:
-        return None
-    return value if math.isfinite(value) and lo < value < hi else None
-
-
-def _positive(what: str, example: str):
-    def parse(text: str) -> float:
-        value = _number(text)
-        if value is None:
-            raise argparse.ArgumentTypeError(f"expected {what}: a finite number > 0 such as {example}, got {text!r}")
-        return value
-
-    return parse
-
-
-def _tolerance(text: str) -> float:
-    value = _number(text, 0.0, 1.0)
-    if value is None:
-        raise argparse.ArgumentTypeError(f"expected a relative tolerance between 0 and 1 such as 1e-8, got {text!r}")
-    return value
-
-
-def _numbers(what: str, example: str, hi: float = math.inf):
-    def parse(text: str) -> list[float]:
-        items = [item.strip() for item in text.split(",") if item.strip()]
-        if not items:
-            raise argparse.ArgumentTypeError(f"expected comma-separated {what}s such as {example}, got {text!r}")
-        values = []
-        for item in items:
-            value = _number(item, 0.0, hi)
-            if value is None:
-                bound = f"a number between 0 and {hi:g}" if math.isfinite(hi) else "a finite number > 0"
-                raise argparse.ArgumentTypeError(
-                    f"{item!r} is not a valid {what} ({bound}): give comma-separated values such as {example}")
-            values.append(value)
-        return values
-
-    return parse
-
-
-def _pairs(text: str) -> dict[str, float]:
-    """``name=value[,name=value]`` as a dict (``--initial``, ``--velocity``, ``--param``)."""
-    out = {}
-    for pair in text.split(","):
-        if not pair.strip():
-            continue
-        key, sep, value = pair.partition("=")
-        key = key.strip()
-        if not sep or not key:
-            raise argparse.ArgumentTypeError(f"expected name=value pairs such as x=1,y=0, got {pair.strip()!r}")
-        try:
-            number = float(value)
-        except ValueError:
-            number = math.nan
-        if not math.isfinite(number):
-            raise argparse.ArgumentTypeError(f"the value of {key!r} must be a finite number, got {value.strip()!r}")
-        out[key] = number
-    return out
-
-
-def _methods(extra: tuple[str, ...], single: bool):
-    """Integration method names, checked against the registered integrators (and ``extra``)."""
-
-    def parse(text: str) -> str | list[str]:
-        names = [text.strip()] if single else [m.strip() for m in text.split(",") if m.strip()]
-        if not names or not names[0]:
-            raise argparse.ArgumentTypeError(f"expected {'a method name' if single else 'comma-separated method names'} "
-                                             f"(see 'lagrangian integrators'), got {text!r}")
-        known = [*_registry.default_registry().integrators, *extra]
-        for name in names:
-            if name not in known:
-                raise argparse.ArgumentTypeError(
-                    f"{UnknownNameError('integration method', name, known)} See 'lagrangian integrators'.")
-        return names[0] if single else names
-
-    return parse
-
-
-# ---------------------------------------------------------------------------
-# Output paths
-# ---------------------------------------------------------------------------
-
-
-def _output_problem(option: str, path: str, *, directory: bool) -> str | None:
-    """Why ``path`` cannot take the output of ``option`` (a file, or a directory made if missing), or None."""
-    target = Path(path).absolute()
-    if directory and target.exists() and not target.is_dir():
-        return f"{option} {path!r} is a file, not a directory: give a directory (it is created if missing)."
-    if not directory and target.is_dir():
-        return f"{option} {path!r} is a directory: give a file name, such as {os.path.join(path, 'out.csv')!r}."
-    folder = target if directory else target.parent
-    existing = folder
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if not existing.is_dir():
-        return f"{option} {path!r}: {str(existing)!r} is a file, not a directory: give a path inside a directory."
-    if not directory and existing != folder:
-        return f"{option} {path!r}: directory {str(folder)!r} does not exist: create it or give another path."
-    if not os.access(existing, os.W_OK | os.X_OK) or (target.exists() and not os.access(target, os.W_OK)):
-        return f"{option} {path!r}: permission denied: give a path you can write to."
-    return None
-
-
-def _write_failure(option: str, path: str, exc: OSError) -> str:
-    file = f" {str(exc.filename)!r}" if exc.filename and str(exc.filename) != str(path) else ""
-    return f"{option} {path!r}: cannot write{file}: {exc.strerror or exc}. Give a path you can write to."
 
 
 # ---------------------------------------------------------------------------
@@ -639,15 +507,6 @@ def _sweep(args) -> int:
             return _fail(_write_failure("--chart", args.chart, exc))
         print(f"written: {args.chart}")
     return 0
-
-
-def _out_problem(path: str, suffixes, advice: str) -> str | None:
-    """What is wrong with ``--out path`` before anything runs: a file that cannot be written, or a kind of file the
-    command does not write (its suffix not one of ``suffixes``: ``advice`` says which)."""
-    problem = _output_problem("--out", path, directory=False)
-    if not problem and Path(path).suffix.lower() not in suffixes:
-        problem = f"--out {path!r}: {advice}."
-    return problem
 
 
 def _simulate(args) -> int:
