@@ -36,6 +36,7 @@ benchmark: setup
 	.venv/bin/python benchmarks/scenes.py
 	.venv/bin/python benchmarks/impacts.py
 	.venv/bin/python benchmarks/scale.py
+	.venv/bin/python benchmarks/coldstart.py
 	.venv/bin/python benchmarks/ac.py
 	.venv/bin/python benchmarks/sweep.py
 	.venv/bin/python benchmarks/bicycle.py

@@ -177,3 +177,23 @@ def test_convert_refuses_what_a_model_file_cannot_hold_by_name(tmp_path, capsys)
     assert "component 'V1' (voltage_source), parameter 'E'" in capsys.readouterr().err
     assert main(["convert", str(source), "--out", str(tmp_path / "p.txt")]) == 1
     assert "give a .json file" in capsys.readouterr().err
+
+
+def test_an_output_of_a_model_without_numbers_comes_from_its_equations(tmp_path):
+    """A capacitance given as a symbol (its value at the run): the numeric assembly cannot say ``v(out)``, so the
+    symbolic path evaluates it; both paths equal the RC closed form."""
+    import sympy as sp
+
+    import lagrangian as lg
+    from lagrangian.analysis.channels import output_series
+
+    for C in (1e-6, sp.Symbol("C_1", positive=True)):
+        c = lg.Model("rc", formulation="charge")
+        c.add("voltage_source", "V1", ("in", "0"), E=2.0)
+        c.add("resistor", "R1", ("in", "out"), R=1e3)
+        c.add("capacitor", "C1", ("out", "0"), C=C)
+        res = c.simulate(3e-3, initial={"q_R1": 0.0}, points=31, rtol=1e-11, atol=1e-15,
+                         params=None if isinstance(C, float) else {"C_1": 1e-6})
+        want = 2.0 * (1 - np.exp(-res.t / 1e-3))
+        for label in ("v(out)", "v(C1)"):
+            assert np.max(np.abs(output_series(c, res, label) - want)) <= 1e-8, (C, label)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import networkx as nx
+import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
@@ -30,6 +31,8 @@ from ..base.domain import Context
 from ..base.units import coordinate_unit
 from ..derivation.assembly import driven
 from ..derivation.calculus import atoms_of
+from ..derivation.numeric import assemble_numeric
+from ..derivation.stamps import NotStampable
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 
@@ -219,6 +222,9 @@ def output_series(model: Model, result: Any, label: str) -> Any:
             return result[base]
         if len(primes) == 1:
             return result.velocity(base)
+    found = _in_numbers(model, result, label)
+    if found is not None:
+        return found
     eq = _Coordinates(model.coordinate_names, model.coordinates, model.assembly.eliminated)
     _, expr = _output_expr(model, eq, label)
     expr = _solved(expr, eq.eliminated)
@@ -228,6 +234,47 @@ def output_series(model: Model, result: Any, label: str) -> Any:
                          f"coordinates and rates only: give a quantity of those (a capacitor's voltage, an inductor's "
                          f"current, a node voltage along capacitors).")
     return result.quantity(expr)
+
+
+def _in_numbers(model: Model, result: Any, label: str) -> Any:
+    """``label``'s values from the model's numeric assembly (:func:`~lagrangian.derivation.numeric.assemble_numeric`,
+    kept from the run when it was solved exactly): nothing symbolic is assembled or derived.  ``None`` where the
+    numbers do not say it (a component without numbers, a quantity of accelerations or of a source's own signal,
+    a coordinate the result does not hold): the symbolic path then evaluates or refuses it."""
+    branch = _BRANCH.match(label)
+    if not branch:
+        return None
+    quantity, name = branch.group(1).lower(), branch.group(2)
+    if name in model.components:
+        path = [(model.components[name], 1)]
+    elif quantity == "v" and name in model.nodes:
+        try:
+            path = _voltage_path(model, name)
+        except ModelError:
+            return None
+    else:
+        return None
+    try:
+        asm = assemble_numeric(model)
+    except NotStampable:
+        return None
+    if any(nm not in result.q for nm in asm.names):
+        return None
+    n = len(asm.names)
+    row_q, row_v = np.zeros(n), np.zeros(n)
+    for comp, sign in path:
+        got = asm.quantity(comp, quantity)
+        if got is None:
+            return None
+        rows, signal = got
+        if signal or any(np.any(r) for r in rows[2:]):
+            return None
+        row_q += sign * rows[0]
+        if len(rows) > 1:
+            row_v += sign * rows[1]
+    q = np.array([result.q[nm] for nm in asm.names])
+    v = np.array([result.v[nm] for nm in asm.names])
+    return row_q @ q + row_v @ v
 
 
 @dataclass(frozen=True)
