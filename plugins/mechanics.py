@@ -255,14 +255,16 @@ class Spring(Component):
         return Contribution(V=_half_square(self.k, e) + quartic)
 
     def linear(self, ctx: LinearContext) -> Linear | None:
-        """``½ k x²`` in numbers; with a rest length (a constant force too) or a ``beta`` given (even 0, which
-        ``params=`` may change: a cubic force), the whole energy as a :class:`~lagrangian.Potential` of the branch,
-        which only the numeric runs of large models take (the linear analyses refuse it)."""
+        """``½ k (x + ℓ₀)²`` in numbers over the branch ``x = x_a − x_b``: ``½ k x²``, the constant force ``−k ℓ₀``
+        of a rest length and the constant ``½ k ℓ₀²``.  With a ``beta`` given (even 0, which ``params=`` may
+        change: a cubic force), the whole energy as a :class:`~lagrangian.Potential` of the branch, which only the
+        numeric runs of large models take (the linear analyses refuse it)."""
         k = ctx.number(self, "k")
         if k is None or not _one_axis(ctx):
             return None
-        if self.rest_length == 0 and "beta" not in self._given:
-            return Linear(V={(0, 0): k})
+        if "beta" not in self._given:
+            rest = float(self.rest_length)
+            return Linear(V={(0, 0): k}, load={0: -k * rest} if rest else {}, constant=k * rest * rest / 2)
         beta = ctx.number(self, "beta")
         if beta is None:
             return None
@@ -425,6 +427,25 @@ class Gravity(Component):
                 node, mass = held
                 terms.append(-mass * self.g * sp.Add(*[a * b for a, b in zip(u, ctx.view.position(node)) if a != 0]))
         return Contribution(V=sp.Add(*terms))  # −Σ m g (u · r)
+
+    def linear(self, ctx: LinearContext) -> Linear | None:
+        """In one dimension, a constant force ``m g u`` on the coordinate of each mass (``V = −Σ m g u x``), over
+        the masses' branches; ``None`` where a mass or ``g`` has no number."""
+        g = ctx.number(self, "g")
+        if g is None or not _one_axis(ctx):
+            return None
+        u = float(self._direction(1)[0])
+        branches, load = [], {}
+        for comp in ctx.components.values():
+            held = getattr(comp, "gravitational_mass", None)
+            if held is None:
+                continue
+            mass = held[1]
+            if not isinstance(mass, (int, float)) and not getattr(mass, "is_number", False):
+                return None
+            load[len(branches)] = float(mass) * g * u
+            branches.append((comp.name, 0))
+        return Linear(branches=tuple(branches), load=load)
 
     @classmethod
     def example(cls) -> Example:

@@ -137,10 +137,12 @@ class TorsionSpring(_Rotational):
         return Contribution(V=self.k * twist**2 / 2)
 
     def linear(self, ctx: LinearContext) -> Linear | None:
-        k = ctx.number(self, "k")
-        if k is None or ctx.number(self, "rest_angle") != 0:  # a rest angle: a constant torque too
+        """``½ k (x + θ₀)²`` over the branch ``x = θ_a − θ_b``: ``½ k x²``, the constant torque ``−k θ₀`` of a rest
+        angle and the constant ``½ k θ₀²``."""
+        k, rest = ctx.number(self, "k"), ctx.number(self, "rest_angle")
+        if k is None or rest is None:
             return None
-        return Linear(V={(0, 0): k})
+        return Linear(V={(0, 0): k}, load={0: -k * rest} if rest else {}, constant=k * rest * rest / 2)
 
     @classmethod
     def example(cls) -> Example:

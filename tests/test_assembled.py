@@ -33,7 +33,8 @@ def _decades(lo: float, hi: float):
 @st.composite
 def networks(draw):
     """A random 1-D network: ``n`` masses, each tied to ground or an earlier node by a spring (cubic or linear,
-    with or without a rest length), some with dampers, extra springs between random pairs, a harmonic force."""
+    with or without a rest length), some with dampers, extra springs between random pairs, a harmonic force,
+    gravity along the axis or not."""
     n = draw(st.integers(2, 7))
     m = lg.Model("net")
     for i in range(n):
@@ -52,6 +53,8 @@ def networks(draw):
             m.add("damper", f"c{k}", nodes, c=draw(_decades(1e-3, 10.0)))
     if draw(st.booleans()):
         m.add("force", "F", f"p{n - 1}", F=draw(_decades(0.1, 10.0)) * sp.sin(draw(_decades(0.3, 30.0)) * lg.t))
+    if draw(st.booleans()):
+        m.add("gravity", "g", g=draw(_decades(1.0, 20.0)), **draw(st.sampled_from([{}, {"direction": (1.0,)}])))
     return m
 
 
@@ -76,7 +79,7 @@ def test_rhs_and_energies_equal_the_symbolic_derivation(m, seed):
 
 def test_each_potential_expression_is_derived_once_for_all_its_components():
     m = models.spring_chain(40, m=[0.3 + 0.01 * i for i in range(40)], k=[40.0 + i for i in range(40)], beta=2e4)
-    m.add("spring", "tail", ("p39", "ground"), k=7.0, rest_length=0.25)  # same kind: the same expression
+    m.add("spring", "tail", ("p39", "ground"), k=7.0, rest_length=0.25, beta=0.0)  # a beta given: the same expression
     ours = AssembledModel(m, local_stamps(m))
     assert len(ours.kernels) == 1 and len(ours.kernels[0].names) == 41
     assert {k.energy for k in ours.kernels} == {assemble_local(m).potentials["k0"].energy}

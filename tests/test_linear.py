@@ -173,6 +173,30 @@ def test_undamped_oscillator_with_a_cosine_force_is_exact():
     assert res.method == "exact" and res.defaulted == []
 
 
+@settings(max_examples=25, deadline=None)
+@given(st.floats(-1, 1).map(lambda e: float(f"{10 ** e:.3g}")), st.floats(0, 3).map(lambda e: float(f"{10 ** e:.3g}")),
+       st.floats(0.0, 2.0), st.sampled_from([9.81, 1.62]), st.floats(-0.5, 0.5))
+def test_a_mass_hanging_on_a_spring_with_a_rest_length_under_gravity_is_exact_in_numbers(m, k, rest, g, x0):
+    # V = ½ k (x − ℓ₀)² + m g x (gravity along −x): rest at x* = ℓ₀ − m g / k, so x = x* + (x0 − x*) cos ωt with
+    # ω² = k/m, and T + V keeps its start value.  The constant loads are in the numeric stamps: nothing derived.
+    from lagrangian.derivation.numeric import numeric_stamps
+
+    model = lg.Model("hanging")
+    model.add("mass", "m", "p", m=m)
+    model.add("spring", "k", ("ground", "p"), k=k, rest_length=rest)
+    model.add("gravity", "g", g=g)
+    assert numeric_stamps(model).inputs == [1]
+    w, star = math.sqrt(k / m), rest - m * g / k
+    res = model.simulate(20 * 2 * math.pi / w, initial={"x_p": x0}, velocity={"x_p": 0.0}, points=801, method="exact")
+    x = star + (x0 - star) * np.cos(w * res.t)
+    scale = abs(star) + abs(x0 - star)
+    assert max_err(res["x_p"], x) < EXACT_TOL * scale
+    energy = k * (x0 - rest) ** 2 / 2 + m * g * x0
+    V = k * (x - rest) ** 2 / 2 + m * g * x
+    assert max_err(res.V, V) < EXACT_TOL * k * scale**2
+    assert max_err(res.T + res.V, np.full_like(x, energy)) < EXACT_TOL * k * scale**2
+
+
 def test_undamped_oscillator_driven_at_resonance_grows_linearly():
     # ẍ + ω² x = (F0/m) cos ωt from rest: x = F0 t sin ωt / (2 m ω) — the input's frequency is an
     # eigenvalue of F; the augmented exponential needs no special case.

@@ -361,8 +361,9 @@ def test_a_ladder_response_in_numbers_is_the_dense_response_of_its_derivation():
 @settings(max_examples=25, deadline=None)
 @given(st.integers(1, 4), st.sampled_from(["translational", "rotational"]), st.data())
 def test_a_chain_of_masses_or_rotors_in_numbers_is_its_derivation(n, kind, data):
-    """Masses, springs, dampers and a force on one axis, or rotors, shafts, drag cups and a torque: the numeric
-    linearization is the derived one."""
+    """Masses, springs, dampers and a force on one axis, or rotors, shafts, drag cups and a torque, springs with or
+    without a rest length (angle), masses with or without gravity along the axis: the numeric linearization (its
+    rest point moved by the constant loads) is the derived one."""
     mass, spring, damper, load, coordinate = (("mass", "spring", "damper", "force", "x") if kind == "translational"
                                               else ("inertia", "torsion_spring", "rotary_damper", "torque", "theta"))
     pname = {"mass": "m", "inertia": "J", "force": "F", "torque": "tau"}
@@ -370,10 +371,14 @@ def test_a_chain_of_masses_or_rotors_in_numbers_is_its_derivation(n, kind, data)
     prev = "ground"
     for i in range(n):
         m.add(mass, f"m{i}", f"p{i}", **{pname[mass]: data.draw(values) * 0.1})
-        m.add(spring, f"k{i}", (prev, f"p{i}"), k=data.draw(values) * 100)
+        rest = {("rest_length" if kind == "translational" else "rest_angle"): data.draw(st.sampled_from([0.3, 1.7]))}
+        m.add(spring, f"k{i}", (prev, f"p{i}"), k=data.draw(values) * 100, **(rest if data.draw(st.booleans()) else {}))
         if data.draw(st.booleans()):
             m.add(damper, f"c{i}", (prev, f"p{i}"), c=data.draw(values))
         prev = f"p{i}"
+    if kind == "translational" and data.draw(st.booleans()):
+        direction = data.draw(st.sampled_from([{}, {"direction": (1.0,)}, {"direction": (-2.0,)}]))
+        m.add("gravity", "g", g=data.draw(st.sampled_from([9.81, 1.62])), **direction)
     m.add(load, "F", f"p{n - 1}", **{pname[load]: data.draw(st.sampled_from([0.0, 2.5]))})
     outputs = [f"{coordinate}_p{n - 1}", f"{coordinate}_p0'", f"{coordinate}_p0''"]
     assert numeric(m, ["F"], outputs, 0.0) is not None

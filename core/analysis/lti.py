@@ -192,6 +192,8 @@ def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
                 raise NotStampable(f"{comp.kind} {cname!r} has a force but no one signal")
             signal[cname] = _at(comp.params[pname], time)
             b0 += force * signal[cname]
+        if asm.loads is not None:  # constant loads (gravity, rest lengths) move the rest point
+            b0 += asm.loads
         for cname, (pname, index, label) in chosen.items():
             comp = components[cname]
             if index is not None or pname != _signal_of(comp):

@@ -94,9 +94,12 @@ class Linear:
 
     ``branches``: the variables, as ``(component name, branch index)`` pairs; ``None`` for the component's own
     branches in order.  ``T``, ``V``, ``D``, ``G``: coefficients by pair of variable indices.  ``force``: by variable
-    index, the generalized force per unit of the component's signal.  ``quantities``: by name (those of
-    :attr:`lagrangian.Component.quantities` it can give in numbers).  ``potential``: a nonlinear energy of the
-    variables (:class:`Potential`), added to ``V``; ``None`` for a linear component.
+    index, the generalized force per unit of the component's signal.  ``load``: by variable index, a constant
+    generalized force (gravity along the axis, a spring's rest length: ``V`` gains ``−Σ load_k x_k``), and
+    ``constant`` the constant term of ``V`` (``½ k ℓ₀²``), so that the energies equal the symbolic ones.
+    ``quantities``: by name (those of :attr:`lagrangian.Component.quantities` it can give in numbers).
+    ``potential``: a nonlinear energy of the variables (:class:`Potential`), added to ``V``; ``None`` for a linear
+    component.
     """
 
     branches: tuple[tuple[str, int], ...] | None = None
@@ -105,6 +108,8 @@ class Linear:
     D: Mapping[tuple[int, int], float] = field(default_factory=dict)
     G: Mapping[tuple[int, int], float] = field(default_factory=dict)
     force: Mapping[int, float] = field(default_factory=dict)
+    load: Mapping[int, float] = field(default_factory=dict)
+    constant: float = 0.0
     quantities: Mapping[str, Quantity] = field(default_factory=dict)
     potential: Potential | None = None
 

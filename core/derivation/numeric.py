@@ -65,7 +65,9 @@ class NumericAssembly:
     quantities; ``branch``: every branch quantity by edge key, likewise;
     ``potentials``: the nonlinear energies of the components that give one
     (:class:`~lagrangian.base.linear.Potential`), by name: only
-    :func:`assemble_local` keeps a model that has any.
+    :func:`assemble_local` keeps a model that has any.  ``loads``: the
+    constant generalized forces (gravity along the axis, springs' rest
+    lengths), which the stamps take as an input of shape ``1``.
     """
 
     names: list[str]
@@ -75,6 +77,9 @@ class NumericAssembly:
     rows: dict[str, list[dict[int, float]]] = field(default_factory=dict)
     branch: dict[str, dict[int, float]] = field(default_factory=dict)
     potentials: dict[str, Potential] = field(default_factory=dict)
+    #: the constant generalized forces (``Linear.load`` of every component, by coordinate), and ``V``'s constant
+    loads: np.ndarray | None = None
+    constant: float = 0.0
 
     def dense(self, which: str) -> np.ndarray:
         """Matrix ``which`` (``"M"``, ``"C"``, ``"K"``, ``"Cd"``) as a read-only array, made on first use."""
@@ -261,13 +266,20 @@ def _assemble(model: Any) -> NumericAssembly:
                 for j, c in sparse[i].items():
                     force[j] += f * c
             out.forces[comp.name] = force
+        if lin.load:
+            loads = out.loads if out.loads is not None else np.zeros(n)
+            for i, f in lin.load.items():
+                for j, c in sparse[i].items():
+                    loads[j] += f * c
+            out.loads = loads
+        out.constant += float(lin.constant)
         if lin.potential is not None:
             _check_potential(comp, lin.potential, len(sparse))
             out.potentials[comp.name] = lin.potential
         out.linears[comp.name] = lin
         out.rows[comp.name] = sparse
     out.entries = {which: _summed(*triplets, n) for which, triplets in (("M", M), ("C", C), ("K", K), ("Cd", Cd))}
-    for array in out.forces.values():
+    for array in [*out.forces.values(), *([] if out.loads is None else [out.loads])]:
         array.setflags(write=False)
     return out
 
@@ -378,11 +390,16 @@ def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
             if shape.free_symbols - {_t}:
                 raise NotStampable(f"{comp.kind} {cname!r}: its signal holds symbols other than t")
             entries.append((columns.setdefault(shape, len(columns)), float(coeff) * force))
+    loaded = [] if asm.loads is None else [int(i) for i in np.flatnonzero(asm.loads)]
+    if loaded:  # constant loads: an input of shape 1, as a DC source's
+        entries.append((columns.setdefault(sp.Integer(1), len(columns)), np.array(asm.loads)))
     B = np.zeros((n, len(columns)))
     for col, values in entries:
         B[:, col] += values
     # over z = (q, q̇): T = ½ q̇ᵀ M q̇, V = ½ qᵀ K q, D = ½ q̇ᵀ Cd q̇
-    forms = {"T": Quadratic(_placed(asm, "M", n)), "V": Quadratic(_placed(asm, "K", 0)),
+    forms = {"T": Quadratic(_placed(asm, "M", n)),
+             "V": Quadratic(_placed(asm, "K", 0), [(i, sp.Float(-asm.loads[i])) for i in loaded],
+                            sp.Float(asm.constant) if asm.constant else sp.Integer(0)),
              "D": Quadratic(_placed(asm, "Cd", n))}
     inertial = [int(i) for i in np.flatnonzero(asm.inertial())]
     first = [int(i) for i in np.flatnonzero(~asm.inertial())]
