@@ -1,6 +1,7 @@
 """The package's layers: imports only go down (import-linter's contract in pyproject.toml), and no module cycles."""
 
 import ast
+import os
 import shutil
 import subprocess
 import sys
@@ -71,9 +72,14 @@ def test_every_module_keeps_its_short_name():
         "except ModuleNotFoundError:\n"
         "    print('ok')\n"
     )
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == "ok"
+    assert fresh(code).strip() == "ok"
+
+
+def fresh(code: str, env: dict | None = None) -> str:
+    """The standard output of ``code`` run in a fresh interpreter, which must succeed and write no error."""
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert run.returncode == 0 and not run.stderr, run.stderr
+    return run.stdout
 
 
 HEAVY = ("sympy", "scipy", "numpy", "networkx", "matplotlib", "pint", "dask", "PySpice", "pandas", "xarray", "mpmath")
@@ -95,18 +101,11 @@ def test_import_and_cli_help_load_no_heavy_library_until_a_name_is_used(start):
         "assert lagrangian.load == lagrangian.Model.load and lagrangian.t.name == 't'\n"
         "print(loaded)\n"
     )
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.strip().splitlines()[-1] == "[]", run.stdout
-    assert not run.stderr, run.stderr
+    out = fresh(code)
+    assert out.strip().splitlines()[-1] == "[]", out
 
 
 def test_eager_import_loads_every_public_name_at_once():
     """``EAGER_IMPORT=1`` (SPEC 1's check that the lazy names all exist) imports every module behind them."""
-    import os
-
     code = "import sys, lagrangian\nprint('lagrangian.model' in sys.modules and 'sympy' in sys.modules)"
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         env={**os.environ, "EAGER_IMPORT": "1"})
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.strip() == "True"
+    assert fresh(code, env={**os.environ, "EAGER_IMPORT": "1"}).strip() == "True"
