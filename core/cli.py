@@ -523,7 +523,7 @@ def _simulate(args) -> int:
                          points=args.points, method=args.method)
     print(f"{model.name}: {len(res.t)} points from t = {res.t[0]:g} to {res.t[-1]:g}, method {res.method}")
     labels = [label.strip() for group in args.output or [] for label in group.split(",") if label.strip()]
-    columns = {label: _channels.output_series(model, res, label) for label in labels} or None
+    columns = {label: _channels.output_series(model, res, label, _merged(args.param)) for label in labels} or None
     shown = columns or {name: res[name] for name in res.names}
     if not args.out:
         for name, values in shown.items():

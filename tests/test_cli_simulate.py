@@ -91,11 +91,11 @@ C1 n1 0 0.82
 """
 
 
-def ladder_by_hand(t):
+def ladder_by_hand(t, C1=0.82):
     """Node voltages v(n0), v(n1) and the current of L0 of :data:`LADDER`, from its state equations written out by
     hand (currents of L0, L1 and voltages of C0, C1) and solved exactly: the sine's steady response plus the free
     response that starts the state at zero (eigenvectors of A)."""
-    R0, L0, C0, R1, L1, C1 = 0.37, 7e-3, 0.47, 1.3, 0.12, 0.82
+    R0, L0, C0, R1, L1 = 0.37, 7e-3, 0.47, 1.3, 0.12
     A = np.array([[-R0 / L0, 0, -1 / L0, 0], [0, -R1 / L1, 1 / L1, -1 / L1],
                   [1 / C0, -1 / C0, 0, 0], [0, 1 / C1, 0, 0]])
     b = np.array([1 / L0, 0, 0, 0])
@@ -125,6 +125,11 @@ def test_simulate_reports_chosen_outputs_node_voltages_and_currents_as_csv(tmp_p
     v0, v1, i0 = ladder_by_hand(t)
     for got, want in ((table["v(n0)"], v0), (table["v(C1)"], v1), (table["i(L0)"], i0)):
         assert np.max(np.abs(got.to_numpy() - want)) <= 1e-9 * np.max(np.abs(want))
+    # a value given at the run: the quantities take it too (q / C with the C the run had)
+    assert main(["simulate", str(source), "--points", "601", "--output", "v(C1)", "--param", "C_C1=0.5",
+                 "--out", str(out)]) == 0
+    v1 = ladder_by_hand(t, C1=0.5)[1]
+    assert np.max(np.abs(pd.read_csv(out)["v(C1)"].to_numpy() - v1)) <= 1e-9 * np.max(np.abs(v1))
     assert main(["simulate", str(source), "--output", "v(L0)"]) == 1
     assert "depends on an acceleration" in capsys.readouterr().err
     assert main(["simulate", str(source), "--output", "v(n9)"]) == 1

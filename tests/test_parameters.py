@@ -115,3 +115,30 @@ def test_a_scalar_signal_given_a_sequence_is_refused_by_name(kind, nodes, name, 
     model = lg.Model("driven", dim=2)
     with pytest.raises(lg.ParameterError, match=rf"component 'j', parameter '{name}': is one signal .*not a sequence"):
         model.add(kind, "j", nodes, **{name: value})
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(-3, 1).map(lambda e: float(f"{10 ** e:.3g}")), st.floats(-3, 1).map(lambda e: float(f"{10 ** e:.3g}")))
+def test_outputs_of_a_linearization_take_the_values_given_in_params(C_built, C_given):
+    """A ladder built with one capacitance and linearized with another in ``params=``: its outputs (an element's
+    voltage, a node's) are those of the ladder built with the second, as its stiffness is; they kept the first."""
+    from lagrangian.frequency import linearize
+
+    def ladder(C1):
+        m = lg.Model("ladder", formulation="charge")
+        m.add("voltage_source", "V1", ("in", "0"), E=0.0)
+        m.add("resistor", "R0", ("in", "m0"), R=0.37)
+        m.add("inductor", "L0", ("m0", "n0"), L=7e-3)
+        m.add("capacitor", "C0", ("n0", "0"), C=0.47)
+        m.add("resistor", "R1", ("n0", "m1"), R=1.3)
+        m.add("inductor", "L1", ("m1", "n1"), L=0.12)
+        m.add("capacitor", "C1", ("n1", "0"), C=C1)
+        return m
+
+    outputs = ["v(C1)", "v(n1)", "i(L1)"]
+    got = linearize(ladder(C_built), params={"C_C1": C_given}, inputs=["V1"], outputs=outputs)
+    want = linearize(ladder(C_given), inputs=["V1"], outputs=outputs)
+    for name in ("K", "M", "C"):
+        assert np.allclose(getattr(got, name), getattr(want, name), rtol=1e-12, atol=0), name
+    for a, b in zip(got.Cq, want.Cq):
+        assert np.allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float), rtol=1e-12, atol=0)

@@ -17,7 +17,7 @@ rows by power of ``s``.
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -185,7 +185,8 @@ def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
         if name not in model.components and quantity.lower() == "v":
             raise UnknownNameError("component or node", name, [*model.components, *model.nodes])
         comp = model.component(name)
-        return output, comp.quantity(_context(model, comp), quantity.lower())
+        ctx, views = _context(model, comp)
+        return output, views[name].quantity(ctx, quantity.lower())
     base, primes = _PRIMES.match(output.strip()).groups()
     eliminated = getattr(eq, "eliminated", {})
     if base in eliminated:  # its solution is put in by _solved
@@ -197,12 +198,13 @@ def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
     return output, f if not primes else sp.Derivative(f, (t, len(primes)))
 
 
-def output_series(model: Model, result: Any, label: str) -> Any:
+def output_series(model: Model, result: Any, label: str, params: Mapping[str, Any] | None = None) -> Any:
     """The values along ``result`` (a :class:`~lagrangian.Result` of ``model``) of the output ``label``: a
     coordinate (``"x_p"``) or its rate (``"x_p'"``), a quantity a component names (``"v(C1)"``, ``"i(L1)"``) or a
     circuit node's voltage to ground (``"v(n3)"``), as :func:`~lagrangian.frequency.linearize` reads outputs.  A
     quantity that needs accelerations (an inductor's voltage in loop charges) is refused by name: a result holds
-    coordinates and rates.
+    coordinates and rates.  ``params``: the values the run was given (``simulate(params=...)``), which its
+    quantities take too.
 
     >>> import lagrangian as lg
     >>> c = lg.Model("rc", formulation="charge")
@@ -222,7 +224,7 @@ def output_series(model: Model, result: Any, label: str) -> Any:
             return result[base]
         if len(primes) == 1:
             return result.velocity(base)
-    found = _in_numbers(model, result, label)
+    found = None if params else _in_numbers(model, result, label)  # (numbers: the model's own values)
     if found is not None:
         return found
     eq = _Coordinates(model.coordinate_names, model.coordinates, model.assembly.eliminated)
@@ -299,9 +301,13 @@ def _solved(expr: Any, eliminated) -> Any:
     return expr.xreplace({f: by_function[f].solution for f in expr.atoms(AppliedUndef) if f in by_function})
 
 
-def _context(model: Model, comp) -> Context:
-    view = model.assembly.views.get(comp.domain)
-    return Context(view, model.assembly.views, model.options, list(model.components.values()))
+def _context(model: Model, comp) -> tuple[Context, dict[str, Any]]:
+    """The context of ``comp``'s quantities, and every component's symbolic view by name: the quantities come out
+    in the parameters' symbols, as the contributions do (a run, a linearization put in their values, ``params=``
+    among them), and each component sees the others' views (a coupling finds its inductors among them)."""
+    views = {name: c.symbolic_view() for name, c in model.components.items()}
+    asm = model.assembly
+    return Context(asm.views.get(comp.domain), asm.views, model.options, list(views.values()), values=asm.values), views
 
 
 def _node_voltage(model: Model, node: str) -> sp.Expr:
@@ -309,7 +315,8 @@ def _node_voltage(model: Model, node: str) -> sp.Expr:
     that name theirs (``v_a − v_b``, with the sign of the direction walked)."""
     total = sp.Integer(0)
     for comp, sign in _voltage_path(model, node):
-        total += sign * comp.quantity(_context(model, comp), "v")
+        ctx, views = _context(model, comp)
+        total += sign * views[comp.name].quantity(ctx, "v")
     return total
 
 

@@ -20,7 +20,8 @@ __all__ = ["check_closure", "check_rest", "check_rolling", "multipliers", "settl
 def settle(f_u, slopes, q, names, point, subs, at_point, n) -> None:
     """With no point given: Newton's method from the origin on ``f(q) = 0`` at rest (SPICE's operating point), the
     point and ``subs`` moved to where it converges; left at the origin when it does not (the rest check then says
-    so).  ``slopes()``: ``{(i, j): ∂f_i/∂q_j}`` at the current point.  A linear model converges in one step, or is left where it is (no rest point: a DC current flows)."""
+    so).  ``slopes()``: ``{(i, j): ∂f_i/∂q_j}`` at the current point.  A linear model converges in one step, or
+    is left where it is (no rest point: a DC current flows)."""
     x = np.array([float(point[nm]) for nm in names])
     for _ in range(50):
         f = np.array([at_point(e) for e in f_u])

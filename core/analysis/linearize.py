@@ -481,7 +481,8 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
                  [e.xreplace(at_rest_inputs) for e in [*M_u.todok().values(), *f_u, *Phi_g, *c_u]],
                  {k: x for k, x in values.items() if isinstance(x, (int, float))}, calc.diff)
     if at is None and not is_symbolic and not len(Phi_g) and not mv and not moving:
-        settle(f_u, lambda: {(i, j): slope(f_u[i], x) for i, j, x in by_q}, q, names, point, subs, at_point, n)  # a nonlinear model's rest point nearest the origin
+        # a nonlinear model's rest point nearest the origin
+        settle(f_u, lambda: {(i, j): slope(f_u[i], x) for i, j, x in by_q}, q, names, point, subs, at_point, n)
     f0 = sp.Matrix([at_point(e) for e in f_u])
     M0 = matrix(n, n, {ij: at_point(e) for ij, e in M_u.todok().items()})
     C0 = matrix(n, n, {(i, j): -slope(f_u[i], x) for i, j, x in by_v})
@@ -547,8 +548,8 @@ def _by_recursion(model: Model, twin: Model, eq, channels, values, outputs, poin
     derivatives through the recursion's steps (:func:`lagrangian.derivation.recursion.tangents`): ``M = ∂p/∂q̇``,
     ``K = −∂(M q̈)/∂q``, ``C = −M ∂q̈/∂q̇`` and, for each input's signal and derivative, ``B = M ∂q̈/∂u``; never
     the closed form (which a 10-body spatial chain did not finish in 300 s).  ``settle``: Newton's method on
-    ``q̈(q) = 0`` first, as :func:`~lagrangian.analysis.equilibrium.settle` does on ``f``.  None where the steps hold what the forward rules do
-    not know (the closed form then decides)."""
+    ``q̈(q) = 0`` first, as :func:`~lagrangian.analysis.equilibrium.settle` does on ``f``.  None where the steps
+    hold what the forward rules do not know (the closed form then decides)."""
     names, q, v, n = eq.names, list(eq.sym.q), list(eq.sym.v), len(eq.names)
     rec = eq.recursion.recursion
     found = sorted(_atoms([e for _, e in rec.definitions] + list(rec.accelerations), channels), key=sp.default_sort_key)

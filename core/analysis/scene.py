@@ -194,7 +194,8 @@ class Scene:
             m = re.fullmatch(r"(T|V|D|E|L)?\[([^\]]+)\](')?", label)
             meaning = ""
             if label not in names and _BRANCH.match(label):  # v(C1), i(L1), a node's voltage v(n2)
-                expr = eq.symbolic(_output_expr(model, eq, label)[1])
+                # (in the model's own values, as its contributions are: a scene's parts are built with them)
+                expr = eq.symbolic(sp.sympify(_output_expr(model, eq, label)[1]).xreplace(model.assembly.values))
             elif label in names:
                 expr = eq.sym.q[names.index(label)]
             elif label.endswith("'") and label[:-1] in names:
