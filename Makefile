@@ -1,5 +1,5 @@
 # The two commands of the README. Each sets up what it needs (scripts/setup.sh).
-.PHONY: setup demo test test-fast docs benchmark plugins clean
+.PHONY: setup demo test test-explore test-fast docs benchmark plugins clean
 
 setup:
 	@bash scripts/setup.sh
@@ -10,6 +10,10 @@ demo: setup
 # Every test, on every core (pytest-xdist).
 test: setup
 	.venv/bin/python -m pytest -q -n auto
+
+# Every test, the property-based ones drawing new examples on every run (make test and CI repeat theirs).
+test-explore: setup
+	HYPOTHESIS_PROFILE=explore .venv/bin/python -m pytest -q -n auto
 
 # The loop while editing: the tests not marked slow (subprocesses, ngspice, Dask clusters; tests/conftest.py).
 test-fast: setup

@@ -2,7 +2,10 @@
 
 Property-based tests (hypothesis) draw parameters over decades; they run
 without a deadline (symbolic work varies in time, and tests assert nothing
-about wall time) and, under CI, derandomized so a run can be repeated.
+about wall time) and derandomized, so that `make test` on any machine tries
+the examples CI tries and a run can be repeated.  `make test-explore`
+(``HYPOTHESIS_PROFILE=explore``) draws new examples on every run, to search
+further.
 """
 
 import contextlib
@@ -24,7 +27,8 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.differing_executors],
 )
 settings.register_profile("ci", parent=settings.get_profile("default"), derandomize=True, print_blob=True)
-settings.load_profile("ci" if os.environ.get("CI") else "default")
+settings.register_profile("explore", parent=settings.get_profile("default"), print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 @pytest.fixture
