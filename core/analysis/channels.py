@@ -184,9 +184,8 @@ def _output_expr(model: Model, eq, output: Any) -> tuple[str, Any]:
             return output, _node_voltage(model, name)
         if name not in model.components and quantity.lower() == "v":
             raise UnknownNameError("component or node", name, [*model.components, *model.nodes])
-        comp = model.component(name)
-        ctx, views = _context(model, comp)
-        return output, views[name].quantity(ctx, quantity.lower())
+        comp, views = model.component(name), _views(model)
+        return output, views[name].quantity(_context(model, comp, views), quantity.lower())
     base, primes = _PRIMES.match(output.strip()).groups()
     eliminated = getattr(eq, "eliminated", {})
     if base in eliminated:  # its solution is put in by _solved
@@ -301,22 +300,25 @@ def _solved(expr: Any, eliminated) -> Any:
     return expr.xreplace({f: by_function[f].solution for f in expr.atoms(AppliedUndef) if f in by_function})
 
 
-def _context(model: Model, comp) -> tuple[Context, dict[str, Any]]:
-    """The context of ``comp``'s quantities, and every component's symbolic view by name: the quantities come out
-    in the parameters' symbols, as the contributions do (a run, a linearization put in their values, ``params=``
-    among them), and each component sees the others' views (a coupling finds its inductors among them)."""
-    views = {name: c.symbolic_view() for name, c in model.components.items()}
+def _views(model: Model) -> dict[str, Any]:
+    """Every component's symbolic view by name: quantities taken of them come out in the parameters' symbols, as
+    the contributions do (a run, a linearization put in their values, ``params=`` among them)."""
+    return {name: c.symbolic_view() for name, c in model.components.items()}
+
+
+def _context(model: Model, comp, views: dict[str, Any]) -> Context:
+    """The context of ``comp``'s quantities among ``views`` (:func:`_views`: each component sees the others' views,
+    so a coupling finds its inductors among them)."""
     asm = model.assembly
-    return Context(asm.views.get(comp.domain), asm.views, model.options, list(views.values()), values=asm.values), views
+    return Context(asm.views.get(comp.domain), asm.views, model.options, list(views.values()), values=asm.values)
 
 
 def _node_voltage(model: Model, node: str) -> sp.Expr:
     """The voltage of circuit node ``node`` to ground: the element voltages along a path of two-terminal elements
     that name theirs (``v_a − v_b``, with the sign of the direction walked)."""
-    total = sp.Integer(0)
+    total, views = sp.Integer(0), _views(model)
     for comp, sign in _voltage_path(model, node):
-        ctx, views = _context(model, comp)
-        total += sign * views[comp.name].quantity(ctx, "v")
+        total += sign * views[comp.name].quantity(_context(model, comp, views), "v")
     return total
 
 

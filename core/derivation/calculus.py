@@ -139,16 +139,7 @@ class Calculus:
         if e.is_Symbol:
             out = _ONE
         elif e.is_Add:
-            addends = e.args
-            if len(addends) > _INDEXED:
-                index = self._addends.get(e)
-                if index is None:
-                    index = self._addends[e] = {}
-                    for a in addends:
-                        for x in self.deps(a):
-                            index.setdefault(x, []).append(a)
-                addends = index.get(s, ())
-            out = sp.Add(*[self.at(a, s, value, memo) for a in addends if s in self.deps(a)])
+            out = sp.Add(*[self.at(a, s, value, memo) for a in self._holding(e, s)])
         elif e.is_Mul:
             args, terms = e.args, []
             for k, a in enumerate(args):
@@ -201,19 +192,24 @@ class Calculus:
 
         return all(degree(sp.sympify(e, strict=True)) <= 1 for e in exprs)
 
+    def _holding(self, e, s) -> Iterable:
+        """The addends of the sum ``e`` that hold ``s``; for a sum over the whole model (V, D: more than
+        :data:`_INDEXED` addends) through an index of its addends by symbol, found once."""
+        if len(e.args) <= _INDEXED:
+            return [a for a in e.args if s in self.deps(a)]
+        index = self._addends.get(e)
+        if index is None:
+            index = self._addends[e] = {}
+            for a in e.args:
+                for x in self.deps(a):
+                    index.setdefault(x, []).append(a)
+        return index.get(s, ())
+
     def _rule(self, e, s):
         if e == s:
             return _ONE
         if e.is_Add:
-            if len(e.args) > _INDEXED:  # a sum over the whole model (V, D): its addends by symbol, found once
-                index = self._addends.get(e)
-                if index is None:
-                    index = self._addends[e] = {}
-                    for a in e.args:
-                        for x in self.deps(a):
-                            index.setdefault(x, []).append(a)
-                return sp.Add(*[self.diff(a, s) for a in index.get(s, ())])
-            return sp.Add(*[self.diff(a, s) for a in e.args if s in self.deps(a)])
+            return sp.Add(*[self.diff(a, s) for a in self._holding(e, s)])
         if e.is_Mul:
             args = e.args
             terms = []
