@@ -57,7 +57,7 @@ from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from . import control as _control
 from .linearize import LinearModel, linearize, s
-from .laplace import _solve
+from .laplace import FLOOR, _respond, _solve
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
 from .parametric import ParametricResponse
 from .speeds import SpeedSweep, speed_sweep
@@ -67,6 +67,9 @@ __all__ = ["FrequencyResponse", "Modes", "SpeedSweep", "TransferFunction", "deca
 
 #: Largest number of unknowns for which a transfer function is solved in exact arithmetic with SymPy.
 SYMBOLIC_MAX = 8
+
+#: A response's note says where values have fewer than six certain digits: an error bound above this share of them.
+DIGITS = 1e-6
 
 
 def decades(start: float, stop: float, points: int = 20) -> np.ndarray:
@@ -430,6 +433,10 @@ class FrequencyResponse:
     units: dict[str, str] = field(default_factory=dict)
     #: ``∂H/∂p`` by parameter name (outputs × inputs × frequencies), when asked for (``sensitivities=``)
     sensitivities: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the first-order bound of each value's rounding error (outputs × inputs × frequencies): what rounding the
+    #: entries of ``M``, ``C``, ``K`` and the solve can do (:func:`lagrangian.analysis.laplace._respond`).  A value
+    #: whose bound is at least its size is refused (``nan``, and a note says so); ``None`` where not computed
+    error: np.ndarray | None = None
 
     def sensitivity(self, wrt: str, output: Any = None, input: str | None = None) -> np.ndarray:
         """``∂H[output, input]/∂wrt`` over the frequencies (the only output and input when not named)."""
@@ -554,7 +561,35 @@ def frequency_response(system: Model | LinearModel, frequencies: Any, *, inputs:
     """``H(j 2π f)`` at ``frequencies`` (Hz) for every input and output (see :func:`linearize` for both and for
     ``kwargs``).  ``sensitivities``: parameter names (as in ``parameter_values``) whose exact derivatives
     ``∂H/∂p`` the response carries too (:meth:`FrequencyResponse.sensitivity`; a model about rest with its own
-    values: :class:`~lagrangian.analysis.parametric.ParametricResponse`)."""
+    values: :class:`~lagrangian.analysis.parametric.ParametricResponse`).
+
+    Each value carries the bound of its rounding error (:attr:`FrequencyResponse.error`).  A value without a certain
+    digit is given as ``nan``, and the notes say where: 1 mH across 10 nF in loop charges, at a millihertz, loses
+    ``L s²`` (4e-8) beside ``1/C`` (1e8); in node fluxes it does not.
+
+    >>> import lagrangian as lg
+    >>> def tank(formulation):
+    ...     m = lg.Model("tank", formulation=formulation)
+    ...     _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+    ...     _ = m.add("resistor", "R1", ("in", "a"), R=10.0)
+    ...     _ = m.add("capacitor", "C1", ("a", "0"), C=1e-8)
+    ...     _ = m.add("inductor", "L1", ("a", "0"), L=1e-3)
+    ...     return frequency_response(m, [1e-3, 1.0], inputs=["V1"], outputs=["v(C1)"])
+    >>> def exact(f):                           # Z / (R + Z), Z = s L ∥ 1/(s C)
+    ...     s = 2j * np.pi * f
+    ...     Z = s * 1e-3 / (1 + s**2 * 1e-3 * 1e-8)
+    ...     return Z / (10.0 + Z)
+    >>> loops = tank("charge")
+    >>> loops.H[0, 0, 0], loops.notes[0][:42]
+    (np.complex128(nan+0j), 'no certain digit at 1 frequencies (first a')
+    >>> bool(abs(loops.H[0, 0, 1] - exact(1.0)) <= loops.error[0, 0, 1] < 1e-4 * abs(exact(1.0))), loops.notes[1][:40]
+    (True, 'fewer than six certain digits at 1 frequ')
+    >>> nodes = tank("flux")
+    >>> bool(np.all(np.abs(nodes.H[0, 0] - exact(nodes.frequencies)) < 1e-12 * np.abs(exact(nodes.frequencies))))
+    True
+    >>> nodes.notes, bool(np.all(nodes.error < 1e-13 * np.abs(nodes.H)))
+    ([], True)
+    """
     f = _frequencies(frequencies)
     if sensitivities:
         if not isinstance(system, Model) or kwargs:
@@ -572,13 +607,26 @@ def frequency_response(system: Model | LinearModel, frequencies: Any, *, inputs:
         out.sensitivities = {n: dH[j] for j, n in enumerate(names)}
         return out
     lin = _linear(system, inputs, outputs, kwargs)
-    H = _solve(lin, 2j * np.pi * f)
+    H, bound, uncertain = _respond(lin, 2j * np.pi * f)
     notes = []
-    if not np.all(np.isfinite(H)):
-        bad = f[~np.all(np.isfinite(H), axis=(1, 2))]
-        notes.append(f"not finite at {len(bad)} frequencies (a pole on the grid, first at {bad[0]:g} Hz)")
+    pole = ~np.all(np.isfinite(H) | uncertain, axis=(1, 2))
+    if np.any(pole):
+        notes.append(f"not finite at {np.count_nonzero(pole)} frequencies (a pole on the grid, first at "
+                     f"{f[pole][0]:g} Hz)")
+    if np.any(uncertain):
+        where = f[np.any(uncertain, axis=(1, 2))]
+        notes.append(f"no certain digit at {len(where)} frequencies (first at {where[0]:g} Hz), given as nan: "
+                     "M s² + C s + K is singular, or nearly, in double precision there, its terms being decades "
+                     "apart (a circuit is better conditioned at low frequencies in node fluxes, formulation='flux', "
+                     "at high ones in loop charges)")
+    with np.errstate(invalid="ignore"):
+        loose = np.isfinite(H) & (bound > DIGITS * np.abs(H)) & (bound > FLOOR * np.nanmax(np.abs(H), axis=0, initial=0))
+    if np.any(loose):
+        where = f[np.any(loose, axis=(1, 2))]
+        notes.append(f"fewer than six certain digits at {len(where)} frequencies (first at {where[0]:g} Hz): .error "
+                     "bounds each value's error")
     return FrequencyResponse(lin.model, f, list(lin.inputs), list(lin.outputs), np.moveaxis(H, 0, -1), notes,
-                             dict(lin.units))
+                             dict(lin.units), error=np.moveaxis(bound, 0, -1))
 
 
 def _frequencies(frequencies: Any) -> np.ndarray:

@@ -203,7 +203,9 @@ class ImportedNetlist:
         label = " + ".join(names)
         units = {**resp.units, label: "V" if all(resp.units.get(n) == "V" for n in names) else
                  "A" if all(resp.units.get(n) == "A" for n in names) else ""}
-        return FrequencyResponse(resp.model, resp.frequencies, [label], resp.outputs, combined, resp.notes, units)
+        error = None if resp.error is None else np.einsum("oif,i->of", resp.error, np.abs(weights))[:, None, :]
+        return FrequencyResponse(resp.model, resp.frequencies, [label], resp.outputs, combined, resp.notes, units,
+                                 error=error)
 
     def simulate(self, t_end: float | tuple[float, float] | None = None, **kwargs: Any) -> Result:
         """``model.simulate`` from the netlist's initial state; by default over the ``.tran`` span, on its output grid.
