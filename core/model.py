@@ -670,6 +670,7 @@ class Model:
             return _assembled.simulate_assembled(self, run, local, self.registry.integrators)
         if _sensitivity.asked(sensitivities):
             return _sensitivity.simulate(self, run, sensitivities)
+        not_exact = None
         if method == "auto" and st is not None:
             try:
                 res = simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,
@@ -677,10 +678,11 @@ class Model:
                 res.notes.insert(0, "auto: exact, the model is linear time-invariant (assembled from its components' "
                                     + ("numbers)" if numeric else "stamps)"))
                 return res
-            except ModelError as exc:  # an input the exact solution does not take: integrate
+            except ModelError as exc:  # an input the exact solution does not take: integrate (not tried again)
                 _log.info("%s: auto: not solved exactly: %s", self.name, exc)
+                not_exact = exc
         if method == "auto":
-            return self._auto(run)
+            return self._auto(run, not_exact)
         if method == "exact":
             if options or step is not None:
                 raise ModelError(f"method='exact' takes no step or method options (got {', '.join([*options, *(['step'] if step is not None else [])])}).")
@@ -689,14 +691,17 @@ class Model:
         resolve(method, self.registry.integrators)  # an unknown name fails before any derivation
         return self._integrate(run)
 
-    def _auto(self, run: RunOptions) -> Result:
-        """``method="auto"``: the method :func:`~lagrangian.integrate.choose` picks, with its notes."""
+    def _auto(self, run: RunOptions, not_exact: ModelError | None = None) -> Result:
+        """``method="auto"``: the method :func:`~lagrangian.integrate.choose` picks, with its notes (``not_exact``:
+        why the exact solution, tried already from the stamps, does not apply)."""
         numeric = self.numeric(run.params)
         y0, _ = initial_state(self.eq, run.initial, run.velocity, warn=False)
         problem = self._get(("problem", id(numeric)), lambda: Problem(numeric, self.name))
         rtol = 1e-9 if run.rtol is None else run.rtol
-        lti = not run.events and self._linear(run.params)
+        lti = not run.events and not_exact is None and self._linear(run.params)
         choice = choose(problem, run.span, y0, rtol=rtol, linear_exact=lti, integrators=self.registry.integrators)
+        if not_exact is not None:
+            choice.notes.insert(0, f"auto: not solved exactly: {not_exact}")
         if choice.method == "exact":
             try:
                 res = simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,

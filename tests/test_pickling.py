@@ -190,6 +190,17 @@ def test_an_exact_solution_round_trips(how):
     assert np.array_equal(back.quantity(40.0 * x), res.quantity(40.0 * x))
 
 
+def test_an_exact_solution_of_a_large_network_from_its_stamps_round_trips(how):
+    """Solved from its stamps (nothing symbolic derived), its quantities derived on request: that too travels."""
+    m = models.rlc_ladder(40, seed=2)
+    res = m.simulate(0.01, points=11, method="exact")
+    assert "stamps" in res.notes[0]
+    back = roundtrip(res, how)
+    assert_same_run(back, res)
+    q = m.coordinates[0].function
+    assert np.array_equal(back.quantity(3.0 * q), res.quantity(3.0 * q))
+
+
 @pytest.mark.slow  # the sweep compiles the model's library (0.6 s with an empty disk cache)
 def test_a_sweep_dataset_round_trips():
     m = oscillator()

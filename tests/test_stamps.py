@@ -109,6 +109,10 @@ def _chain(n, *, massless_every=0, force=True, gravity=False, pulse=False):
     return m
 
 
+def _not_in_numbers(model):
+    raise NotStampable("the symbolic path, for comparison")
+
+
 def _three_ways(build, monkeypatch, **run):
     """The dense stamped, the sparse stamped and the symbolic exact solution of the same model."""
     with warnings.catch_warnings():
@@ -117,6 +121,7 @@ def _three_ways(build, monkeypatch, **run):
         monkeypatch.setattr(linear, "DENSE_MAX", 4)
         sparse = build().simulate(method="exact", **run)
         monkeypatch.setattr(linear, "STAMPS_MIN", 10**9)
+        monkeypatch.setattr(linear, "numeric_stamps", _not_in_numbers)
         symbolic = build().simulate(method="exact", **run)
     assert "dense" in dense.notes[0] and "sparse" in sparse.notes[0] and not symbolic.notes
     return dense, sparse, symbolic

@@ -67,6 +67,7 @@ import numpy as np
 import sympy as sp
 
 from ..base import display
+from ..base.identity import is_zero
 from ..base.arguments import check_grid
 from ..base.limits import refuse
 from ..base.component import t
@@ -259,13 +260,21 @@ class Scene:
         q, v = eq.sym.q, eq.sym.v
         index = {s: i for i, s in enumerate(q)} | {s: i for i, s in enumerate(v)}
         deps = [set() for _ in range(n)]
+        # read off the generic M and f (the parameters as symbols, as the compiled run takes them), with only the
+        # values that are zero put in (a spring of k = 0 couples nothing): putting every value in walks each entry
+        values = eq.values
+        zeros = {s: 0 for s, v in values.items() if v == 0}
+        M, f = eq._generic["M"], eq._generic["f"]
+        if zeros:
+            M, f = M.xreplace(zeros), f.xreplace(zeros)
         for i in range(n):
-            free = eq.f[i].free_symbols | eq.Q[i].free_symbols
+            free = f[i].free_symbols | eq.Q[i].free_symbols
             for j in range(n):
-                free |= eq.M[i, j].free_symbols
-                if not _is_zero(eq.M[i, j]):
-                    deps[i].add(j)
+                free |= M[i, j].free_symbols
             deps[i] |= {index[s] for s in free if s in index}
+            # an acceleration the equation holds: asked of the entries whose coordinate is not there already (the
+            # check differentiates and evaluates; most entries of a coupled mechanism need not be asked)
+            deps[i] |= {j for j in range(n) if j not in deps[i] and not is_zero(M[i, j], values)}
         for c in eq.constraints:  # a loop ties its coordinates through the multiplier
             tied = {index[s] for s in c.free_symbols if s in index}
             for i in tied:
@@ -325,17 +334,26 @@ class Scene:
         kept, dropped, held = [], {}, {}
         self._touch: dict[str, set[int]] = {}
         shares = dict((name, share) for name, share in eq.load_shares)
+        # every coordinate needed and no offers to weigh: a component is kept unless it contributes nothing or only
+        # imposes a function of time, so only those are read (reading each contribution walks its energies)
+        everything = len(needed) == len(names) and not self.offer
         for name, c in model.assembly.contributions.items():
             comp = model.component(name)
-            exprs = [eq.symbolic(sp.sympify(getattr(c, p))) for p in ("T", "V", "D", "G")] + list(shares.get(name, []))
-            exprs = [e for e in exprs if not _is_zero(e)]
             zeros = [p for p, value in comp.params.items() if isinstance(value, (int, float, sp.Number)) and value == 0
                      and comp.parameters.get(p) is not None and comp.parameters[p].default != value]
-            if not exprs and zeros:
-                dropped[name] = f"contributes nothing ({', '.join(f'{p} = 0' for p in zeros)})"
-                continue
             if getattr(comp, "role", None) == "across" and any(isinstance(x, (sp.Expr, sp.MatrixBase)) and x.has(t) for x in comp.params.values()):
                 held[name] = "imposes its across quantity (a position, a voltage) as a given function of time: no coordinate to solve for"
+            if everything and not zeros and name not in held:
+                kept.append(name)
+                continue
+            exprs = [eq.symbolic(sp.sympify(getattr(c, p))) for p in ("T", "V", "D", "G")] + list(shares.get(name, []))
+            # whether a contribution vanishes is asked (a check at random points) only of a component given a zero;
+            # of the others, what is not literally zero counts, and at worst keeps a component the outputs need not
+            exprs = [e for e in exprs if not _is_zero(e)] if zeros else [e for e in exprs if e != 0]
+            if not exprs and zeros:
+                held.pop(name, None)
+                dropped[name] = f"contributes nothing ({', '.join(f'{p} = 0' for p in zeros)})"
+                continue
             owned = {i for i, c_ in enumerate(eq.coordinates) if f"'{name}'" in c_.description}
             if not exprs and not owned:
                 if name not in held:

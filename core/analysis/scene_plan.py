@@ -198,16 +198,20 @@ def _closure(start, neighbours) -> set[int]:
 
 def _maybe_linear(eq: Equations) -> bool:
     """False when the equations are plainly not linear time-invariant (state or time in ``A``, ``b`` not
-    polynomial in the state); True means "ask :func:`lagrangian.linear.state_space`"."""
+    polynomial in the state); True means "ask :func:`lagrangian.linear.state_space`".  Read on the generic
+    equations (the structure, as the compiled run takes it: putting the values in walks every entry)."""
+    g = eq.generic()
     state = set(eq.sym.q) | set(eq.sym.v)
-    if any(e.free_symbols & (state | {t}) for e in eq.A):
+    if any(e.free_symbols & (state | {t}) for e in g["A"]):
         return False
-    return all(e.is_polynomial(*state) for e in eq.b)
+    return all(e.is_polynomial(*state) for e in g["b"])
 
 
 def _ops(eq: Equations) -> int:
-    """Operations to evaluate ``A`` and ``b`` once, every common subexpression once (the size of their tape)."""
-    return size(list(eq.A) + list(eq.b))
+    """Operations to evaluate ``A`` and ``b`` once, every common subexpression once (the size of their tape), counted
+    on the generic equations: a model given numbers weighs as its symbolic twin does."""
+    g = eq.generic()
+    return size(list(g["A"]) + list(g["b"]))
 
 
 def _with_values(eq: Equations, params: dict, expr: sp.Expr) -> sp.Expr:

@@ -270,9 +270,11 @@ def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
     )
 
 
-#: Models with at least this many coordinates are assembled numerically from their components' stamps
+#: Models with at least this many coordinates are assembled numerically from their components' symbolic stamps
 #: (:mod:`lagrangian.derivation.stamps`) when every parameter has a value, instead of deriving their equations
-#: symbolically; at 40 masses the stamps take 0.02 s, the symbolic state space 0.3 s.
+#: symbolically; at 40 masses the stamps take 0.02 s, the symbolic state space 0.3 s.  A model the numeric
+#: assembly covers (:mod:`lagrangian.derivation.numeric`, no ``params``) takes its stamps at any size: nothing
+#: symbolic is built (a moving-coil loudspeaker's exact run, 2 coordinates: 90 ms of CPU instead of 116 ms).
 STAMPS_MIN = 40
 #: Past this many states the exact solution works on sparse matrices (:mod:`lagrangian.numerics.krylov`) instead of
 #: dense matrix exponentials (a dense ``e^{F h}`` of 2,000 states is 32 MB, and costs seconds).
@@ -281,7 +283,8 @@ DENSE_MAX = 1200
 
 def stamped(model, params: Mapping[str, float] | None = None) -> Stamps | None:
     """The model's stamps with these parameter values (cached), or ``None``: fewer than :data:`STAMPS_MIN`
-    coordinates, or a model that is not linear time-invariant in the stamps' sense (the reason is logged).
+    coordinates outside the numeric assembly, or a model that is not linear time-invariant in the stamps' sense
+    (the reason is logged).
 
     Without ``params``, from the numeric assembly where it applies (:func:`lagrangian.derivation.numeric.
     numeric_stamps`: nothing symbolic is built); else from the components' symbolic energies."""
@@ -291,7 +294,7 @@ def stamped(model, params: Mapping[str, float] | None = None) -> Stamps | None:
         except NotStampable as exc:
             _log.debug("%s: not assembled in numbers: %s", model.name, exc)
         else:
-            return st if st.n >= STAMPS_MIN else None
+            return st
     if len(model.assembly.coordinates) < STAMPS_MIN:
         return None
     values = model._values(params or {}, overrides=True)
@@ -720,7 +723,7 @@ def simulate_exact(
         if st is not None:
             qv = np.vstack([q, v])
             T, V, D = (st.energies[part].values(grid, qv) for part in "TVD")
-            evaluator = _lazy_evaluator(model, params)
+            evaluator = _LazyEvaluator(model, params)
         else:
             numeric = model.numeric(params)  # the energies
             T, V, D = numeric.energies(grid, q, v)
@@ -743,13 +746,15 @@ def simulate_exact(
         )
 
 
-def _lazy_evaluator(model, params):
-    """``Result.quantity`` of a stamped run: the model's numeric functions, derived on the first request only."""
+class _LazyEvaluator:
+    """``Result.quantity`` of a stamped run: the model's numeric functions, derived on the first request only (a
+    class, not a closure, so that the result pickles with its model)."""
 
-    def evaluate(expr, result):
-        return model.numeric(params).evaluate(expr, result)
+    def __init__(self, model, params):
+        self.model, self.params = model, params
 
-    return evaluate
+    def __call__(self, expr, result):
+        return self.model.numeric(self.params).evaluate(expr, result)
 
 
 def _piece(ss: StateSpace, model: str, inputs: list[sp.Expr], a: float, b: float) -> _Exosystem:

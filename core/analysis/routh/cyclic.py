@@ -63,8 +63,10 @@ def _coupling(model: Model) -> dict[str, list[str]]:
     return out
 
 
-def ignorability(model: Model) -> dict[str, Ignorability]:
-    """Every coordinate of ``model``, whether it is ignorable, and the reason.
+def ignorability(model: Model, explain: bool = True) -> dict[str, Ignorability]:
+    """Every coordinate of ``model``, whether it is ignorable, and the reason (``explain=False``: only an ignorable
+    coordinate's; a reason that is not given costs nothing, while finding the components behind a dependence walks
+    every component).
 
     A coordinate ``q_i`` is ignorable when it has inertia, ``L``, ``D``,
     the generalized forces and the loop constraints do not depend on it,
@@ -87,38 +89,38 @@ def ignorability(model: Model) -> dict[str, Ignorability]:
     for i, name in enumerate(eq.names):
         qi, vi = q[i], v[i]
 
-        def verdict(reason: str, ok: bool = False) -> None:
-            out[name] = Ignorability(name, ok, reason)
+        def verdict(reason, ok: bool = False) -> None:  # the reason: a string, or what builds one when explained
+            out[name] = Ignorability(name, ok, (reason() if callable(reason) else reason) if explain or ok else "")
 
         if i in eq.first_order:
             verdict("it has no inertia (a first-order coordinate): its rate follows from dissipation, there is no momentum to conserve")
             continue
         if _depends(eq, eq.T, qi):
-            verdict(f"the kinetic energy T depends on it (from {_named(_components(model, 'T', qi))})")
+            verdict(lambda: f"the kinetic energy T depends on it (from {_named(_components(model, 'T', qi))})")
             continue
         if _depends(eq, eq.V, qi):
-            verdict(f"the potential energy V depends on it (from {_named(_components(model, 'V', qi))}): a force acts along it")
+            verdict(lambda: f"the potential energy V depends on it (from {_named(_components(model, 'V', qi))}): a force acts along it")
             continue
         if _depends(eq, eq.G, qi):
-            verdict(f"the velocity-coupling terms G depend on it (from {_named(_components(model, 'G', qi))})")
+            verdict(lambda: f"the velocity-coupling terms G depend on it (from {_named(_components(model, 'G', qi))})")
             continue
         if _depends(eq, eq.D, vi) or _depends(eq, eq.D, qi):
-            verdict(f"dissipation acts on it (the Rayleigh function D depends on it, from "
+            verdict(lambda: f"dissipation acts on it (the Rayleigh function D depends on it, from "
                     f"{_named(_components(model, 'D', vi) or _components(model, 'D', qi))}): its momentum decays")
             continue
         acting = [c for c, share in eq.load_shares if not is_zero(share[i])]
         if acting:
-            verdict(f"a generalized force acts on it (from {_named(acting)}): its momentum changes")
+            verdict(lambda: f"a generalized force acts on it (from {_named(acting)}): its momentum changes")
             continue
         through = [c for c, share in eq.load_shares if any(_depends(eq, e, qi) for e in share)]
         if through:
-            verdict(f"the generalized force of {_named(through)} depends on it")
+            verdict(lambda: f"the generalized force of {_named(through)} depends on it")
             continue
         if any(_depends(eq, c, qi) for c in eq.constraints):
             verdict("it takes part in a loop-closure constraint, whose force acts along it")
             continue
         if name in coupled:
-            verdict(f"a constraint on velocities (nonholonomic, from {_named(coupled[name])}) couples it: the constraint's "
+            verdict(lambda: f"a constraint on velocities (nonholonomic, from {_named(coupled[name])}) couples it: the constraint's "
                     f"force acts along it, so its momentum is not conserved")
             continue
         verdict("absent from L, D, the forces and the constraints: its momentum ∂L/∂q̇ is conserved", True)
@@ -127,4 +129,4 @@ def ignorability(model: Model) -> dict[str, Ignorability]:
 
 def ignorable(model: Model) -> list[str]:
     """Names of the ignorable coordinates of ``model`` (see :func:`ignorability`)."""
-    return [name for name, r in ignorability(model).items() if r.ignorable]
+    return [name for name, r in ignorability(model, explain=False).items() if r.ignorable]
