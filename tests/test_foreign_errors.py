@@ -141,6 +141,13 @@ def test_a_quantity_that_is_not_a_finite_real_is_an_expression_error(result, tex
     assert repr(text if len(text) <= 80 else text[:77] + "...") in str(info.value)
 
 
+def test_a_quantity_holding_an_acceleration_is_refused_as_such(result):
+    """Said as what it is (it once said "an energy term depends on an acceleration"), named with primes."""
+    x = lg.coordinate("x_p")
+    with pytest.raises(lg.ModelError, match=r"holds an acceleration \(x_p''\).*coordinates and rates only"):
+        result.quantity(0.3 * sp.diff(x, lg.t, 2) + 40.0 * x)
+
+
 @pytest.mark.parametrize("text, fn", [("erfc(-t)", lambda t: math.erfc(-t)), ("erf(2*t)", lambda t: math.erf(2 * t)),
                                       ("erf(t) + erfc(t)", lambda t: 1.0)])
 def test_erf_and_erfc_in_a_quantity_are_evaluated(result, text, fn):

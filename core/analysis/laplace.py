@@ -12,7 +12,8 @@ being ``(Σ Cq_k s^k) X + Σ D_k s^k``:
 
 Each answer obtained without pivoting is checked, frequency by frequency, by its componentwise backward error
 (:data:`BACKWARD`); where it exceeds it (a small pivot near a resonance of part of the network) the frequency is
-solved again by LAPACK with partial pivoting.
+solved again by LAPACK with partial pivoting, refined to that backward error (:func:`_refined_solve`).  Every value
+comes with the bound of its error, and a value without a certain digit is refused (:func:`_respond`).
 """
 
 from __future__ import annotations
@@ -344,11 +345,6 @@ def _eliminate_small(A: np.ndarray, y: np.ndarray, plan: tuple[list, list] | Non
     return y
 
 
-def _small_backward_error(A: np.ndarray, y: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Per frequency, ``max_i |A y − b|_i / (|A| |y| + |b|)_i`` (``nan`` where the solve broke down)."""
-    return _small_residual(A, np.abs(A), y, b)[0]
-
-
 def _small_residual(A: np.ndarray, absolute: np.ndarray, y: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(ratio, scale)``: per frequency ``max_i |A y − b|_i / scale_i`` (``nan`` where the solve broke down), with
     ``scale = absolute |y| + |b|`` (``absolute ≥ |A|``: ``|M| |s|² + |C| |s| + |K|``, as the error bound has it)."""
@@ -655,11 +651,6 @@ def _eliminate(A: np.ndarray, y: np.ndarray, lower: int, upper: int) -> np.ndarr
             y[k] -= A[k, lower + j] * y[k + j]
         y[k] /= A[k, lower]
     return y
-
-
-def _backward_error(A: np.ndarray, y: np.ndarray, b: np.ndarray, lower: int) -> np.ndarray:
-    """Per frequency, ``max_i |A y − b|_i / (|A| |y| + |b|)_i`` (``nan`` where the solve broke down)."""
-    return _residual(A, y, b, lower)[0]
 
 
 def _residual(A: np.ndarray, y: np.ndarray, b: np.ndarray, lower: int,

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
+from sympy.core.function import AppliedUndef
 
 from .band import recursive_arrays
 from .codegen import _Unavailable, compile_model, programs
@@ -593,6 +594,13 @@ class NumericModel:
             expr = parse_expression(expr, "the quantity", names=names)
         else:
             expr = as_expr(expr, "the quantity")
+        accelerations = sorted((d for d in expr.atoms(sp.Derivative) if d.derivative_count > 1), key=str)
+        if accelerations:
+            d = accelerations[0]
+            named = d.expr.func.__name__ + "'" * d.derivative_count if isinstance(d.expr, AppliedUndef) else sp.sstr(d)
+            raise ModelError(f"the quantity {sp.sstr(expr)[:80]!r} holds an acceleration ({named}), "
+                             f"and a result holds coordinates and rates only: give a quantity of those, or the "
+                             f"accelerations' expression from the equations of motion.")
         plain = eq.symbolic(expr)
         bad = plain.free_symbols - set(eq.sym.q) - set(eq.sym.v) - {t} - set(self.values)
         if bad:
