@@ -133,6 +133,28 @@ def test_normal_modes_of_two_inductively_coupled_lc_tanks(L, C, k):
         assert np.allclose(np.abs(found.shapes), 1.0, rtol=1e-9)  # in phase and in antiphase
 
 
+@settings(max_examples=25)
+@given(decade(1e-3, 1e3), decade(1e-3, 1e3), decade(1e-2, 1e6), decade(1e-3, 1e3))
+def test_free_coordinates_are_rigid_modes_and_real_eigenvalues_are_decays_not_frequencies(m1, m2, k, c):
+    """Two free masses on a spring: a rigid-body mode (λ = 0, which rounding leaves at about √ε of the other) and
+    ω² = k (1/m1 + 1/m2); a free mass on a damper: a rigid mode and a decay at c/m, not "0 Hz (ζ=1)"."""
+    pair = lg.Model("pair")
+    pair.add("mass", "m1", "a", m=m1)
+    pair.add("mass", "m2", "b", m=m2)
+    pair.add("spring", "k", ("a", "b"), k=k)
+    found = modes(pair)
+    assert found.kinds == ["rigid", "oscillatory"]
+    assert relative(found.omega[1:], np.array([np.sqrt(k * (1 / m1 + 1 / m2))])) < 1e-9
+    assert repr(found).startswith("<Modes of 'pair': rigid (λ = 0), ")
+    drag = lg.Model("drag")
+    drag.add("mass", "m", "p", m=m1)
+    drag.add("damper", "c", ("ground", "p"), c=c)
+    found = modes(drag)
+    assert found.kinds == ["rigid", "real"]
+    assert abs(found.eigenvalues[1] + c / m1) <= 1e-9 * c / m1
+    assert f"decays by e in {m1 / c:.4g} s" in repr(found)
+
+
 @pytest.mark.slow
 def test_parallelogram_linkage_swings_as_its_closed_form_through_its_loop_constraints():
     """Two equal cranks (uniform rods m_c, L) and a coupler (m_p) that translates: ω² = g (m_c + m_p) / (L (2/3 m_c + m_p))."""
