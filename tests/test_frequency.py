@@ -389,6 +389,26 @@ def test_responses_carry_units_for_their_charts():
     assert frequency_response(series_rlc(10.0, 7e-3, 2.2e-6), [1.0], outputs=[sp.Symbol("z") * 0]).unit("0", "V1") == ""
 
 
+@settings(max_examples=10)
+@given(decade(1e-6, 1e6))
+def test_a_nyquist_chart_is_scaled_to_its_curve_not_to_the_critical_point(scale):
+    """An RC low-pass scaled by ``scale`` (a gain, or a current per volt): the chart spans the curve (its diameter
+    ``scale``), and −1 is marked only when it falls in that view."""
+    import matplotlib.pyplot as plt
+
+    m = lg.Model("rc")
+    m.add("current_source", "I1", ("0", "a"), I=0)
+    m.add("resistor", "R1", ("a", "0"), R=scale)
+    m.add("capacitor", "C1", ("a", "0"), C=1e-3 / scale)
+    resp = frequency_response(m, decades(0.01, 1e4, 60), inputs=["I1"], outputs=["v(C1)"])  # R / (1 + s R C)
+    fig = resp.plot("nyquist")
+    ax = fig.axes[0]
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    assert x0 <= 0 and x1 >= 0.99 * scale and -0.5 * scale >= y0  # the curve, with its mirror, in view
+    assert max(x1 - x0, y1 - y0) <= 3 * scale  # and nothing else: not stretched to −1
+    plt.close(fig)
+
+
 @pytest.mark.slow
 def test_frequency_response_charts_are_written(tmp_path):
     m = series_rlc(10.0, 7e-3, 2.2e-6)

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ..base import charts
 from ..base.limits import refuse
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -523,7 +524,7 @@ class FrequencyResponse:
         chosen = [str(o) for o in (outputs or self.outputs)]
         inp = input or self.inputs[0]
         if kind == "bode":
-            fig, (ax_m, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(7, 6))
+            fig, (ax_m, ax_p) = charts.subplots(2, 1, sharex=True, figsize=(7, 6))
             for o in chosen:
                 ax_m.semilogx(self.frequencies, self.magnitude_db(o, inp), label=self._legend(o, inp))
                 ax_p.semilogx(self.frequencies, self.phase_deg(o, inp), label=self._legend(o, inp))
@@ -535,12 +536,14 @@ class FrequencyResponse:
             for ax in (ax_m, ax_p):
                 ax.grid(True, which="both", alpha=0.3)
         else:
-            fig, ax = plt.subplots(figsize=(6, 6))
+            fig, ax = charts.subplots(figsize=(6, 6))
             for o in chosen:
                 H = self[o, inp]
                 ax.plot(H.real, H.imag, label=self._legend(o, inp))
                 ax.plot(H.real, -H.imag, "--", alpha=0.4)
-            ax.plot([-1], [0], "r+")
+            # the critical point −1 marked where the curve's own scale shows it, without scaling the axes to it (a
+            # response of 1e-3 was squashed to a dot beside it)
+            ax.annotate("+", xy=(-1, 0), ha="center", va="center", color="r", annotation_clip=True)
             units = {self.unit(o, inp) for o in chosen}
             suffix = f" ({units.pop()})" if len(units) == 1 and "" not in units else ""
             ax.set_xlabel(f"Re H{suffix}")

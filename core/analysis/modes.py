@@ -27,6 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from ..base import charts
+
 from ..errors import ModelError
 from ..model import Model
 from .linearize import LinearModel, linearize
@@ -230,7 +232,7 @@ class Modes:
         import matplotlib.pyplot as plt
 
         k = min(count or 4, len(self.eigenvalues))
-        fig, ax = plt.subplots(figsize=(7, 4))
+        fig, ax = charts.subplots(figsize=(7, 4))
         x = np.arange(len(self.coordinates))
         for j in range(k):
             ax.plot(x, self.shapes[:, j].real, "o-", label=self.describe(j))

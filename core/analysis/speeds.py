@@ -44,6 +44,8 @@ from typing import Any
 
 import numpy as np
 
+from ..base import charts
+
 from ..errors import ModelError
 from ..model import Model
 from .linearize import linearize
@@ -160,7 +162,8 @@ class SpeedSweep:
         Figure."""
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(7, 4.5)) if ax is None else (ax.figure, ax)
+        own = ax is None
+        fig, ax = charts.subplots(figsize=(7, 4.5)) if own else (ax.figure, ax)
         k = self._trivial()  # the zeros of ignorable coordinates: left out
         kept = np.array([self._nontrivial(row, k) for row in self.eigenvalues])
         v = np.repeat(self.speeds, kept.shape[1])
