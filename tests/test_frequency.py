@@ -389,6 +389,32 @@ def test_responses_carry_units_for_their_charts():
     assert frequency_response(series_rlc(10.0, 7e-3, 2.2e-6), [1.0], outputs=[sp.Symbol("z") * 0]).unit("0", "V1") == ""
 
 
+def test_a_response_goes_to_xarray_and_pandas_with_its_labels_units_bounds_and_sensitivities():
+    """Two inputs driving a mass (a force and a base motion) and three outputs: every value lands under its labels."""
+    m = lg.Model("isolator")
+    m.add("prescribed_motion", "base", "b", position=0)
+    m.add("mass", "m", "p", m=0.3)
+    m.add("spring", "k", ("b", "p"), k=40.0)
+    m.add("damper", "c", ("b", "p"), c=0.5)
+    m.add("force", "F", "p", F=0)
+    f = decades(0.1, 100, 7)
+    resp = frequency_response(m, f, inputs=["F", "base"], outputs=["x_p", "x_p'", "x_p''"])
+    ds = resp.to_xarray()
+    assert list(ds.output.values) == resp.outputs and list(ds.input.values) == resp.inputs == ["base", "F"]
+    assert np.array_equal(ds.frequency.values, f) and ds.attrs["model"] == "isolator"
+    for o in resp.outputs:
+        for i in resp.inputs:
+            assert np.array_equal(ds.H.sel(output=o, input=i).values, resp[o, i])
+            assert ds.unit.sel(output=o, input=i).item() == resp.unit(o, i)
+    assert np.array_equal(ds.error.values, resp.error)
+    df = resp.to_pandas()
+    assert df.columns.names == ["output", "input"] and df.index.name == "frequency"
+    assert np.array_equal(df[("x_p'", "base")].to_numpy(), resp["x_p'", "base"])
+    one = frequency_response(m, f, inputs=["F"], outputs=["x_p"], sensitivities=["k_k"])
+    assert list(one.to_pandas().columns) == ["x_p"]
+    assert np.array_equal(one.to_xarray()["dH/dk_k"].values, one.sensitivities["k_k"])
+
+
 @settings(max_examples=10)
 @given(decade(1e-6, 1e6))
 def test_a_nyquist_chart_is_scaled_to_its_curve_not_to_the_critical_point(scale):

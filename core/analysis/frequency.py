@@ -460,6 +460,55 @@ class FrequencyResponse:
         return (f"<FrequencyResponse of {self.model!r}: {len(self.outputs)} output(s) × {len(self.inputs)} input(s), "
                 f"{len(self.frequencies)} frequencies {self.frequencies[0]:g}–{self.frequencies[-1]:g} Hz>")
 
+    def to_xarray(self):
+        """The response as an :class:`xarray.Dataset`: ``H`` (complex) over ``output``, ``input`` and ``frequency``
+        (Hz), with each ratio's unit (``unit``, over output and input), the error bounds (``error``) and the
+        sensitivities (``dH/d<name>``) where the response has them, the model and notes as attributes.
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("rc")
+        >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+        >>> _ = m.add("resistor", "R1", ("in", "a"), R=1e3)
+        >>> _ = m.add("capacitor", "C1", ("a", "0"), C=2.2e-6)
+        >>> ds = frequency_response(m, [10.0, 100.0], inputs=["V1"], outputs=["v(C1)", "i(R1)"]).to_xarray()
+        >>> ds.H.dims, ds.unit.sel(output="i(R1)", input="V1").item(), ds.frequency.attrs["units"]
+        (('output', 'input', 'frequency'), 'A/V', 'Hz')
+        """
+        import xarray as xr
+
+        dims = ("output", "input", "frequency")
+        data = {"H": xr.Variable(dims, self.H)}
+        if self.error is not None:
+            data["error"] = xr.Variable(dims, self.error, {"description": "bound of each value's rounding error"})
+        for name, dH in self.sensitivities.items():
+            data[f"dH/d{name}"] = xr.Variable(dims, dH)
+        units = np.array([[self.unit(o, i) for i in self.inputs] for o in self.outputs], dtype=object)
+        coords = {"output": list(self.outputs), "input": list(self.inputs),
+                  "frequency": xr.Variable(("frequency",), self.frequencies, {"units": "Hz"}),
+                  "unit": (("output", "input"), units)}
+        return xr.Dataset(data, coords=coords, attrs={"model": self.model, "notes": "\n".join(self.notes)})
+
+    def to_pandas(self):
+        """The response as a :class:`pandas.DataFrame` of complex values indexed by ``frequency`` (Hz): a column per
+        output (one input), or per ``(output, input)`` (several).
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("rc")
+        >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+        >>> _ = m.add("resistor", "R1", ("in", "a"), R=1e3)
+        >>> _ = m.add("capacitor", "C1", ("a", "0"), C=2.2e-6)
+        >>> df = frequency_response(m, [10.0, 100.0], inputs=["V1"], outputs=["v(C1)"]).to_pandas()
+        >>> list(df.columns), df.index.name, df.shape
+        (['v(C1)'], 'frequency', (2, 1))
+        """
+        import pandas as pd
+
+        index = pd.Index(self.frequencies, name="frequency")
+        if len(self.inputs) == 1:
+            return pd.DataFrame({o: self.H[k, 0] for k, o in enumerate(self.outputs)}, index=index)
+        columns = pd.MultiIndex.from_tuples([(o, i) for o in self.outputs for i in self.inputs], names=["output", "input"])
+        return pd.DataFrame(self.H.reshape(-1, len(self.frequencies)).T, index=index, columns=columns)
+
     def __getitem__(self, key) -> np.ndarray:
         """``resp["v(C1)"]`` (the only input) or ``resp["v(C1)", "V1"]``: the complex response."""
         out, inp = key if isinstance(key, tuple) else (key, None)
