@@ -38,6 +38,25 @@ def test_describe_names_components_coordinates_and_equations():
         assert word in text
 
 
+def test_a_result_plots_each_unit_on_its_own_axes_labelled_with_it():
+    """A loudspeaker's coil charge (C) and cone displacement (m): two axes, each with its series and unit (they
+    shared one axes labelled "coordinate"); their rates in C/s and m/s; a single unit, one axes."""
+    import matplotlib.pyplot as plt
+
+    from lagrangian import models
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", lg.InitialConditionWarning)
+        res = models.loudspeaker().simulate(0.01, points=21)
+    axes = res.plot()
+    assert [a.get_ylabel() for a in axes] == ["coordinate (C)", "coordinate (m)"]
+    assert [[line.get_label() for line in a.get_lines()] for a in axes] == [["q_Le"], ["x_cone"]]
+    np.testing.assert_array_equal(axes[1].get_lines()[0].get_ydata(), res["x_cone"])
+    assert [a.get_ylabel() for a in res.plot(velocity=True)] == ["velocity (C/s)", "velocity (m/s)"]
+    assert res.plot("x_cone").get_ylabel() == "coordinate (m)"
+    plt.close("all")
+
+
 def test_result_plots_coordinates_velocities_and_energies():
     m = lg.Model("lc", formulation="flux")
     m.add("capacitor", "C1", ("n1", "0"), C=1)

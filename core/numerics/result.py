@@ -266,25 +266,54 @@ class Result:
         np.savetxt(path, table, fmt="%.17g", delimiter=",", header=",".join(["t", *columns]), comments="")
 
     def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
-        """Plot coordinates (all, or ``names``) against time; return the matplotlib ``Axes``.
+        """Plot coordinates (all, or ``names``) against time, one axes per unit (a charge and a displacement are
+        not drawn on one scale), each labelled with its unit; return the matplotlib ``Axes``, or an array of them
+        (one per unit, top to bottom, sharing ``t``) when the series have several units and no ``ax`` is given.
 
-        ``velocity=True`` plots velocities instead; ``energy=True`` plots T, V and T+V.
+        ``velocity=True`` plots velocities instead; ``energy=True`` plots T, V and T+V (J).
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("pendulum on a cart", dim=2)
+        >>> _ = m.add("link", "arm", "arm")
+        >>> _ = m.add("prismatic", "rail", ("ground", "arm"), axis=(1, 0))
+        >>> _ = m.add("mass", "cart", "arm", m=1.0)
+        >>> res = m.simulate(1, initial={"s_rail": 0.1}, velocity={"s_rail": 0.0}, points=5)
+        >>> res.plot().get_ylabel()
+        'coordinate (m)'
+        >>> import matplotlib.pyplot as plt; plt.close("all")
         """
         import matplotlib.pyplot as plt
 
-        if ax is None:
-            _, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
         prefix = f"{label}: " if label else ""
         if energy:
+            if ax is None:
+                _, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
             for lab, series in (("T", self.T), ("V", self.V), ("T+V", self.E)):
                 ax.plot(self.t, series, label=prefix + lab)
-            ax.set_ylabel("energy")
+            ax.set_ylabel("energy (J)")
+            ax.set_xlabel("t (s)")
+            ax.grid(True, alpha=0.3)
+            ax.legend()
+            return ax
+        groups: dict[str, list[str]] = {}
+        for name in names or self.names:
+            unit = coordinate_unit(name)
+            groups.setdefault(f"{unit}/s" if velocity and unit else unit, []).append(name)
+        what = "velocity" if velocity else "coordinate"
+        if ax is not None or len(groups) == 1:
+            if ax is None:
+                _, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+            axes, panels = [ax], [(next(iter(groups)) if len(groups) == 1 else "", sum(groups.values(), []))]
         else:
-            for name in names or self.names:
+            _, axes = plt.subplots(len(groups), 1, sharex=True, figsize=(8, 1.2 + 2.4 * len(groups)),
+                                   constrained_layout=True)
+            panels = list(groups.items())
+        for axis, (unit, members) in zip(axes, panels):
+            for name in members:
                 series = self.velocity(name) if velocity else self[name]
-                ax.plot(self.t, series, label=prefix + (f"d{name}/dt" if velocity else name))
-            ax.set_ylabel("velocity" if velocity else "coordinate")
-        ax.set_xlabel("t")
-        ax.grid(True, alpha=0.3)
-        ax.legend()
-        return ax
+                axis.plot(self.t, series, label=prefix + (f"d{name}/dt" if velocity else name))
+            axis.set_ylabel(f"{what} ({unit})" if unit else what)
+            axis.grid(True, alpha=0.3)
+            axis.legend()
+        axes[-1].set_xlabel("t (s)")
+        return axes[0] if len(axes) == 1 else axes
