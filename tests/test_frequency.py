@@ -389,6 +389,47 @@ def test_responses_carry_units_for_their_charts():
     assert frequency_response(series_rlc(10.0, 7e-3, 2.2e-6), [1.0], outputs=[sp.Symbol("z") * 0]).unit("0", "V1") == ""
 
 
+R_, L_, C_ = sp.symbols("R L C", positive=True)
+
+
+@settings(max_examples=20)
+@given(decade(1e-2, 1e4), decade(1e-6, 1.0), decade(1e-12, 1e-3))
+def test_a_symbolic_transfer_functions_poles_zeros_and_gain_are_closed_forms(R, L, C):
+    """A series RLC with symbols: the poles of v(C)/V are the quadratic formula's, valued at numbers drawn over
+    decades they are the roots of L s² + R s + 1/C (NumPy's, from its companion matrix); i/V has a zero at s = 0,
+    and gain 1/L."""
+    H = transfer_function(series_rlc(R_, L_, C_), "V1", "v(C1)")
+    values = {R_: R, L_: L, C_: C}
+    poles = np.sort_complex(np.array([complex(p.subs(values)) for p in H.poles()]))
+    expected = np.sort_complex(np.roots([L, R, 1 / C]).astype(complex))
+    assert np.allclose(poles, expected, rtol=1e-9, atol=1e-12 * np.abs(expected).max())
+    assert H.zeros() == [] and sp.simplify(H.gain - 1 / (L_ * C_)) == 0
+    current = transfer_function(series_rlc(R_, L_, C_), "V1", "i(L1)")
+    assert current.zeros() == [0] and sp.simplify(current.gain - 1 / L_) == 0
+
+
+def test_a_symbolic_two_mass_chains_poles_are_its_modes_and_six_poles_are_refused_by_name():
+    """Undamped masses m1, m2 on springs k1 (to ground), k2 (between): the poles are ±i ω of K φ = ω² M φ (NumPy's
+    eigenvalues at numbers); a third mass makes the denominator a cubic in s², degree 6: no closed form, said."""
+    m1, m2, k1, k2, k3 = sp.symbols("m1 m2 k1 k2 k3", positive=True)
+    chain = lg.Model("chain")
+    chain.add("force", "F", "a", F=0)
+    chain.add("mass", "ma", "a", m=m1)
+    chain.add("mass", "mb", "b", m=m2)
+    chain.add("spring", "ka", ("ground", "a"), k=k1)
+    chain.add("spring", "kb", ("a", "b"), k=k2)
+    poles = transfer_function(chain, "F", "x_b").poles()
+    values = {m1: 0.3, m2: 0.7, k1: 40.0, k2: 25.0}
+    found = np.sort(np.array([complex(p.subs(values)) for p in poles]).imag)
+    w2 = np.linalg.eigvals(np.linalg.solve(np.diag([0.3, 0.7]), np.array([[65.0, -25.0], [-25.0, 25.0]])))
+    expected = np.sort(np.concatenate([np.sqrt(w2), -np.sqrt(w2)]))
+    assert np.allclose(found, expected, rtol=1e-12)
+    chain.add("mass", "mc", "c", m=m1)
+    chain.add("spring", "kc", ("b", "c"), k=k3)
+    with pytest.raises(lg.ModelError, match="degree 6 in s, which has no closed form"):
+        transfer_function(chain, "F", "x_c").poles()
+
+
 def test_a_response_goes_to_xarray_and_pandas_with_its_labels_units_bounds_and_sensitivities():
     """Two inputs driving a mass (a force and a base motion) and three outputs: every value lands under its labels."""
     m = lg.Model("isolator")

@@ -250,8 +250,22 @@ class TransferFunction:
                               for i, x in enumerate(c)))
         return poly(np.atleast_1d(num)) / poly(np.atleast_1d(den))
 
-    def poles(self) -> np.ndarray:
-        """The finite poles of ``H`` (rad/s, complex), sorted by magnitude.
+    @property
+    def gain(self) -> sp.Expr | float:
+        """The gain ``k`` of ``H = k Π(s − zᵢ) / Π(s − pⱼ)``: the ratio of the leading coefficients of the numerator
+        and the denominator (an expression of the parameters for a symbolic model).  Up to :data:`SYMBOLIC_MAX`
+        unknowns, where :attr:`expr` is solved."""
+        if self.linear.size > SYMBOLIC_MAX:
+            raise ModelError(f"the gain of {self!r} is read off its rational function, solved up to {SYMBOLIC_MAX} "
+                             f"unknowns (this model has {self.linear.size}): use dc_gain, or poles() and zeros().")
+        num, den = sp.fraction(self.expr)
+        k = sp.cancel(sp.Poly(num, s).LC() / sp.Poly(den, s).LC())
+        return k if self.linear.symbolic else float(k) if k.is_real else complex(k)
+
+    def poles(self) -> np.ndarray | list:
+        """The finite poles of ``H`` (rad/s, complex), sorted by magnitude; for a model with symbolic parameters,
+        their closed forms (a list of SymPy expressions, each repeated by its multiplicity), up to the quartic, and
+        refused by name beyond (no formula in radicals in general).
 
         A mode that the input does not reach or the output does not see
         cancels against a zero and is not a pole of ``H`` (the drift of a
@@ -263,14 +277,17 @@ class TransferFunction:
         """
         return self._roots()[1]
 
-    def zeros(self) -> np.ndarray:
+    def zeros(self) -> np.ndarray | list:
         """The finite zeros of ``H`` (rad/s, complex), sorted by magnitude, as :meth:`poles`: the roots of the
         numerator, or the invariant zeros (where ``[[A − sE, B], [C, D]]`` loses rank) less those matched by a
-        pole."""
+        pole; closed forms for a symbolic model, as :meth:`poles`."""
         return self._roots()[0]
 
-    def _roots(self) -> tuple[np.ndarray, np.ndarray]:
+    def _roots(self) -> tuple[np.ndarray, np.ndarray] | tuple[list, list]:
         lin = self._pick()
+        if lin.symbolic:  # closed forms, as a list of SymPy expressions (a root repeated by its multiplicity)
+            num, den = sp.fraction(self.expr)
+            return _closed_roots(num, "zeros", self), _closed_roots(den, "poles", self)
         _numeric(lin, "poles and zeros")
         if lin.size <= SYMBOLIC_MAX:
             num, den = sp.fraction(self.expr)
@@ -394,6 +411,31 @@ def _poly_roots(expr: sp.Expr) -> np.ndarray:
         k += 1
     roots = np.roots(coeffs) if len(coeffs) > 1 else np.zeros(0, dtype=complex)
     return np.concatenate([roots.astype(complex), np.zeros(k, dtype=complex)])
+
+
+#: Highest degree of a symbolic numerator or denominator whose roots :meth:`TransferFunction.poles` gives in closed
+#: form (the quartic's formula; beyond, none in radicals in general, Abel–Ruffini).
+CLOSED_DEGREE = 4
+
+
+def _closed_roots(poly: sp.Expr, what: str, tf: Any) -> list:
+    """The roots of a polynomial in :data:`s` with symbolic coefficients, each repeated by its multiplicity: factors
+    first (``s²`` and a quadratic are found as such at any degree), each factor up to :data:`CLOSED_DEGREE`."""
+    p = sp.Poly(poly, s)
+    out: list = []
+    for factor, multiplicity in sp.factor_list(p)[1]:
+        degree = factor.degree()
+        if degree > CLOSED_DEGREE:
+            raise ModelError(f"the {what} of {tf!r} are the roots of a factor of degree {degree} in s, which has no "
+                             f"closed form in general: give the parameters numbers (params=), or ask for a smaller "
+                             f"model.")
+        found = sp.roots(factor, cubics=True, quartics=True)
+        if sum(found.values()) != degree:
+            raise ModelError(f"the {what} of {tf!r}: SymPy found no closed form for the roots of {factor.as_expr()} "
+                             f"in s: give the parameters numbers (params=).")
+        for root, k in found.items():
+            out.extend([root] * (k * multiplicity))
+    return out
 
 
 def _sorted(roots: np.ndarray) -> np.ndarray:
