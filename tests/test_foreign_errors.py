@@ -97,6 +97,16 @@ def test_latex_special_characters_in_names_are_escaped(node, shown):
     assert f"x_{{{shown}}}" in text and f"f{shown}" in text
 
 
+@pytest.mark.parametrize("node, shown", [("%", r"\%"), ("a{b", r"a\{b"), ("$&", r"\$\&"), ("a_b", r"a\_b")])
+def test_a_transfer_functions_latex_escapes_the_names_it_shows(node, shown):
+    from lagrangian.frequency import transfer_function
+
+    model = oscillator(node)
+    model.add("force", "F1", node, F=0)
+    text = transfer_function(model, "F1", f"x_{node}")._repr_latex_()
+    assert text.startswith(f"$$\\frac{{\\text{{x\\_{shown}}}}}{{\\text{{F1}}}}(s) = ") and text.endswith("$$")
+
+
 def test_latex_of_ordinary_names_is_sympys():
     model = oscillator("cart")
     model.add("damper", "c_1", ("cart", "ground"), c=sp.Symbol("c"))

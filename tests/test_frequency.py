@@ -146,6 +146,8 @@ def test_free_coordinates_are_rigid_modes_and_real_eigenvalues_are_decays_not_fr
     assert found.kinds == ["rigid", "oscillatory"]
     assert relative(found.omega[1:], np.array([np.sqrt(k * (1 / m1 + 1 / m2))])) < 1e-9
     assert repr(found).startswith("<Modes of 'pair': rigid (λ = 0), ")
+    html = found._repr_html_()
+    assert "<td>rigid</td>" in html and "<td>oscillatory</td>" in html and f"<td>{found.frequencies[1]:.6g}</td>" in html
     drag = lg.Model("drag")
     drag.add("mass", "m", "p", m=m1)
     drag.add("damper", "c", ("ground", "p"), c=c)

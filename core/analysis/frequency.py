@@ -53,6 +53,7 @@ import numpy as np
 import sympy as sp
 
 from ..base import charts
+from ..base.latex import _latex_escape, to_latex
 from ..base.limits import refuse
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
@@ -179,6 +180,24 @@ class TransferFunction:
     def __repr__(self) -> str:
         what = f"1 / ({self.output} / {self.input})" if self.inverse else f"{self.output} / {self.input}"
         return f"<TransferFunction {what} of {self.linear.model!r}>"
+
+    def _repr_latex_(self) -> str:
+        """``H(s)`` as the notebook shows it: its output over its input, then its rational function (names escaped
+        for LaTeX).
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("rc")
+        >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+        >>> _ = m.add("resistor", "R1", ("in", "a"), R=2)
+        >>> _ = m.add("capacitor", "C1", ("a", "0"), C=0.5)
+        >>> print(transfer_function(m, "V1", "v(C1)")._repr_latex_())
+        $$\\frac{\\text{v(C1)}}{\\text{V1}}(s) = \\frac{1.0}{1.0 s + 1.0}$$
+        """
+        def text(label: str) -> str:
+            return r"\text{" + _latex_escape(str(label)).replace("_", r"\_") + "}"
+
+        num, den = (text(self.input), text(self.output)) if self.inverse else (text(self.output), text(self.input))
+        return f"$$\\frac{{{num}}}{{{den}}}(s) = {to_latex(self.expr, dots=False)}$$"
 
     def _pick(self) -> LinearModel:
         lin = self.linear

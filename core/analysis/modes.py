@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..base import charts
+from ..base import charts, display
 
 from ..errors import ModelError
 from ..model import Model
@@ -226,6 +226,14 @@ class Modes:
         rows = ", ".join(self.describe(j) for j in range(min(6, len(self.eigenvalues))))
         more = f", … {len(self.eigenvalues)} in all" if len(self.eigenvalues) > 6 else ""
         return f"<Modes of {self.model!r}: {rows}{more}>"
+
+    def _repr_html_(self) -> str:
+        """A table of the modes: kind, frequency, damping ratio and eigenvalue (Jupyter)."""
+        rows = [[j + 1, kind, f"{f:.6g}" if kind == "oscillatory" else "", f"{z:.4g}" if kind == "oscillatory" else "",
+                 f"{lam:.6g}"] for j, (kind, f, z, lam) in enumerate(zip(self.kinds, self.frequencies, self.damping,
+                                                                          self.eigenvalues))]
+        return display.block(f"modes of {self.model}", display.table(
+            ["mode", "kind", "frequency (Hz)", "damping ratio ζ", "eigenvalue λ (1/s)"], rows), note=self.method)
 
     def plot(self, count: int | None = None, path: str | None = None):
         """Mode shapes against coordinate index (a chain's modes as standing waves); returns the Figure."""
