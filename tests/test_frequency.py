@@ -4,6 +4,9 @@ Expected values come from closed forms (series and parallel RLC, transmissibilit
 parallelogram linkage, hand-derived H(s)) and from sympy.physics.mechanics' Linearizer.
 """
 
+import functools
+import warnings
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -408,6 +411,44 @@ def test_a_symbolic_transfer_functions_poles_zeros_and_gain_are_closed_forms(R, 
     assert H.zeros() == [] and sp.simplify(H.gain - 1 / (L_ * C_)) == 0
     current = transfer_function(series_rlc(R_, L_, C_), "V1", "i(L1)")
     assert current.zeros() == [0] and sp.simplify(current.gain - 1 / L_) == 0
+
+
+@functools.lru_cache(maxsize=1)
+def _symbolic_rlc_responses():
+    """The series RLC's v(C)/V step and impulse responses with symbols R, L, C (derived once)."""
+    H = transfer_function(series_rlc(R_, L_, C_), "V1", "v(C1)")
+    return H.step_response(), H.impulse_response()
+
+
+@settings(max_examples=15)
+@given(decade(1.0, 1e3), decade(1e-4, 1e-1), decade(1e-9, 1e-4))
+def test_step_and_impulse_responses_in_closed_form_are_the_exact_solution(R, L, C):
+    """A series RLC over decades (under- and overdamped): v(C) after a unit step of V1, and after a unit impulse
+    (which leaves the loop's current at 1/L), in closed form from the transfer function (in numbers, and with
+    symbols valued afterwards) against the exact solution of the circuit by the matrix exponential."""
+    w0, alpha = 1 / np.sqrt(L * C), R / (2 * L)
+    slowest = alpha if alpha < w0 else alpha - np.sqrt(alpha**2 - w0**2)
+    times = np.linspace(0, 8 / slowest, 41)
+    symbolic = dict(zip(("step", "impulse"), _symbolic_rlc_responses()))
+    for kind in ("step", "impulse"):
+        circuit = lg.Model("series rlc")
+        circuit.add("voltage_source", "V1", ("in", "0"), E=1.0 if kind == "step" else 0.0)
+        circuit.add("resistor", "R1", ("in", "a"), R=R)
+        circuit.add("inductor", "L1", ("a", "b"), L=L)
+        circuit.add("capacitor", "C1", ("b", "0"), C=C)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", lg.InitialConditionWarning)
+            run = circuit.simulate(times[-1], t_eval=times, method="exact",
+                                   velocity={"q_L1": 0.0 if kind == "step" else 1 / L})
+        exact = run["q_L1"] / C
+        scale = np.abs(exact).max()
+        H = transfer_function(series_rlc(R, L, C), "V1", "v(C1)")
+        closed = H.step_response() if kind == "step" else H.impulse_response()
+        got = sp.lambdify(lg.t, closed, "numpy")(times)
+        assert np.abs(got - exact).max() <= 1e-8 * scale, kind
+        valued = symbolic[kind].subs({R_: R, L_: L, C_: C})
+        got = np.real(sp.lambdify(lg.t, valued, "numpy")(times + 0j))
+        assert np.abs(got - exact).max() <= 1e-8 * scale, kind
 
 
 def test_a_symbolic_two_mass_chains_poles_are_its_modes_and_six_poles_are_refused_by_name():

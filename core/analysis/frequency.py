@@ -59,6 +59,7 @@ from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from . import control as _control
 from .linearize import LinearModel, linearize, s
+from .closed_form import closed_roots, inverse_laplace
 from .laplace import FLOOR, _respond, _solve
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
 from .parametric import ParametricResponse
@@ -306,7 +307,7 @@ class TransferFunction:
         lin = self._pick()
         if lin.symbolic:  # closed forms, as a list of SymPy expressions (a root repeated by its multiplicity)
             num, den = sp.fraction(self.expr)
-            return _closed_roots(num, "zeros", self), _closed_roots(den, "poles", self)
+            return closed_roots(num, f"the zeros of {self!r}"), closed_roots(den, f"the poles of {self!r}")
         _numeric(lin, "poles and zeros")
         if lin.size <= SYMBOLIC_MAX:
             num, den = sp.fraction(self.expr)
@@ -316,6 +317,34 @@ class TransferFunction:
         p = _eigenvalues(_descriptor(lin, with_io=False), w0)
         z, p = _cancel(z, p, w0)
         return (p, z) if self.inverse else (z, p)
+
+    def step_response(self) -> sp.Expr:
+        """The response to a unit step at ``t = 0`` from rest, in closed form: a SymPy expression of
+        :data:`lagrangian.t` (the inverse Laplace transform of ``H(s)/s`` by partial fractions over the poles,
+        :func:`lagrangian.analysis.closed_form.inverse_laplace`; symbols where the model has them).  Up to
+        :data:`SYMBOLIC_MAX` unknowns, where :attr:`expr` is solved.
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("rc")
+        >>> _ = m.add("voltage_source", "V1", ("in", "0"), E=0)
+        >>> _ = m.add("resistor", "R1", ("in", "a"), R=2)
+        >>> _ = m.add("capacitor", "C1", ("a", "0"), C=0.5)
+        >>> transfer_function(m, "V1", "v(C1)").step_response()
+        1.0 - 1.0*exp(-1.0*t)
+        """
+        return inverse_laplace(self._rational_expr("step_response") / s, f"the step response of {self!r}")
+
+    def impulse_response(self) -> sp.Expr:
+        """The response to a unit impulse at ``t = 0`` from rest, in closed form (as :meth:`step_response`, of
+        ``H(s)``; a ``DiracDelta`` where ``H`` does not vanish at high frequency)."""
+        return inverse_laplace(self._rational_expr("impulse_response"), f"the impulse response of {self!r}")
+
+    def _rational_expr(self, what: str) -> sp.Expr:
+        if self.linear.size > SYMBOLIC_MAX:
+            raise ModelError(f"{what} of {self!r} is read off its rational function, solved up to {SYMBOLIC_MAX} "
+                             f"unknowns (this model has {self.linear.size}): simulate the model instead "
+                             f"(method='exact' solves it exactly).")
+        return self.expr
 
     @property
     def dc_gain(self) -> float | complex:
@@ -430,31 +459,6 @@ def _poly_roots(expr: sp.Expr) -> np.ndarray:
         k += 1
     roots = np.roots(coeffs) if len(coeffs) > 1 else np.zeros(0, dtype=complex)
     return np.concatenate([roots.astype(complex), np.zeros(k, dtype=complex)])
-
-
-#: Highest degree of a symbolic numerator or denominator whose roots :meth:`TransferFunction.poles` gives in closed
-#: form (the quartic's formula; beyond, none in radicals in general, Abel–Ruffini).
-CLOSED_DEGREE = 4
-
-
-def _closed_roots(poly: sp.Expr, what: str, tf: Any) -> list:
-    """The roots of a polynomial in :data:`s` with symbolic coefficients, each repeated by its multiplicity: factors
-    first (``s²`` and a quadratic are found as such at any degree), each factor up to :data:`CLOSED_DEGREE`."""
-    p = sp.Poly(poly, s)
-    out: list = []
-    for factor, multiplicity in sp.factor_list(p)[1]:
-        degree = factor.degree()
-        if degree > CLOSED_DEGREE:
-            raise ModelError(f"the {what} of {tf!r} are the roots of a factor of degree {degree} in s, which has no "
-                             f"closed form in general: give the parameters numbers (params=), or ask for a smaller "
-                             f"model.")
-        found = sp.roots(factor, cubics=True, quartics=True)
-        if sum(found.values()) != degree:
-            raise ModelError(f"the {what} of {tf!r}: SymPy found no closed form for the roots of {factor.as_expr()} "
-                             f"in s: give the parameters numbers (params=).")
-        for root, k in found.items():
-            out.extend([root] * (k * multiplicity))
-    return out
 
 
 def _sorted(roots: np.ndarray) -> np.ndarray:

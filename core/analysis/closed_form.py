@@ -1,0 +1,107 @@
+"""Closed forms of rational functions of ``s``: their roots (the poles and zeros of a transfer function) and their
+inverse Laplace transforms (its step and impulse responses), with symbolic coefficients or numbers.
+
+The inverse transform goes by partial fractions over the denominator's roots, term by term from the table
+``1/(s − p)^k ↔ t^(k−1) e^(p t)/(k − 1)!``: SymPy's ``inverse_laplace_transform`` looks the whole function up
+instead, which on a series RLC with symbols took seconds and returned integrals unevaluated.
+"""
+
+from __future__ import annotations
+
+import math
+
+import sympy as sp
+
+from ..base.component import t
+from ..errors import ModelError
+from .linearize import s
+
+__all__ = ["CLOSED_DEGREE", "closed_roots", "inverse_laplace"]
+
+#: Highest degree of a symbolic numerator or denominator whose roots :meth:`TransferFunction.poles` gives in closed
+#: form (the quartic's formula; beyond, none in radicals in general, Abel–Ruffini).
+CLOSED_DEGREE = 4
+
+
+def closed_roots(poly: sp.Expr, what: str) -> list:
+    """The roots of a polynomial in :data:`s`, each repeated by its multiplicity, in closed form: factors first
+    (``s²`` and a quadratic are found as such at any degree), each factor up to :data:`CLOSED_DEGREE`; ``what``
+    names them in a refusal ("the poles of …").
+
+    >>> a = sp.Symbol("a", positive=True)
+    >>> closed_roots(s**3 + a * s, "the roots")
+    [0, -I*sqrt(a), I*sqrt(a)]
+    """
+    p = sp.Poly(poly, s)
+    out: list = []
+    for factor, multiplicity in sp.factor_list(p)[1]:
+        degree = factor.degree()
+        if degree > CLOSED_DEGREE:
+            raise ModelError(f"{what} are the roots of a factor of degree {degree} in s, which has no "
+                             f"closed form in general: give the parameters numbers (params=), or ask for a smaller "
+                             f"model.")
+        found = sp.roots(factor, cubics=True, quartics=True)
+        if sum(found.values()) != degree:
+            raise ModelError(f"{what}: SymPy found no closed form for the roots of {factor.as_expr()} "
+                             f"in s: give the parameters numbers (params=).")
+        for root, k in found.items():
+            out.extend([root] * (k * multiplicity))
+    return out
+
+
+#: A symbolic partial fraction's coefficient of at most this many operations is simplified (a series RLC's step
+#: response: ``1`` for ``1/(C L p₊ p₋)``); larger ones (a quartic's roots) are left as they are, simplifying them
+#: takes seconds.
+SIMPLIFY_OPS = 120
+
+
+def inverse_laplace(F: sp.Expr, what: str) -> sp.Expr:
+    """``f(t)`` for ``t ≥ 0`` whose Laplace transform is the rational function ``F(s)``, by partial fractions: the
+    polynomial part gives ``DiracDelta`` and its derivatives, each pole ``p`` of multiplicity ``m`` the terms
+    ``c_j t^(m−1−j) e^(p t)/(m−1−j)!``, ``c_j = (1/j!) d^j/ds^j [(s − p)^m F(s)]`` at ``s = p``.  With numbers, a
+    complex pair is written as ``e^(a t) (α cos b t + β sin b t)``; with symbols the terms are left as SymPy gives
+    them (``sp.simplify`` or ``sp.expand_complex`` rewrite them).  ``what`` names the function in a refusal.
+
+    >>> a = sp.Symbol("a", positive=True)
+    >>> inverse_laplace(1 / (s * (s + a)), "f")
+    1/a - exp(-a*t)/a
+    """
+    num, den = sp.fraction(sp.cancel(sp.together(F)))
+    q, r = sp.div(sp.Poly(num, s), sp.Poly(den, s))
+    out = sp.Add(*[c * (sp.DiracDelta(t, k) if k else sp.DiracDelta(t)) for (k,), c in q.terms() if c != 0])
+    den_poly = sp.Poly(den, s)
+    numeric = not (num.free_symbols | den.free_symbols) - {s}
+    lc = den_poly.LC()
+    roots: dict = {}
+    for root in closed_roots(den, f"the poles of {what}"):
+        roots[root] = roots.get(root, 0) + 1
+    terms = []
+    for p, m in roots.items():
+        others = sp.Mul(*[(s - pj) ** mj for pj, mj in roots.items() if pj != p])
+        G = r.as_expr() / (lc * others)
+        for j in range(m):
+            c = sp.diff(G, s, j).subs(s, p) / math.factorial(j)
+            if not numeric and sp.count_ops(c) <= SIMPLIFY_OPS:
+                c = sp.simplify(c)
+            terms.append((c, p, m - 1 - j))
+    if numeric:
+        out += _real_terms(terms)
+    else:
+        out += sp.Add(*[c * t ** k / math.factorial(k) * sp.exp(p * t) for c, p, k in terms])
+    return out
+
+
+def _real_terms(terms: list) -> sp.Expr:
+    """``Σ c t^k/k! e^(p t)`` with number coefficients, a conjugate pair's two terms as one real one."""
+    out = sp.Integer(0)
+    for c, p, k in terms:
+        c, p = complex(sp.N(c)), complex(sp.N(p))
+        power = t ** k / math.factorial(k)
+        if p.imag < 0:
+            continue  # its conjugate's term holds it
+        if p.imag == 0:  # an exact real root: the root finder gives a conjugate pair as such
+            out += sp.Float(c.real) * power * sp.exp(sp.Float(p.real) * t)
+        else:  # 2 Re(c e^(p t)) = 2 e^(a t) (Re c cos b t − Im c sin b t)
+            out += 2 * power * sp.exp(sp.Float(p.real) * t) * (sp.Float(c.real) * sp.cos(sp.Float(p.imag) * t)
+                                                            - sp.Float(c.imag) * sp.sin(sp.Float(p.imag) * t))
+    return out
