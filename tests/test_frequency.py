@@ -451,6 +451,37 @@ def test_step_and_impulse_responses_in_closed_form_are_the_exact_solution(R, L, 
         assert np.abs(got - exact).max() <= 1e-8 * scale, kind
 
 
+@settings(max_examples=15)
+@given(decade(1e-3, 1e3), decade(1e-2, 1e6))
+def test_a_root_locus_is_the_roots_of_the_characteristic_polynomial_at_each_value(m, k):
+    """A mass on a spring and a damper, the damping swept over six decades around critical: at each value the
+    poles are the roots of m s² + c s + k (their polynomial's coefficients, to 1e-9); the chart draws every one."""
+    from lagrangian.frequency import pole_zero_map, root_locus
+    import matplotlib.pyplot as plt
+
+    osc = lg.Model("oscillator")
+    osc.add("mass", "m", "p", m=m)
+    osc.add("spring", "k", ("ground", "p"), k=k)
+    osc.add("damper", "c", ("ground", "p"), c=1.0)
+    cs = 2 * np.sqrt(k * m) * np.geomspace(1e-3, 1e3, 13)
+    locus = root_locus(osc, "c_c", cs)
+    assert locus.poles.shape == (13, 2)
+    w0 = np.sqrt(k / m)
+    for c, row in zip(cs, locus.poles):  # (the polynomial's coefficients: a double root is known to √ε only)
+        assert np.max(np.abs(np.real(np.poly(row)) - [1.0, c / m, k / m]) / (np.maximum(w0, c / m) ** np.arange(3))) <= 1e-9
+    fig = locus.plot()
+    assert len(fig.axes[0].collections[0].get_offsets()) == 26
+    osc.add("force", "F", "p", F=0)
+    H = transfer_function(osc, "F", "x_p'")
+    fig2 = pole_zero_map(H.poles(), H.zeros(), repr(H))
+    poles_line, zeros_line = fig2.axes[0].get_lines()[:2]
+    assert np.allclose(np.sort(poles_line.get_xdata()), np.sort(H.poles().real))
+    assert np.allclose(zeros_line.get_xdata(), [0.0])  # s / (m s² + c s + k)
+    with pytest.raises(lg.UnknownNameError, match="c_x"):
+        root_locus(osc, "c_x", cs)
+    plt.close("all")
+
+
 def test_a_symbolic_two_mass_chains_poles_are_its_modes_and_six_poles_are_refused_by_name():
     """Undamped masses m1, m2 on springs k1 (to ground), k2 (between): the poles are ±i ω of K φ = ω² M φ (NumPy's
     eigenvalues at numbers); a third mass makes the denominator a cubic in s², degree 6: no closed form, said."""

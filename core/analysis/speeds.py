@@ -45,7 +45,6 @@ from typing import Any
 import numpy as np
 
 from ..base import charts
-
 from ..errors import ModelError
 from ..model import Model
 from .linearize import linearize
