@@ -633,8 +633,6 @@ class FrequencyResponse:
              path: str | None = None):
         """A Bode chart (magnitude in dB and phase against log frequency) or a Nyquist chart; returns the matplotlib
         Figure and writes it to ``path`` (PNG) when given."""
-        import matplotlib.pyplot as plt
-
         if kind not in ("bode", "nyquist"):
             raise ModelError(f"kind is 'bode' or 'nyquist', not {kind!r}.")
         chosen = [str(o) for o in (outputs or self.outputs)]

@@ -237,8 +237,6 @@ class Modes:
 
     def plot(self, count: int | None = None, path: str | None = None):
         """Mode shapes against coordinate index (a chain's modes as standing waves); returns the Figure."""
-        import matplotlib.pyplot as plt
-
         k = min(count or 4, len(self.eigenvalues))
         fig, ax = charts.subplots(figsize=(7, 4))
         x = np.arange(len(self.coordinates))

@@ -159,10 +159,7 @@ class SpeedSweep:
         (ignorable coordinates) left out, the speeds where every other mode decays shaded, the crossings marked;
         drawn on ``ax`` when given (a new figure otherwise), ``ylim`` the range of eigenvalues shown; returns the
         Figure."""
-        import matplotlib.pyplot as plt
-
-        own = ax is None
-        fig, ax = charts.subplots(figsize=(7, 4.5)) if own else (ax.figure, ax)
+        fig, ax = charts.subplots(figsize=(7, 4.5)) if ax is None else (ax.figure, ax)
         k = self._trivial()  # the zeros of ignorable coordinates: left out
         kept = np.array([self._nontrivial(row, k) for row in self.eigenvalues])
         v = np.repeat(self.speeds, kept.shape[1])
