@@ -94,13 +94,13 @@ def inverse_laplace(F: sp.Expr, what: str) -> sp.Expr:
 def _real_terms(terms: list) -> sp.Expr:
     """``Σ c t^k/k! e^(p t)`` with number coefficients, a conjugate pair's two terms as one real one."""
     out = sp.Integer(0)
-    for c, p, k in terms:
-        c, p = complex(sp.N(c)), complex(sp.N(p))
+    for c, root, k in terms:
+        c, p = complex(sp.N(c)), complex(sp.N(root))
         power = t ** k / math.factorial(k)
-        if p.imag < 0:
-            continue  # its conjugate's term holds it
-        if p.imag == 0:  # an exact real root: the root finder gives a conjugate pair as such
+        if root.is_real:  # decided on the root as SymPy gives it (a real Float, or a pair with I), not on a float
             out += sp.Float(c.real) * power * sp.exp(sp.Float(p.real) * t)
+        elif p.imag < 0:
+            continue  # its conjugate's term holds it
         else:  # 2 Re(c e^(p t)) = 2 e^(a t) (Re c cos b t − Im c sin b t)
             out += 2 * power * sp.exp(sp.Float(p.real) * t) * (sp.Float(c.real) * sp.cos(sp.Float(p.imag) * t)
                                                             - sp.Float(c.imag) * sp.sin(sp.Float(p.imag) * t))

@@ -193,20 +193,16 @@ class Modes:
         integrator), ``"real"`` (a real eigenvalue: an exponential decay, or growth, with no oscillation) or
         ``"oscillatory"``.  Zero within rounding: ``|λ| ≤`` :data:`RIGID` times :attr:`scale` (an eigenvalue
         of ``K φ = ω² M φ`` errs by about ``√ε`` of the largest, as ``ω²`` errs by ``ε`` of it)."""
+        return [self._kind(lam) for lam in self.eigenvalues]
+
+    def _kind(self, lam: complex) -> str:
         tol = RIGID * self.scale
-        out = []
-        for lam in self.eigenvalues:
-            if abs(lam) <= tol:
-                out.append("rigid")
-            elif abs(lam.imag) <= tol:
-                out.append("real")
-            else:
-                out.append("oscillatory")
-        return out
+        return "rigid" if abs(lam) <= tol else "real" if abs(lam.imag) <= tol else "oscillatory"
 
     def describe(self, j: int) -> str:
         """Mode ``j`` in words: ``"2.906 Hz (ζ=0.01)"``, ``"rigid (λ = 0)"``, ``"real: decays by e in 0.6 s"``."""
-        kind, lam = self.kinds[j], self.eigenvalues[j]
+        lam = self.eigenvalues[j]
+        kind = self._kind(lam)
         if kind == "rigid":
             return "rigid (λ = 0)"
         if kind == "real":
