@@ -36,12 +36,10 @@ from .base.units import is_quantity, split, to_si
 from .plugin.registry import Registry, default_registry
 from .numerics.simulation import NumericModel, Result, check_start, initial_state
 from .numerics.integrate import choose, integrate, Problem, resolve
-from .numerics.events import Event
-from .numerics.events import check as check_events
+from .numerics.events import Event, check as check_events
 from .numerics.linear import prepared, simulate_exact, state_space
 from .numerics.fmu import export as export_fmu
-from .numerics import assembled as _assembled
-from .numerics import sensitivity as _sensitivity
+from .numerics import assembled as _assembled, sensitivity as _sensitivity
 
 __all__ = ["Model"]
 
@@ -663,7 +661,13 @@ class Model:
             max_evaluations=check_positive("max_evaluations", max_evaluations, infinite=True),
         )
         check_grid(run.span, points, t_eval, dim)
-        if run.events and method == "exact":
+        res = self._solve(run, local, st, numeric, sensitivities)
+        res.source = self  # what it animates
+        return res
+
+    def _solve(self, run: RunOptions, local, st, numeric: bool, sensitivities: Sequence[str]) -> Result:
+        """The run of :meth:`simulate`, checked: by the method it names, or the one ``"auto"`` picks."""
+        if run.events and run.method == "exact":
             raise ModelError("method='exact' solves the whole span at once and takes no events: use an adaptive "
                              "method (DOP853, RK45, Radau) or method='auto'.")
         if local is not None:
@@ -671,24 +675,24 @@ class Model:
         if _sensitivity.asked(sensitivities):
             return _sensitivity.simulate(self, run, sensitivities)
         not_exact = None
-        if method == "auto" and st is not None:
+        if run.method == "auto" and st is not None:
             try:
                 res = simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,
-                                     points=points, t_eval=t_eval, progress=run.progress)
+                                     points=run.points, t_eval=run.t_eval, progress=run.progress)
                 res.notes.insert(0, "auto: exact, the model is linear time-invariant (assembled from its components' "
                                     + ("numbers)" if numeric else "stamps)"))
                 return res
             except ModelError as exc:  # an input the exact solution does not take: integrate (not tried again)
                 _log.info("%s: auto: not solved exactly: %s", self.name, exc)
                 not_exact = exc
-        if method == "auto":
+        if run.method == "auto":
             return self._auto(run, not_exact)
-        if method == "exact":
-            if options or step is not None:
-                raise ModelError(f"method='exact' takes no step or method options (got {', '.join([*options, *(['step'] if step is not None else [])])}).")
+        if run.method == "exact":
+            if run.options or run.step is not None:
+                raise ModelError(f"method='exact' takes no step or method options (got {', '.join([*run.options, *(['step'] if run.step is not None else [])])}).")
             return simulate_exact(self, run.span, initial=run.initial, velocity=run.velocity, params=run.params,
-                                  points=points, t_eval=t_eval, progress=run.progress)
-        resolve(method, self.registry.integrators)  # an unknown name fails before any derivation
+                                  points=run.points, t_eval=run.t_eval, progress=run.progress)
+        resolve(run.method, self.registry.integrators)  # an unknown name fails before any derivation
         return self._integrate(run)
 
     def _auto(self, run: RunOptions, not_exact: ModelError | None = None) -> Result:
@@ -720,13 +724,10 @@ class Model:
         return self._integrate(replace(run, method=picked, rtol=None, atol=None, max_step=None,
                                        step=choice.options["step"], options=extra, notes=tuple(choice.notes)))
 
-    @staticmethod
-    def _span(t_end) -> tuple[float, float]:
-        return check_span(t_end)
+    _span = staticmethod(check_span)
 
     def _linear(self, params) -> bool:
         """Whether the model is linear time-invariant (so ``method="exact"`` may apply)."""
-
         try:
             state_space(self, params)
         except ModelError:
@@ -760,8 +761,7 @@ class Model:
         numeric = self.numeric(run.params)
         notes = list(run.notes)
         note = numeric.use_compiled(run.compiled)
-        if note and not getattr(integrator, "needs_compiled", False):  # compiled code asked for, not usable (a
-            # method with a compiled loop says so itself)
+        if note and not getattr(integrator, "needs_compiled", False):  # asked for, not usable (a compiled loop says so)
             notes.append(note)
         y0, defaulted = initial_state(self.eq, run.initial, run.velocity)
         check_start(numeric, self.name, run.span[0], y0, params=run.params)

@@ -39,12 +39,14 @@ from lagrangian import (
     Option,
     Parameter,
     Potential,
+    Shape,
     dot,
     hookimpl,
     rate,
     t,
 )
 from lagrangian.derive import time_derivative
+from lagrangian.plugins import drawing as _drawing
 from lagrangian.plugins.couplings import Constraint, Gear, RackAndPinion, VelocityConstraint
 
 AXES = "xyz"
@@ -59,6 +61,8 @@ class MechanicalView(DomainView):
     edges: dict[str, tuple[str, str]] = field(default_factory=dict)
     poses: dict[str, Any] = field(default_factory=dict)
     bodies: dict[str, Any] = field(default_factory=dict)
+    #: the springs, dampers and other elements acting between two points (drawn as links between them)
+    links: set[str] = field(default_factory=set)
 
     def pose(self, body: str):
         """Rotation, origin, angular velocity (and planar angle) of a rigid body (see the multibody plugin)."""
@@ -97,6 +101,10 @@ class MechanicalView(DomainView):
     def velocity(self, node: str) -> sp.Matrix:
         return sp.Matrix([time_derivative(e, t) for e in self.position(node)])
 
+    def shapes(self) -> list[Shape]:
+        """The mechanism in space, for an animation (:func:`lagrangian.plugins.drawing.shapes`)."""
+        return _drawing.shapes(self)
+
 
 class MechanicalDomain(Domain):
     """Point positions in 1, 2 or 3 dimensions."""
@@ -114,6 +122,7 @@ class MechanicalDomain(Domain):
         prescribed = {c.nodes[0]: c for c in network.components if c.role == "across"}
         view = MechanicalView(dim=dim)
         view.edges = {k: (d["a"], d["b"]) for _, _, k, d in network.graph.edges(keys=True, data=True)}
+        view.links = {c.name for c in network.components if len(c.nodes) == 2 and not getattr(c, "multibody", False)}
         if any(getattr(c, "multibody", False) for c in network.components):
             from lagrangian.plugins.multibody import build_kinematics
 

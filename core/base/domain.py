@@ -20,7 +20,7 @@ import sympy as sp
 from ..errors import ModelError
 from .component import GROUND, Component, t
 
-__all__ = ["Coordinate", "Option", "Network", "DomainView", "Domain", "Context", "Incidence", "check_name", "coordinate",
+__all__ = ["Coordinate", "Option", "Network", "DomainView", "Shape", "Domain", "Context", "Incidence", "check_name", "coordinate",
            "rate"]
 
 
@@ -163,6 +163,23 @@ class RecursiveDynamics:
     responds: bool = False
 
 
+@dataclass(frozen=True)
+class Shape:
+    """A part of a model's drawing in space, for :meth:`lagrangian.Result.animate`.
+
+    ``points``: a ``dim × n`` SymPy matrix of world coordinates, expressions
+    of the coordinates ``q(t)`` and ``t``.  ``kind``: ``"line"`` (a rigid
+    part: the points joined in order), ``"link"`` (a spring or damper between
+    two points: a thin line), ``"point"`` (a point mass), ``"joint"`` (a joint's
+    location) or ``"ground"`` (the fixed frame's origin).  ``name``: the
+    component (or node) drawn, the legend's label.
+    """
+
+    name: str
+    kind: str
+    points: Any
+
+
 @dataclass
 class DomainView:
     """What a domain exposes to components: at least its coordinates.
@@ -181,6 +198,11 @@ class DomainView:
 
     def branch_value(self, key: str) -> sp.Expr:
         raise NotImplementedError(f"{type(self).__name__} does not define branch quantities")
+
+    def shapes(self) -> list["Shape"]:
+        """What an animation of the model draws of this domain (:class:`Shape` s in world coordinates); none by
+        default: a domain without positions in space (a circuit) draws nothing."""
+        return []
 
     def branch_meaning(self, key: str, rate: bool = False) -> str:
         """What :meth:`branch_value` of ``key`` (or its rate) is, in words with its unit, for reports

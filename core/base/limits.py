@@ -47,6 +47,8 @@ class Limits:
     #: bytes of compiled libraries kept in the cache directory (``lagrangian cache``): beyond it, the least
     #: recently used are deleted after each build (never one this process uses); they are rebuilt when needed
     cache_bytes: int = 2 * 2**30
+    #: frames of one animation (each an image in its player: ``Result.animate(frames=...)``)
+    frames: int = 2000
 
     def __call__(self, **changes: int) -> contextlib.AbstractContextManager[Limits]:
         """A context manager that sets ``changes`` for the block and restores the bounds after it."""
@@ -90,7 +92,7 @@ def refuse(what: str, size: float, bound: str) -> None:
     most = getattr(limits, bound)
     if not size <= most:  # also refuses nan
         unit = {"grid_points": "points", "file_bytes": "bytes", "netlist_elements": "elements",
-                "exponent": "as exponent", "cache_bytes": "bytes"}[bound]
+                "exponent": "as exponent", "cache_bytes": "bytes", "frames": "frames"}[bound]
         try:
             shown = f"{size:.6g}"
         except OverflowError:  # an int beyond a float (10**400 points): shown by its number of digits

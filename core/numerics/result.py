@@ -265,6 +265,59 @@ class Result:
             table[:, k + 1] = np.broadcast_to(np.asarray(values, dtype=float), self.t.shape)
         np.savetxt(path, table, fmt="%.17g", delimiter=",", header=",".join(["t", *columns]), comments="")
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Its fields; not the model that made it (:meth:`animate` of a result read back takes ``model=``)."""
+        return {k: v for k, v in self.__dict__.items() if k != "source"}
+
+    def animate(self, path: Any = None, *, model: Any = None, frames: int = 100, fps: float = 20,
+                size: tuple[float, float] = (6.4, 4.8), dpi: int = 100):
+        """The mechanism moving through this run, drawn from its kinematics (:mod:`lagrangian.base.animation`).
+
+        Rigid bodies from their geometry (rods, discs, bodies with points), point masses, springs and dampers,
+        joints and the ground, in the plane or in space, at ``frames`` of the output times (evenly spread, each
+        one an output time: nothing is interpolated).  In a notebook the returned
+        :class:`~lagrangian.base.animation.Animation` shows as a player with a time slider, play and pause,
+        offline.  ``path`` also writes it: ``.html`` (a page of its own), ``.gif`` or ``.mp4`` (ffmpeg).
+        ``model``: the model that made the run, for a result read back from a pickle (a run of
+        :meth:`lagrangian.Model.simulate` knows its model).
+
+        >>> import lagrangian as lg
+        >>> m = lg.Model("pendulum", dim=2)
+        >>> _ = m.add("rod", "r", "r", m=0.3, length=0.5)
+        >>> _ = m.add("revolute", "j", ("ground", "r"))
+        >>> _ = m.add("gravity", "g")
+        >>> res = m.simulate(2, initial={"theta_j": -1.0}, velocity={"theta_j": 0.0}, points=201)
+        >>> anim = res.animate(frames=50)
+        >>> len(anim), anim.position("r", 0).round(4).tolist()   # the rod from the pivot to its end, at t = 0
+        (50, [[0.0, 0.0, 0.0], [0.2702, -0.4207, 0.0]])
+        """
+        from ..base.animation import Animation
+        from ..base.limits import refuse
+
+        model = model if model is not None else self.__dict__.get("source")
+        if model is None:
+            raise ModelError("this result does not know the model that made it (a result read back from a pickle): "
+                             "pass it, res.animate(model=m).")
+        if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
+            raise ModelError(f"frames must be a positive whole number, got {frames!r:.40}.")
+        refuse("an animation", frames, "frames")
+        shapes = [s for view in model.assembly.views.values() for s in view.shapes()]
+        if not shapes:
+            raise ModelError(f"model {model.name!r} has nothing in space to draw: an animation draws mechanical parts "
+                             f"(masses, springs, rigid bodies and joints); plot a circuit's run with res.plot().")
+        picked = np.unique(np.linspace(0, self.t.size - 1, min(frames, self.t.size)).round().astype(int))
+        drawn = []
+        for shape in shapes:
+            values = np.asarray(self.quantity(shape.points), dtype=float)[..., picked]  # dim × n × frames
+            points = np.zeros((picked.size, values.shape[1], 3))
+            points[..., : values.shape[0]] = np.moveaxis(values, -1, 0).transpose(0, 2, 1)
+            drawn.append((shape.name, shape.kind, points))
+        dim = 3 if any(s.points.shape[0] == 3 for s in shapes) else 2
+        anim = Animation(f"{model.name}", self.t[picked], drawn, dim=dim, fps=fps, size=size, dpi=dpi)
+        if path is not None:
+            anim.save(path)
+        return anim
+
     def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
         """Plot coordinates (all, or ``names``) against time, one axes per unit (a charge and a displacement are
         not drawn on one scale), each labelled with its unit; return the matplotlib ``Axes``, or an array of them

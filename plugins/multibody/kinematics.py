@@ -72,6 +72,7 @@ def build_kinematics(network, view, dynamics: str = "auto") -> None:
             view.constraints.extend(rows)
             view.closures.append((j.name, len(rows)))
     view.bodies = bodies
+    view.joints = {j.name: j for j in joints}
     for node in network.nodes:
         body, _, point = node.partition(".")
         if point and body in bodies:
