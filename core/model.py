@@ -377,10 +377,10 @@ class Model:
     def schematic(self, path: str | None = None):
         """A circuit schematic of the model (:mod:`schemdraw`): its two-terminal elements with their symbols
         (resistors, capacitors, inductors, sources; a box with the kind for others), labelled with their names,
-        the nodes on a row above ground.  For circuits, imported netlists and the circuit analogues of
-        mechanisms (``map_model(model, ...).model.schematic()``); ``path`` saves it (PNG, SVG or PDF).  Returns
-        the ``schemdraw.Drawing``.  A component with other than two terminals is refused: ``draw()`` draws any
-        model.
+        the nodes on a row above ground; a two-port (a gyrator) as its numbered ports tied by a dashed line, and
+        coupled inductors likewise.  For circuits, netlists and the circuit analogues of mechanisms (``map_model(
+        model, ...).model.schematic()``); ``path`` saves it (PNG, SVG or PDF).  Returns the ``schemdraw.Drawing``.
+        Any other component (a transducer between domains) is refused: ``draw()`` draws any model.
 
         >>> import lagrangian as lg
         >>> c = lg.Model("rc")

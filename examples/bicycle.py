@@ -42,7 +42,7 @@ R_REAR, R_FRONT, TILT = 0.3, 0.35, math.pi / 10
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="bicycle.png", help="the chart (PNG)")
     args = parser.parse_args()
 

@@ -47,7 +47,7 @@ def speaker(added: float = 0.0) -> lg.Model:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="fit_loudspeaker.png", help="where to write the chart (PNG)")
     args = parser.parse_args()
     rng = np.random.default_rng(2)

@@ -38,7 +38,7 @@ START = {"initial": {"theta_j1": 0.6, "theta_j2": -0.3}, "velocity": {"theta_j1"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("--out", default="travel.png", help="the chart (PNG)")
     parser.add_argument("--dir", help="where the model file and the FMU go (default: a temporary directory)")
     args = parser.parse_args()

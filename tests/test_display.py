@@ -159,3 +159,48 @@ def test_netlists_and_analogues_draw_as_schematics(tmp_path):
         speaker = lg.Model("speaker")
         speaker.add("moving_coil", "coil", ("a", "0", "cone"), Bl=7.0)
         speaker.schematic()
+
+
+def _ties(drawing):
+    """The dashed lines of a schematic, by label, with their ends."""
+    import schemdraw.elements as elm
+
+    return {lab.label: (e.absanchors["start"], e.absanchors["end"]) for e in drawing.elements
+            if isinstance(e, elm.Line) and e.params.get("ls") == "--" for lab in getattr(e, "_userlabels", [])}
+
+
+def _labelled(drawing, text):
+    return [e for e in drawing.elements if any(lab.label == text for lab in getattr(e, "_userlabels", []))]
+
+
+def test_two_ports_and_coupled_inductors_draw_with_their_ports_and_ties(tmp_path):
+    """A loudspeaker's force–voltage analogue holds a gyrator: its two ports are drawn where its branches are (the
+    coil's node to ground, the cone's mesh to ground), numbered, and tied by a dashed line naming it.  Coupled
+    inductors (a netlist's K line) are tied the same way, with their coupling coefficient."""
+    import schemdraw.elements as elm
+
+    from lagrangian.analogy import map_model
+    from lagrangian.netlist import read_netlist
+
+    speaker = lg.Model("speaker")
+    speaker.add("voltage_source", "E", ("n1", "0"), E=1.0)
+    speaker.add("resistor", "Re", ("n1", "n2"), R=6.2)
+    speaker.add("moving_coil", "coil", ("n2", "0", "cone"), Bl=7.3)
+    speaker.add("mass", "m", "cone", m=0.012)
+    speaker.add("spring", "k", ("ground", "cone"), k=1.2e3)
+    analogue = map_model(speaker, "force-voltage").model
+    gyrator = next(c for c in analogue._graph.components.values() if c.kind == "gyrator")
+    drawing = analogue.schematic(path=str(tmp_path / "speaker.svg"))
+    ports = [_labelled(drawing, str(i)) for i in (1, 2)]
+    assert all(len(p) == 1 and isinstance(p[0], elm.RBox) for p in ports)
+    ties = _ties(drawing)
+    assert list(ties) == [f"{gyrator.name} (gyrator)"]
+    start, end = ties[f"{gyrator.name} (gyrator)"]
+    centres = [(p[0].absanchors["start"] + p[0].absanchors["end"]) / 2 for p in ports]
+    assert abs(start[1] - centres[0][1]) < 1e-9 and abs(end[1] - centres[1][1]) < 1e-9  # from port to port
+    assert centres[0][0] < start[0] < end[0] < centres[1][0]
+    deck = "transformer\nV1 in 0 SIN(0 1 50)\nR1 in a 10\nL1 a 0 7e-3\nL2 b 0 2.8e-2\nK1 L1 L2 0.98\nRL b 0 100\n.end\n"
+    coupled = read_netlist(deck).model.schematic()
+    (label,) = _ties(coupled)
+    assert label.startswith("K1 (coupling") and "k=0.98" in label
+    assert [len(_labelled(coupled, n)) for n in ("L1", "L2")] == [1, 1]

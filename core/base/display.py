@@ -19,6 +19,7 @@ import base64
 import html
 import io
 from collections.abc import Iterable, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 __all__ = ["escape", "table", "math", "figure", "png", "image", "block", "short"]
@@ -164,6 +165,38 @@ def draw_components(components: Sequence[Any], title: str, ax=None, ground: str 
     return ax
 
 
+def _schematic_parts(components: Sequence[Any]) -> tuple[list, list, list[str]]:
+    """What a schematic draws: its two-terminal elements (a two-port's ports among them, each an element named
+    ``<two-port>:1``, ``:2``, drawn as a box labelled with its number); the dashed lines tying elements together
+    (a two-port's ports, labelled with its kind: a gyrator, a transducer's analogue; the elements a component
+    without terminals names in its parameters of shape ``"name"``, labelled with its kind and numbers: coupled
+    inductors, a transformer) as ``(name, elements, label)``; and the names of the components it cannot draw."""
+    parts, ties, others = [], [], []
+    drawn = {c.name for c in components if len(dict.fromkeys(c.nodes)) == 2}
+    for c in components:
+        if len(dict.fromkeys(c.nodes)) == 2:
+            parts.append(c)
+            continue
+        try:
+            branches = c.branches() if c.nodes else []
+        except NotImplementedError:
+            branches = []
+        named = [c.params[p] for p, spec in c.parameters.items() if spec.shape == "name" and c.params.get(p) in drawn]
+        one_domain = len(set(getattr(c, "terminal_domains", None) or ())) <= 1  # a transducer itself is no two-port
+        if len(branches) >= 2 and one_domain and all(a != b for a, b in branches):
+            ports = [SimpleNamespace(name=f"{c.name}:{i + 1}", nodes=branch, symbol=None, kind=c.kind, label=str(i + 1))
+                     for i, branch in enumerate(branches)]
+            parts += ports
+            ties.append((c.name, [p.name for p in ports], f"{c.name} ({c.kind})"))
+        elif not c.nodes and len(named) >= 2:
+            numbers = [f"{p}={float(v):.3g}" for p, v in c.params.items()
+                       if c.parameters[p].shape == "scalar" and getattr(v, "is_number", False)]
+            ties.append((c.name, named, f"{c.name} ({c.kind}{', ' + ', '.join(numbers) if numbers else ''})"))
+        else:
+            others.append(c.name)
+    return parts, ties, others
+
+
 def schematic(components: Sequence[Any], title: str, ground: Sequence[str] = ("0", "ground")):
     """A schematic of two-terminal components with :mod:`schemdraw`: the nodes other than ground on one row, in
     the order of a walk from the first source, ground along the bottom; an element between neighbouring nodes
@@ -174,11 +207,11 @@ def schematic(components: Sequence[Any], title: str, ground: Sequence[str] = ("0
     import schemdraw
     import schemdraw.elements as elm
 
-    parts = [c for c in components if len(dict.fromkeys(c.nodes)) == 2]
-    others = [c.name for c in components if len(dict.fromkeys(c.nodes)) != 2]
+    parts, ties, others = _schematic_parts(components)
     if others:
-        raise ValueError(f"only two-terminal elements have schematic symbols; {short(others)} "
-                         f"{'has' if len(others) == 1 else 'have'} other terminals: draw the model with draw()")
+        raise ValueError(f"only two-terminal elements, two-ports and couplings between named elements have "
+                         f"schematic symbols; {short(others)} {'has' if len(others) == 1 else 'have'} other terminals: "
+                         f"draw the model with draw()")
     graph = nx.MultiGraph()
     for c in parts:
         graph.add_edge(*c.nodes[:2], key=c.name)
@@ -197,13 +230,16 @@ def schematic(components: Sequence[Any], title: str, ground: Sequence[str] = ("0
     used: dict[int, list[tuple[float, float]]] = {}  # row → the stretches its elements take
     hang: dict[str, int] = {}
     xs = list(x.values()) or [0.0]
+    centres: dict[str, tuple[float, float]] = {}  # where each element is drawn
 
     def element(c, p, q):
         symbol = getattr(elm, c.symbol) if c.symbol and hasattr(elm, c.symbol) else None
         e = symbol() if symbol is not None else elm.RBox()
         if c.symbol == "SourceV":  # schemdraw marks its end +; a source's first node is its + terminal
             p, q = q, p
-        drawing.add(e.endpoints(p, q).label(c.name if symbol is not None else f"{c.name}\n{c.kind}", fontsize=9))
+        text = getattr(c, "label", None) or (c.name if symbol is not None else f"{c.name}\n{c.kind}")
+        drawing.add(e.endpoints(p, q).label(text, fontsize=9))
+        centres[c.name] = ((p[0] + q[0]) / 2, (p[1] + q[1]) / 2)
 
     for c in parts:
         a, b = c.nodes[0], c.nodes[1]
@@ -236,6 +272,14 @@ def schematic(components: Sequence[Any], title: str, ground: Sequence[str] = ("0
     if any(n in ground for c in parts for n in c.nodes):
         drawing.add(elm.Line().endpoints((min(xs), low), (max(xs), low)))
         drawing.add(elm.Ground().at((min(xs), low)))
+    for name, joined, label in ties:  # a two-port's ports, or the elements a coupling names: a dashed line
+        ends = [centres[n] for n in joined if n in centres]
+        for (x0, y0), (x1, y1) in zip(ends, ends[1:]):
+            length = max(((x1 - x0) ** 2 + (y1 - y0) ** 2) ** 0.5, 1e-9)
+            cut = min(0.45, length / 4) / length  # from side to side of the two symbols, not through them
+            start, end = (x0 + cut * (x1 - x0), y0 + cut * (y1 - y0)), (x1 - cut * (x1 - x0), y1 - cut * (y1 - y0))
+            drawing.add(elm.Line(ls="--", color="gray").endpoints(start, end)
+                        .label(label, loc="bottom", fontsize=8, color="gray"))
     for n in order:
         drawing.add(elm.Dot().at((x[n], top)).label(str(n), loc="top", fontsize=8, color="gray"))
     drawing.add(elm.Label().at(((min(xs) + max(xs)) / 2, top + 2.0 * max(used, default=0) + 2.0))
