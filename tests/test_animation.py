@@ -124,6 +124,7 @@ def test_a_page_of_its_own_and_a_gif(tmp_path, swing):
     _, res, anim = swing
     page = anim.save(tmp_path / "swing.html").read_text()
     assert page.startswith("<!DOCTYPE html>") and 'type="range"' in page  # the time slider
+    assert "fa fa-" not in page  # the buttons are text, not a web font
     assert not re.search(r'<script[^>]+src=|<link[^>]+href=|src="https?:', page)  # nothing from outside
     assert len(_frames(page)) == 12
     gif = Image.open(res.animate(tmp_path / "swing.gif", frames=5).save(tmp_path / "swing.gif"))

@@ -36,10 +36,11 @@ _STYLE = {  # matplotlib keywords by shape kind
 }
 
 
-#: The player's buttons, as text (matplotlib's player draws them with a web font from a CDN).
-_ICONS = {"fa-fast-backward": "&#x23EE;", "fa-fast-forward": "&#x23ED;", "fa-step-backward": "&#x23F4;&#x2758;",
-          "fa-step-forward": "&#x2758;&#x23F5;", "fa-play": "&#x23F5;", "fa-play-reverse": "&#x23F4;",
-          "fa-pause": "&#x23F8;", "fa-minus": "&minus;", "fa-plus": "+"}
+#: The player's buttons, as text in glyphs common fonts hold (matplotlib's player draws them with a web font from
+#: a CDN): first frame, previous, play backwards, pause, play, next, last; slower, faster.
+_ICONS = {"fa-fast-backward": "|&#x25C0;", "fa-step-backward": "&#x2039;", "fa-play-reverse": "&#x25C0;",
+          "fa-pause": "&#x2016;", "fa-play": "&#x25B6;", "fa-step-forward": "&#x203A;", "fa-fast-forward": "&#x25B6;|",
+          "fa-minus": "&minus;", "fa-plus": "+"}
 
 
 class Animation:
