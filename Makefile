@@ -19,10 +19,11 @@ test-explore: setup
 test-fast: setup
 	.venv/bin/python -m pytest -q -n auto -m "not slow"
 
-# The documentation site (docs/_build/html): the README as the guide, the plugin author's guide, the API from the
-# docstrings; any Sphinx warning is an error.
+# The documentation site (docs/_build/html): the README as the guide, page by page (docs/guide), the gallery, the
+# notes' notebook executed, the plugin author's guide, the API by public names; any Sphinx warning is an error.
 docs: setup
 	.venv/bin/python -m pip install -q -e ".[docs]"
+	rm -rf docs/_api
 	.venv/bin/python -m sphinx -b html -W --keep-going -q docs docs/_build/html
 	@echo "docs: docs/_build/html/index.html"
 
@@ -50,4 +51,4 @@ plugins: setup
 	.venv/bin/lagrangian plugins
 
 clean:
-	rm -rf .venv build *.egg-info core/*.egg-info examples/plugins/*/*.egg-info .pytest_cache docs/_build docs/_api docs/gallery
+	rm -rf .venv build *.egg-info core/*.egg-info examples/plugins/*/*.egg-info .pytest_cache docs/_build docs/_api docs/gallery docs/notes.ipynb docs/jupyter_execute

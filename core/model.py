@@ -27,7 +27,7 @@ from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
 from .derivation.calculus import symbols_of
 from .derivation.equations import Equations
-from .base import display, modelfile
+from .base import display, modelfile, sliders
 from .base.overrides import Rules
 from .base.latex import to_latex
 from .errors import LagrangianError, ModelError, ParameterError, UnknownNameError, closest, warn
@@ -111,10 +111,9 @@ class Model:
     def add(self, kind: str, name: str | None = None, nodes: str | Sequence[str] = (), **params: Any) -> Component:
         """Add a component of a registered ``kind``; return it.
 
-        ``nodes`` is a node name for one-terminal components or a sequence
-        ``(a, b)``; ``ground`` (also ``"0"``, ``"gnd"``) is the reference.
-        ``params`` are the kind's parameters: numbers, SymPy expressions, or
-        (for signals) Python callables of time.
+        ``nodes`` is a node name for one-terminal components or a sequence ``(a, b)``; ``ground`` (also ``"0"``,
+        ``"gnd"``) is the reference.  ``params`` are the kind's parameters: numbers, SymPy expressions, or (for
+        signals) Python callables of time.
         """
         cls = self.registry.component_type(kind)
         if name is None:
@@ -725,6 +724,7 @@ class Model:
                                        step=choice.options["step"], options=extra, notes=tuple(choice.notes)))
 
     _span = staticmethod(check_span)
+    interact = sliders.interact  # sliders over parameters, each move a run and a chart again
 
     def _linear(self, params) -> bool:
         """Whether the model is linear time-invariant (so ``method="exact"`` may apply)."""

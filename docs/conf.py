@@ -1,12 +1,22 @@
-"""Sphinx configuration of lagrangian's documentation: the README as the guide, the API from the docstrings."""
+"""Sphinx configuration of lagrangian's documentation: the README as the guide, page by page; the gallery; the notes'
+notebook, executed; the API by the names users import, from the docstrings."""
+
+import shutil
+from pathlib import Path
 
 import lagrangian
 
+HERE = Path(__file__).resolve().parent
+# the notebook is rendered from a copy beside the pages, executed as the site is built (examples/notes.ipynb holds
+# no outputs: the tests run it in a kernel)
+shutil.copyfile(HERE.parent / "examples" / "notes.ipynb", HERE / "notes.ipynb")
+
 project = "lagrangian"
 author = "the lagrangian maintainers"
+copyright = "2026, the lagrangian maintainers"
 release = version = lagrangian.__version__
 extensions = ["sphinx.ext.autodoc", "sphinx.ext.autosummary", "sphinx.ext.napoleon", "sphinx.ext.viewcode",
-              "myst_parser", "sphinx_gallery.gen_gallery"]
+              "myst_nb", "sphinx_gallery.gen_gallery"]
 
 #: The notes' worked examples first (Jacobi integral, spherical pendulum, steady motion, four-bar, impulses, the
 #: analogies), then transducers, the frequency domain, scenes and sweeps.
@@ -48,15 +58,20 @@ sphinx_gallery_conf = {
     "reset_argv": _argv,
     "matplotlib_animations": False,
 }
-source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+source_suffix = {".rst": "restructuredtext", ".md": "myst-nb", ".ipynb": "myst-nb"}
+nb_execution_mode = "force"
+nb_execution_timeout = 600
+nb_execution_raise_on_error = True
+templates_path = ["_templates"]
 autosummary_generate = True
 autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": True}
 autodoc_typehints = "description"
 autodoc_member_order = "bysource"
 myst_heading_anchors = 3
-exclude_patterns = ["_build", "gallery/*.ipynb", "gallery/*.py"]
+exclude_patterns = ["_build", "gallery/*.ipynb", "gallery/*.py", "jupyter_execute"]
 html_theme = "alabaster"
 html_title = f"lagrangian {release}"
 suppress_warnings = ["myst.xref_missing",  # the README links files of the repository, not pages
+                     "myst.header",  # a guide page's title, then the README's subsections (### under its #)
                      "ref.python",  # names exported twice (lagrangian.Model is lagrangian.model.Model)
                      "config.cache"]  # the gallery's configuration holds functions: it is not cached

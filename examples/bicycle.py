@@ -81,7 +81,7 @@ def main() -> None:
     b.legend()
     fig.tight_layout()
     fig.savefig(args.out, dpi=110)
-    print(f"wrote {Path(args.out).resolve()}")
+    print(f"wrote {args.out}")
 
 
 if __name__ == "__main__":

@@ -127,7 +127,7 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=120)
-    print(f"\nchart written to {out.resolve()}")
+    print(f"\nchart written to {out}")
 
     print("\nngspice (through PySpice), step cap 2.5e-4 s:")
     derived = map_model(mech, "force-voltage")
@@ -142,7 +142,7 @@ def main() -> None:
             print("  sign: v(C_k) = −k·x_cart is the spring's force on the mass, which the analogue's capacitor "
                   "voltage stands for: it has the opposite sign of the displacement, and both sides compare it")
         chart = cmp.chart(out.with_name(f"{out.stem}-ngspice-{suffix}{out.suffix}"))
-        print(f"  chart written to {chart.resolve()}")
+        print(f"  chart written to {chart}")
 
 
 if __name__ == "__main__":

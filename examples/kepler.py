@@ -139,7 +139,7 @@ def main() -> None:
     right.set_title("effective potential: stable, marginal, unstable")
     right.legend()
     fig.savefig(args.out, dpi=120)
-    print(f"chart: {Path(args.out).resolve()}")
+    print(f"chart: {args.out}")
 
 
 if __name__ == "__main__":

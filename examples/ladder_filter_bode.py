@@ -61,7 +61,7 @@ def main() -> None:
     fig.axes[0].set_ylim(-120, 5)
     fig.axes[0].legend(fontsize=8)
     fig.savefig(args.out, dpi=110)
-    print(f"chart written to {Path(args.out).resolve()}")
+    print(f"chart written to {args.out}")
 
 
 if __name__ == "__main__":

@@ -96,7 +96,7 @@ def main() -> None:
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)
-    print(f"chart written to {out.resolve()}")
+    print(f"chart written to {out}")
 
 
 if __name__ == "__main__":

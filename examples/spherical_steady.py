@@ -122,7 +122,7 @@ def main() -> None:
     right.set_title("the pole sin θ = 0")
     right.legend()
     fig.savefig(args.out, dpi=120)
-    print(f"chart: {Path(args.out).resolve()}")
+    print(f"chart: {args.out}")
 
 
 if __name__ == "__main__":

@@ -97,7 +97,7 @@ def main() -> None:
     left.set_title("hanging down, turntable at Ω: verdict")
     right.set_title("tilt of the conical steady motions [rad]")
     fig.savefig(args.out, dpi=120)
-    print(f"written: {Path(args.out).resolve()}")
+    print(f"written: {args.out}")
 
 
 if __name__ == "__main__":

@@ -5,9 +5,11 @@ here in closed form, the pixels of the player's frames against where those posit
 from __future__ import annotations
 
 import base64
+import importlib.util
 import io
 import pickle
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,6 +81,15 @@ def test_a_ball_in_space_is_drawn_where_its_kinematics_put_it():
         np.testing.assert_allclose(anim.position("ball.com", frame)[0], -R @ [0, 0, L], rtol=0, atol=1e-12)
 
 
+def _docs_check():
+    """``benchmarks/docs_check.py``, which measures the same in a browser: its bob and its measurement."""
+    spec = importlib.util.spec_from_file_location("docs_check", Path(__file__).resolve().parents[1] / "benchmarks" /
+                                                  "docs_check.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def _frames(page: str) -> list[np.ndarray]:
     """The player's frames, decoded from the page (RGB arrays)."""
     data = re.findall(r'data:image/png;base64,([A-Za-z0-9+/=\\\n]+)"', page)  # lines end in a backslash
@@ -99,12 +110,7 @@ def _centroid(image: np.ndarray, colour: str, outside) -> np.ndarray:
 def test_the_players_frames_show_the_body_where_its_position_falls():
     """A bob 0.4 m below its pivot: in two frames of the page, its disc of colour is centred on the pixel its
     closed-form position (0.4 sin θ, −0.4 cos θ) maps to through the frame's axes."""
-    m = lg.Model("bob", dim=2)
-    m.add("body", "bob", "bob", m=0.3, inertia=2e-3)
-    m.add("revolute", "j", ("ground", "bob"), child_point=(0, 0.4))
-    m.add("gravity", "g")
-    res = m.simulate(1.2, initial={"theta_j": 1.1}, velocity={"theta_j": 0.0}, points=121)
-    anim = res.animate(frames=7)
+    res, anim = _docs_check().bob()
     frames = _frames(anim.to_html())
     assert len(frames) == 7
     fig = anim.figure(0)
@@ -173,3 +179,26 @@ def test_masses_on_a_line_are_drawn_at_their_coordinates(k, m1, x0):
         assert abs(x - x0 * np.cos(np.sqrt(k / m1) * time)) <= 1e-7 * abs(x0)  # the run, against the closed form
         np.testing.assert_allclose(anim.position("p", frame), [[x, 0, 0]], rtol=0, atol=1e-14 * abs(x0))
         np.testing.assert_allclose(anim.position("k1", frame), [[0, 0, 0], [x, 0, 0]], rtol=0, atol=1e-14 * abs(x0))
+
+
+def test_a_run_with_other_values_is_drawn_with_them():
+    """``simulate(params=...)`` gives the rods other lengths for that run: the drawing takes the run's lengths."""
+    m = double_pendulum()
+    res = m.simulate(0.5, initial={"theta_j1": -0.7, "theta_j2": 0.9}, velocity={"theta_j1": 0.0, "theta_j2": 0.0},
+                     points=51, params={"length_r1": 0.8, "parent_point_j2_0": 0.8, "length_r2": 0.25})
+    anim = res.animate(frames=3)
+    a, b = res["theta_j1"][-1], res["theta_j2"][-1]
+    elbow = np.array([0.8 * np.cos(a), 0.8 * np.sin(a), 0.0])
+    np.testing.assert_allclose(anim.position("r2", 2), [elbow, elbow + [0.25 * np.cos(a + b), 0.25 * np.sin(a + b), 0]],
+                               rtol=0, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_in_headless_chromium_the_body_is_where_its_kinematics_put_it():
+    """The page as a browser shows it: headless Chromium at 1280×800, the player set to two frames, the bob's disc
+    within 2 px of where its closed-form position falls (``benchmarks/docs_check.py`` prints the figure)."""
+    docs_check = _docs_check()
+    if docs_check._browser() is None:
+        pytest.skip("Chromium is not installed (apt-get install chromium)")
+    error, measured = docs_check.animation_pixels()
+    assert error <= 2.0, measured

@@ -111,17 +111,23 @@ def test_a_scene_shows_its_report_and_its_result_a_chart():
     assert np.allclose(res["x_s"], np.cos(res.t), atol=1e-7)
 
 
-def test_a_model_draws_its_component_graph_with_domains_and_labels(tmp_path):
-    from matplotlib.colors import to_hex
 
-    from lagrangian.base.display import DOMAIN_COLOURS
-
+def _speaker() -> lg.Model:
+    """A loudspeaker: a source, a resistor and a moving coil driving a cone on its suspension."""
     m = lg.Model("speaker")
     m.add("voltage_source", "V1", ("in", "0"), E=0)
     m.add("resistor", "Re", ("in", "a"), R=6.0)
     m.add("moving_coil", "coil", ("a", "0", "cone"), Bl=7.0)
     m.add("mass", "cone", "cone", m=0.02)
     m.add("spring", "suspension", ("ground", "cone"), k=2e3)
+    return m
+
+def test_a_model_draws_its_component_graph_with_domains_and_labels(tmp_path):
+    from matplotlib.colors import to_hex
+
+    from lagrangian.base.display import DOMAIN_COLOURS
+
+    m = _speaker()
     ax = m.draw(path=str(tmp_path / "g.png"))
     labels = {t.get_text() for t in ax.texts if t.get_text()}
     assert {"Re\nresistor", "coil\nmoving_coil", "suspension\nspring", "cone\ncone (mass)"} <= labels
@@ -182,13 +188,7 @@ def test_two_ports_and_coupled_inductors_draw_with_their_ports_and_ties(tmp_path
     from lagrangian.analogy import map_model
     from lagrangian.netlist import read_netlist
 
-    speaker = lg.Model("speaker")
-    speaker.add("voltage_source", "E", ("n1", "0"), E=1.0)
-    speaker.add("resistor", "Re", ("n1", "n2"), R=6.2)
-    speaker.add("moving_coil", "coil", ("n2", "0", "cone"), Bl=7.3)
-    speaker.add("mass", "m", "cone", m=0.012)
-    speaker.add("spring", "k", ("ground", "cone"), k=1.2e3)
-    analogue = map_model(speaker, "force-voltage").model
+    analogue = map_model(_speaker(), "force-voltage").model
     gyrator = next(c for c in analogue._graph.components.values() if c.kind == "gyrator")
     drawing = analogue.schematic(path=str(tmp_path / "speaker.svg"))
     ports = [_labelled(drawing, str(i)) for i in (1, 2)]

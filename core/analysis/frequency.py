@@ -60,6 +60,7 @@ from ..model import Model
 from . import control as _control
 from .linearize import LinearModel, linearize, s
 from .closed_form import closed_roots, inverse_laplace
+from .interactive import interact
 from .laplace import FLOOR, _respond, _solve
 from .locus import RootLocus, pole_zero_map, root_locus
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
@@ -67,8 +68,8 @@ from .parametric import ParametricResponse
 from .speeds import SpeedSweep, speed_sweep
 
 __all__ = ["FrequencyResponse", "Modes", "RootLocus", "SpeedSweep", "TransferFunction", "decades",
-           "frequency_response", "impedance", "linearize", "modes", "pole_zero_map", "root_locus", "s", "speed_sweep",
-           "sweep", "transfer_function"]
+           "frequency_response", "impedance", "interact", "linearize", "modes", "pole_zero_map", "root_locus", "s",
+           "speed_sweep", "sweep", "transfer_function"]
 
 #: Largest number of unknowns for which a transfer function is solved in exact arithmetic with SymPy.
 SYMBOLIC_MAX = 8

@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 
 from ..base import display
+from ..base.animation import Animation
+from ..base.limits import refuse
 from ..base.units import coordinate_unit
 from ..errors import ModelError, UnknownNameError
 
@@ -291,9 +293,6 @@ class Result:
         >>> len(anim), anim.position("r", 0).round(4).tolist()   # the rod from the pivot to its end, at t = 0
         (50, [[0.0, 0.0, 0.0], [0.2702, -0.4207, 0.0]])
         """
-        from ..base.animation import Animation
-        from ..base.limits import refuse
-
         model = model if model is not None else self.__dict__.get("source")
         if model is None:
             raise ModelError("this result does not know the model that made it (a result read back from a pickle): "
@@ -301,7 +300,7 @@ class Result:
         if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or frames < 1:
             raise ModelError(f"frames must be a positive whole number, got {frames!r:.40}.")
         refuse("an animation", frames, "frames")
-        shapes = [s for view in model.assembly.views.values() for s in view.shapes()]
+        shapes = [s for view in model.assembly.generic_views.values() for s in view.shapes()]  # the run's values in
         if not shapes:
             raise ModelError(f"model {model.name!r} has nothing in space to draw: an animation draws mechanical parts "
                              f"(masses, springs, rigid bodies and joints); plot a circuit's run with res.plot().")

@@ -74,7 +74,7 @@ def _points_param():
 
 class Body(_BodyBase):
     """Rigid body: mass ``m``, centre of mass ``com`` and inertia about it (planar: a scalar; spatial: three
-    principal moments or a 3 × 3 matrix), with named ``points``; T = ½ m |v_G|² + ½ ωᵀ I ω."""
+    principal moments or a 3 × 3 matrix), with named ``points``; ``T = ½ m |v_G|² + ½ ωᵀ I ω``."""
 
     kind = "body"
     parameters = {

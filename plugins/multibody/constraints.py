@@ -17,7 +17,7 @@ class CoordinatePartition:
 
     ``independent``: coordinates that can be chosen freely there; ``dependent``: those the loop-closure
     constraints then fix; ``dof`` degrees of freedom (= len(independent)); ``rank`` of the constraint
-    Jacobian Φ_q; ``constraints``: number of constraint equations; ``residual``: max |Φ| at the configuration.
+    Jacobian Φ_q; ``constraints``: number of constraint equations; ``residual``: max ``|Φ|`` at the configuration.
     """
 
     independent: list[str]
@@ -376,7 +376,7 @@ def _rates_on_velocity_constraints(cl: _Closure, time: float, q, v, velocity: di
 
 
 def constraint_residual(model, result) -> float:
-    """The largest |Φ| of the model's loop-closure constraints along a simulation ``result`` (0 without loops),
+    """The largest ``|Φ|`` of the model's loop-closure constraints along a simulation ``result`` (0 without loops),
     with the parameter values the result was run with (``params=`` included).
 
     >>> import lagrangian as lg
