@@ -110,7 +110,7 @@ def test_what_sliders_cannot_do_is_refused_by_name(monkeypatch):
 
 
 @pytest.mark.slow
-def test_sliders_show_as_widgets_in_a_jupyter_kernel(tmp_path):
+def test_sliders_and_an_animation_show_in_a_jupyter_kernel(tmp_path):
     nbformat = pytest.importorskip("nbformat")
     nbclient = pytest.importorskip("nbclient")
     pytest.importorskip("ipykernel")
@@ -121,9 +121,12 @@ def test_sliders_show_as_widgets_in_a_jupyter_kernel(tmp_path):
         "_ = m.add('mass', 'm1', 'p', m=0.3)\n"
         "_ = m.add('spring', 'k1', ('ground', 'p'), k=40)\n"
         "s = m.interact(['k_k1'], t_end=1, initial={'x_p': 0.01}, velocity={'x_p': 0})\n"
-        "s"), nbformat.v4.new_code_cell("s.set(k_k1=120.0)\nprint(round(float(s.result['x_p'][-1]), 9))")]
+        "s"), nbformat.v4.new_code_cell("s.set(k_k1=120.0)\nprint(round(float(s.result['x_p'][-1]), 9))"),
+        nbformat.v4.new_code_cell("s.result.animate(frames=3)")]
     nbclient.NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(tmp_path)}}).execute()
     shown = [kind for out in nb.cells[0].outputs for kind in out.get("data", {})]
     assert "application/vnd.jupyter.widget-view+json" in shown
     printed = "".join(out.get("text", "") for out in nb.cells[1].outputs)
     assert float(printed) == pytest.approx(0.01 * np.cos(np.sqrt(120 / 0.3)), abs=1e-9)
+    player = "".join(out.get("data", {}).get("text/html", "") for out in nb.cells[2].outputs)
+    assert player.count("data:image/png;base64") == 3 and 'type="range"' in player  # the animation's player
