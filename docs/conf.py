@@ -75,3 +75,14 @@ suppress_warnings = ["myst.xref_missing",  # the README links files of the repos
                      "myst.header",  # a guide page's title, then the README's subsections (### under its #)
                      "ref.python",  # names exported twice (lagrangian.Model is lagrangian.model.Model)
                      "config.cache"]  # the gallery's configuration holds functions: it is not cached
+
+
+def _no_gallery_no_pictures(app, config):
+    """Built without running the gallery (``-D plot_gallery=0``, as the tests build the site), the guide's charts
+    from the gallery are not there to read: that is expected, not a warning."""
+    if str(config.plot_gallery).lower() in ("0", "false"):
+        config.suppress_warnings = [*config.suppress_warnings, "image.not_readable"]
+
+
+def setup(app):
+    app.connect("config-inited", _no_gallery_no_pictures, priority=900)
