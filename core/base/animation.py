@@ -14,6 +14,7 @@ Importing this module imports no matplotlib.
 from __future__ import annotations
 
 import html
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -73,6 +74,7 @@ class Animation:
                                  f"left the mechanism's geometry (a singular configuration?).")
         self.fps, self.size, self.dpi = float(fps), size, int(dpi)
         self._drawn: tuple | None = None
+        self._player: str | None = None
 
     def __len__(self) -> int:
         return self.times.size
@@ -191,9 +193,13 @@ class Animation:
 
     def to_jshtml(self) -> str:
         """The player (frames as embedded images, a time slider, play and pause) as an HTML fragment that needs
-        no network: matplotlib's player, its buttons' icons (a web font it links from a CDN) written as text."""
-        import re
+        no network: matplotlib's player, its buttons' icons (a web font it links from a CDN) written as text.  Made
+        once (about 60 ms a frame at the default size): showing it again, or saving it as a page, reuses it."""
+        if self._player is None:
+            self._player = self._make_player()
+        return self._player
 
+    def _make_player(self) -> str:
         import matplotlib as mpl
 
         size = len(self) * self.size[0] * self.size[1] * self.dpi**2 * 0.2 / 2**20  # a PNG frame's MB, generously
