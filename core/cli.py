@@ -68,6 +68,7 @@ from pathlib import Path
 
 import lazy_loader
 
+from .base import charts
 from .errors import LagrangianError, ModelError
 from .cli_args import (methods as _methods, numbers as _numbers, out_problem as _out_problem,
                        output_problem as _output_problem, pairs as _pairs, positive as _positive,
@@ -509,6 +510,7 @@ def _sweep(args) -> int:
     return 0
 
 
+@charts.plain
 def _simulate(args) -> int:
     import numpy as np
 

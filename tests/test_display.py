@@ -204,3 +204,38 @@ def test_two_ports_and_coupled_inductors_draw_with_their_ports_and_ties(tmp_path
     (label,) = _ties(coupled)
     assert label.startswith("K1 (coupling") and "k=0.98" in label
     assert [len(_labelled(coupled, n)) for n in ("L1", "L2")] == [1, 1]
+
+
+def test_names_holding_dollar_signs_are_drawn_as_written(tmp_path):
+    """Names are text users give: matplotlib reads ``$…$`` as mathematics, where ``$\\nosuch{$`` fails the drawing.
+    Every chart that writes a name shows it as written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from lagrangian.frequency import decades, frequency_response
+
+    odd = "k$\\nosuch{$"
+    m = lg.Model(f"model {odd}")
+    m.add("mass", "m1", "p", m=0.3)
+    m.add("spring", odd, ("ground", "p"), k=40.0)
+    ax = m.draw(path=str(tmp_path / "graph.png"))
+    assert any(odd in t.get_text() for t in ax.texts)
+    res = m.simulate(0.5, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=11)
+    anim = res.animate(tmp_path / "odd.gif", frames=2)
+    assert odd in [t.get_text() for t in anim.figure(1).axes[0].get_legend().get_texts()]
+    res.plot().figure.savefig(tmp_path / "run.png")
+    sliders = m.interact([f"k_{odd}"], t_end=0.5, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=11)
+    sliders.figure.savefig(tmp_path / "sliders.png")
+    assert odd in sliders.figure.axes[0].get_title()
+    c = lg.Model("rc")
+    c.add("voltage_source", "V1", ("in", "0"), E=0)
+    c.add("resistor", odd, ("in", "out"), R=1e3)
+    c.add("capacitor", "C1", ("out", "0"), C=2.2e-6)
+    fig = frequency_response(c, decades(1, 1e4, 5), outputs=[f"i({odd})"]).plot()
+    fig.savefig(tmp_path / "bode.png")
+    drawing = c.schematic(path=str(tmp_path / "rc.svg"))
+    assert any(getattr(lab, "label", "") == odd.replace("$", "\\$") for e in drawing.elements
+               for lab in getattr(e, "_userlabels", []))
+    plt.close("all")

@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from ..base import charts
 from ..errors import ModelError, NumericalError, UnknownNameError
 from ..model import Model
 from .parametric import ParametricResponse
@@ -291,6 +292,7 @@ class Fit:
         return (f"<table><tr><th>parameter</th><th>value</th><th>standard error</th></tr>{rows}</table>{notes}"
                 f"<p>cost {self.cost:.4g}; {self.nfev} evaluations</p>")
 
+    @charts.plain
     def plot(self, ax=None):
         """Each experiment's data against the fitted model: magnitudes over frequency, or outputs over time."""
         import matplotlib.pyplot as plt

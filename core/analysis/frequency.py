@@ -630,6 +630,7 @@ class FrequencyResponse:
         unit = self.unit(output, input)
         return f"{output} / {input}" + (f" ({unit})" if unit else "")
 
+    @charts.plain
     def plot(self, kind: str = "bode", *, outputs: Sequence[Any] | None = None, input: str | None = None,
              path: str | None = None):
         """A Bode chart (magnitude in dB and phase against log frequency) or a Nyquist chart; returns the matplotlib

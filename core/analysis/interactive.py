@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base import charts
 from ..base.sliders import Sliders
 from ..errors import UnknownNameError
 from .parametric import ParametricResponse
@@ -46,6 +47,7 @@ def interact(model: Any, params: Sequence[str], frequencies: Any, *, inputs: Seq
     parametric = ParametricResponse(model, inputs, outputs, list(params))
     state: dict[str, Any] = {}
 
+    @charts.plain
     def draw(values: dict[str, float]):
         H, _ = parametric.evaluate([values[n] for n in parametric.names], f, jacobian=False)
         state["response"] = H

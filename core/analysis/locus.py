@@ -49,6 +49,7 @@ class RootLocus:
         return (f"<RootLocus of {self.model!r}: {self.poles.shape[1]} poles over {len(self.values)} values of "
                 f"{self.parameter}>")
 
+    @charts.plain
     def plot(self, path: str | None = None):
         """The poles in the complex plane, coloured by the parameter's value (on a log scale when the values are
         positive and span more than a decade), the first value's marked ×, the last's ○; returns the Figure."""
@@ -96,6 +97,7 @@ def root_locus(model: Model, parameter: str, values: Sequence[float], **kwargs: 
     return RootLocus(model.name, parameter, values, poles)
 
 
+@charts.plain
 def pole_zero_map(poles: Sequence[complex], zeros: Sequence[complex], title: str = "", path: str | None = None):
     """Poles (×) and zeros (○) in the complex plane (rad/s); returns the Figure (a transfer function's:
     ``pole_zero_map(H.poles(), H.zeros(), repr(H))``)."""

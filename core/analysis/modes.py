@@ -231,6 +231,7 @@ class Modes:
         return display.block(f"modes of {self.model}", display.table(
             ["mode", "kind", "frequency (Hz)", "damping ratio ζ", "eigenvalue λ (1/s)"], rows), note=self.method)
 
+    @charts.plain
     def plot(self, count: int | None = None, path: str | None = None):
         """Mode shapes against coordinate index (a chain's modes as standing waves); returns the Figure."""
         k = min(count or 4, len(self.eigenvalues))

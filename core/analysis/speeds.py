@@ -154,6 +154,7 @@ class SpeedSweep:
             return float(sum(np.linalg.det(A[np.ix_(c, c)]) for c in subsets)) if subsets else 1.0
         return g
 
+    @charts.plain
     def plot(self, path: str | None = None, ax=None, ylim: tuple[float, float] | None = None):
         """Real and imaginary parts of the eigenvalues against speed (the bicycle's chart), the zeros every speed shares
         (ignorable coordinates) left out, the speeds where every other mode decays shaded, the crossings marked;

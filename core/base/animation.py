@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import ModelError
+from . import charts
 from .limits import refuse
 
 __all__ = ["Animation"]
@@ -97,6 +98,7 @@ class Animation:
         half = max(float(np.max(hi[:axes] - lo[:axes])) / 2, 1e-9) * 1.15
         return [(c - half, c + half) for c in centre]
 
+    @charts.plain
     def _draw(self):
         """The figure, its axes, one artist per shape and the time label (made once)."""
         if self._drawn is None:

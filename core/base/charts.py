@@ -12,9 +12,10 @@ so a chart pickles as any figure).
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
-__all__ = ["Chart", "subplots"]
+__all__ = ["Chart", "subplots", "plain", "literal"]
 
 
 def _ipython_display_(self) -> None:
@@ -54,3 +55,44 @@ def subplots(*args: Any, **kwargs: Any):
     import matplotlib.pyplot as plt
 
     return plt.subplots(*args, FigureClass=_chart(), **kwargs)
+
+
+def plain(func):
+    r"""``func`` drawing its charts with matplotlib's mathematics off: the names it writes in them (components,
+    nodes, outputs, models: text users give) are shown as written, where ``$…$`` in a name would be read as
+    mathematics, and ``$\nosuch{$`` fail the drawing.  None of this package's own labels use it.
+
+    >>> import matplotlib.pyplot as plt
+    >>> @plain
+    ... def chart(name):
+    ...     fig, ax = plt.subplots()
+    ...     ax.set_title(name)
+    ...     return fig
+    >>> fig = chart(r"k$\nosuch{$"); fig.canvas.draw(); print(fig.axes[0].get_title())
+    k$\nosuch{$
+    >>> plt.close(fig)
+    """
+    @functools.wraps(func)
+    def drawn(*args: Any, **kwargs: Any):
+        import matplotlib as mpl
+
+        # that one setting only: ``rc_context`` would restore every setting on the way out, the inline backend's
+        # ``interactive`` among them when pyplot was first imported inside, and a notebook would not draw the chart
+        before = mpl.rcParams["text.parse_math"]
+        mpl.rcParams["text.parse_math"] = False
+        try:
+            return func(*args, **kwargs)
+        finally:
+            mpl.rcParams["text.parse_math"] = before
+
+    return drawn
+
+
+def literal(text: Any) -> str:
+    r"""``text`` escaped for a label drawn later, outside :func:`plain` (schemdraw draws when shown): ``$`` as
+    ``\$``.
+
+    >>> print(literal("R$1"))
+    R\$1
+    """
+    return str(text).replace("$", "\\$")

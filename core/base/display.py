@@ -22,6 +22,8 @@ from collections.abc import Iterable, Sequence
 from types import SimpleNamespace
 from typing import Any
 
+from . import charts
+
 __all__ = ["escape", "table", "math", "figure", "png", "image", "block", "short"]
 
 
@@ -94,6 +96,7 @@ def short(items: Sequence[Any], limit: int = 6) -> str:
 DOMAIN_COLOURS = {"mechanical": "#1f77b4", "electrical": "#d62728", "rotational": "#2ca02c", "thermal": "#ff7f0e"}
 
 
+@charts.plain
 def draw_components(components: Sequence[Any], title: str, ax=None, ground: str = "ground"):
     """Draw a component graph: nodes as points (ground hatched), a two-terminal component as an edge, any other
     as a box joined to its terminals; everything labelled, coloured by domain.  Returns the Axes."""
@@ -238,7 +241,7 @@ def schematic(components: Sequence[Any], title: str, ground: Sequence[str] = ("0
         if c.symbol == "SourceV":  # schemdraw marks its end +; a source's first node is its + terminal
             p, q = q, p
         text = getattr(c, "label", None) or (c.name if symbol is not None else f"{c.name}\n{c.kind}")
-        drawing.add(e.endpoints(p, q).label(text, fontsize=9))
+        drawing.add(e.endpoints(p, q).label(charts.literal(text), fontsize=9))
         centres[c.name] = ((p[0] + q[0]) / 2, (p[1] + q[1]) / 2)
 
     for c in parts:
@@ -279,9 +282,9 @@ def schematic(components: Sequence[Any], title: str, ground: Sequence[str] = ("0
             cut = min(0.45, length / 4) / length  # from side to side of the two symbols, not through them
             start, end = (x0 + cut * (x1 - x0), y0 + cut * (y1 - y0)), (x1 - cut * (x1 - x0), y1 - cut * (y1 - y0))
             drawing.add(elm.Line(ls="--", color="gray").endpoints(start, end)
-                        .label(label, loc="bottom", fontsize=8, color="gray"))
+                        .label(charts.literal(label), loc="bottom", fontsize=8, color="gray"))
     for n in order:
-        drawing.add(elm.Dot().at((x[n], top)).label(str(n), loc="top", fontsize=8, color="gray"))
+        drawing.add(elm.Dot().at((x[n], top)).label(charts.literal(n), loc="top", fontsize=8, color="gray"))
     drawing.add(elm.Label().at(((min(xs) + max(xs)) / 2, top + 2.0 * max(used, default=0) + 2.0))
-                .label(title, fontsize=11))
+                .label(charts.literal(title), fontsize=11))
     return drawing

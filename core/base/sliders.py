@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from ..errors import ModelError, UnknownNameError
+from . import charts
 
 __all__ = ["Sliders", "interact", "MAX_SLIDERS"]
 
@@ -151,6 +152,7 @@ def interact(model: Any, params: Sequence[str] | None = None, outputs: Sequence[
         raise ModelError(f"view is 'chart' or 'animation', got {view!r:.40}.")
     state: dict[str, Any] = {}
 
+    @charts.plain
     def run(values: dict[str, float]):
         res = model.simulate(t_end, initial=initial, velocity=velocity, params=values, points=points, method=method)
         state["result"] = res

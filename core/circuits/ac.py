@@ -34,6 +34,7 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from ..base import charts
 from ..analysis.frequency import frequency_response, sweep_size
 from ..base import display
 from ..base.component import t
@@ -95,6 +96,7 @@ class ACComparison:
                      f"{self.ours_s * 1e3:.1f} ms (derived, linearized and solved)")
         return "\n".join(lines)
 
+    @charts.plain
     def chart(self, path: str | Path) -> Path:
         """Write a PNG: each output's two magnitude responses overlaid, their relative difference underneath."""
         n = len(self.rows)

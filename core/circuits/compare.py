@@ -22,6 +22,7 @@ import numpy as np
 import sympy as sp
 from sympy.core.function import AppliedUndef
 
+from ..base import charts
 from ..base import display
 from ..errors import ModelError
 from .analogy import map_model
@@ -103,6 +104,7 @@ class Comparison:
         fig.savefig(out, dpi=110)
         return out
 
+    @charts.plain
     def _figure(self):
         n = len(self.rows)
         fig = display.figure(figsize=(11, 2.4 * n + 0.8), layout="constrained")

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base import charts
 from ..base import display
 from ..plugin.contracts import DEFAULT_TOLERANCES, Benchmark
 from ..errors import LagrangianError, ModelError, UnknownNameError
@@ -94,6 +95,7 @@ class WorkPrecision:
                                  f"{r.wall:.6g}", f"{r.error:.6g}", r.status, r.message])
         return path
 
+    @charts.plain
     def plot(self, ax) -> None:
         """Draw error against wall time on the matplotlib ``ax`` (log–log), one line per method."""
         import matplotlib

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base import charts
 from ..base import display
 from ..base.animation import Animation
 from ..base.limits import refuse
@@ -317,6 +318,7 @@ class Result:
             anim.save(path)
         return anim
 
+    @charts.plain
     def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
         """Plot coordinates (all, or ``names``) against time, one axes per unit (a charge and a displacement are
         not drawn on one scale), each labelled with its unit; return the matplotlib ``Axes``, or an array of them

@@ -22,6 +22,7 @@ import numpy as np
 if TYPE_CHECKING:
     import xarray as xr
 
+from ...base import charts
 from ...errors import ModelError, UnknownNameError
 from .designs import Samples
 
@@ -104,6 +105,7 @@ def _pick(ds: xr.Dataset, output: str) -> xr.DataArray:
     return ds[output]
 
 
+@charts.plain
 def plot(ds: xr.Dataset, output: str, *, x: str | None = None, y: str | None = None, at: Any = "final",
          ax=None, path: str | None = None):
     """Chart ``output`` of a sweep against one swept parameter (a line) or two (a heat map); return the Axes.
