@@ -130,3 +130,12 @@ def test_sliders_and_an_animation_show_in_a_jupyter_kernel(tmp_path):
     assert float(printed) == pytest.approx(0.01 * np.cos(np.sqrt(120 / 0.3)), abs=1e-9)
     player = "".join(out.get("data", {}).get("text/html", "") for out in nb.cells[2].outputs)
     assert player.count("data:image/png;base64") == 3 and 'type="range"' in player  # the animation's player
+
+
+def test_a_models_name_is_shown_as_text_above_its_sliders():
+    model = lg.Model("<img src=x onerror=alert(1)>")
+    model.add("mass", "m1", "p", m=0.3)
+    model.add("spring", "k1", ("ground", "p"), k=40.0)
+    sliders = model.interact(["k_k1"], t_end=0.1, initial={"x_p": 0.01}, velocity={"x_p": 0.0}, points=5)
+    heading = sliders.widget.children[0].value
+    assert "<img" not in heading and "&lt;img src=x onerror=alert(1)&gt;" in heading

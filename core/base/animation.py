@@ -142,7 +142,7 @@ class Animation:
 
     def figure(self, frame: int = 0):
         """The matplotlib ``Figure`` showing frame ``frame`` (drawn, so its pixels are there to read)."""
-        fig, ax, artists, label = self._draw()
+        fig = self._draw()[0]
         self._show(frame)
         fig.canvas.draw()
         return fig
@@ -161,8 +161,8 @@ class Animation:
     def pixels(self, name: str, frame: int) -> np.ndarray:
         """Where shape ``name``'s points are drawn at ``frame``: ``n × 2`` pixel coordinates (column, row from the
         top left) of the frame's image, at the animation's ``dpi``."""
-        fig, ax, _, _ = self._draw()
-        self.figure(frame)
+        fig = self.figure(frame)
+        ax = fig.axes[0]
         points = self.position(name, frame)
         if self.dim == 3:
             from mpl_toolkits.mplot3d import proj3d

@@ -58,8 +58,8 @@ class Sliders:
         self.sliders = {name: self._slider(widgets, name, value, ranges.get(name)) for name, value in self.values.items()}
         self.output = widgets.Output()
         self.status = widgets.HTML()
-        self.widget = widgets.VBox([*(widgets.HTML(f"<b>{title}</b>"),)[: bool(title)], *self.sliders.values(),
-                                    self.status, self.output])
+        heading = [widgets.HTML(f"<b>{html.escape(title)}</b>")] if title else []  # a model's name: text, escaped
+        self.widget = widgets.VBox([*heading, *self.sliders.values(), self.status, self.output])
         for name, slider in self.sliders.items():
             slider.observe(lambda change, name=name: self._moved(name, change["new"]), names="value")
         self.redraw()
