@@ -778,3 +778,52 @@ def test_missing_initial_conditions_default_to_zero_and_are_reported():
     with pytest.warns(lg.InitialConditionWarning, match="x_p'"):
         res = simulate_exact(oscillator(1.0, 4.0), 1.0, initial={"x_p": 1.0}, points=3)
     assert res.defaulted == ["x_p'"]
+
+
+def _ladder_reference(values, amplitude, w, times):
+    """Capacitor voltages of an RLC ladder from rest under ``amplitude · sin(w t)``, from its state equations
+    (inductor currents i_k, capacitor voltages v_k): L_k i_k' = v_(k−1) − R_k i_k − v_k (v_(−1) the source),
+    C_k v_k' = i_k − i_(k+1); the steady response (a phasor solve) plus the free response that starts the state at
+    zero, by the eigenvectors of the state matrix."""
+    n = len(values)
+    A = np.zeros((2 * n, 2 * n))
+    b = np.zeros(2 * n)
+    for k, (R, L, C) in enumerate(values):
+        A[k, k], A[k, n + k] = -R / L, -1 / L
+        if k:
+            A[k, n + k - 1] = 1 / L
+        A[n + k, k] = 1 / C
+        if k + 1 < n:
+            A[n + k, k + 1] = -1 / C
+    b[0] = amplitude / values[0][1]
+    z = np.linalg.solve(1j * w * np.eye(2 * n) - A, b)
+    lam, V = np.linalg.eig(A)
+    c = np.linalg.solve(V, -np.imag(z))
+    free = np.real((V * c) @ np.exp(lam[:, None] * times[None, :]))
+    return np.imag(z[:, None] * np.exp(1j * w * times[None, :]))[n:] + free[n:]
+
+
+@settings(max_examples=3, deadline=None)
+@given(seed=st.integers(0, 2**16), amplitude=_decades(-2, 1), w=_decades(-1, 0.5))
+def test_a_ladder_of_many_states_on_a_long_uniform_grid_is_exact(seed, amplitude, w):
+    # 70 sections: 140 states, past the size up to which blocks of powers are used, and 600 uniform steps: the
+    # march that advances many states at once.  Every capacitor's voltage against the state equations' solution.
+    rng = np.random.default_rng(seed)
+    values = [(float(f"{rng.uniform(0.2, 2.0):.3g}"), float(f"{rng.uniform(0.05, 0.5):.3g}"),
+               float(f"{rng.uniform(0.1, 1.0):.3g}")) for _ in range(70)]
+    model = lg.Model("ladder")
+    model.add("voltage_source", "V1", ("in", "0"), E=amplitude * sp.sin(w * t))
+    prev = "in"
+    for k, (R, L, C) in enumerate(values):
+        model.add("resistor", f"R{k}", (prev, f"m{k}"), R=R)
+        model.add("inductor", f"L{k}", (f"m{k}", f"n{k}"), L=L)
+        model.add("capacitor", f"C{k}", (f"n{k}", "0"), C=C)
+        prev = f"n{k}"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", lg.InitialConditionWarning)  # from rest
+        res = simulate_exact(model, 30.0, points=601)
+    reference = _ladder_reference(values, amplitude, w, res.t)
+    scale = float(np.max(np.abs(reference)))
+    for k in (0, 35, 69):  # q_Lk: the charge through inductor k; capacitor k holds q_Lk − q_L(k+1)
+        charge = res[f"q_L{k}"] - (res[f"q_L{k + 1}"] if k + 1 < len(values) else 0.0)
+        assert max_err(charge / values[k][2], reference[k]) < EXACT_TOL * scale
