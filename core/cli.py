@@ -511,6 +511,22 @@ def _sweep(args) -> int:
 
 
 @charts.plain
+def _simulation_chart(res, columns: dict | None, path: str) -> None:
+    """The run's chart as a PNG file: the ``--output`` columns, or ``Result.plot``'s chart without them."""
+    import matplotlib.pyplot as plt
+
+    if columns:
+        fig, ax = plt.subplots()
+        for label, values in columns.items():
+            ax.plot(res.t, values, label=label)
+        ax.set_xlabel("t (s)")
+        ax.legend()
+    else:
+        ax = res.plot()
+    ax.figure.savefig(path, dpi=110)
+    plt.close(ax.figure)
+
+
 def _simulate(args) -> int:
     import numpy as np
 
@@ -542,18 +558,7 @@ def _simulate(args) -> int:
                 data = data.assign({label: ("time", values) for label, values in columns.items()})[list(columns)]
             data.to_netcdf(args.out)
         else:
-            import matplotlib.pyplot as plt
-
-            if columns:
-                fig, ax = plt.subplots()
-                for label, values in columns.items():
-                    ax.plot(res.t, values, label=label)
-                ax.set_xlabel("t (s)")
-                ax.legend()
-            else:
-                ax = res.plot()
-            ax.figure.savefig(args.out, dpi=110)
-            plt.close(ax.figure)
+            _simulation_chart(res, columns, args.out)
     except OSError as exc:
         return _fail(_write_failure("--out", args.out, exc))
     names = list(shown)

@@ -202,3 +202,22 @@ def test_an_output_of_a_model_without_numbers_comes_from_its_equations(tmp_path)
         want = 2.0 * (1 - np.exp(-res.t / 1e-3))
         for label in ("v(out)", "v(C1)"):
             assert np.max(np.abs(output_series(c, res, label) - want)) <= 1e-8, (C, label)
+
+
+@pytest.mark.slow
+def test_a_netlist_run_written_as_csv_draws_nothing(tmp_path):
+    # a fresh process: matplotlib (0.1 s of CPU at start) is imported only for a chart.  The charging RC's
+    # capacitor voltage against its closed form, 2 (1 − e^(−t/RC)).
+    import subprocess
+    import sys
+
+    deck, out = tmp_path / "rc.cir", tmp_path / "v.csv"
+    deck.write_text(RC)
+    code = ("import sys\nfrom lagrangian.cli import main\n"
+            f"status = main(['simulate', {str(deck)!r}, '--output', 'v(a)', '--out', {str(out)!r}])\n"
+            "print(status, sorted(m for m in ('matplotlib', 'PIL') if m in sys.modules))\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.stdout.strip().splitlines()[-1] == "0 []", run.stdout + run.stderr
+    table = pd.read_csv(out)
+    t = table["t"].to_numpy()
+    assert np.max(np.abs(table["v(a)"] - 2 * (1 - np.exp(-t / 1e-3)))) < 1e-9 * 2

@@ -1,0 +1,208 @@
+"""Marching the exact solution on its grid: the matrix exponentials of one augmented matrix and the states they give.
+
+:mod:`lagrangian.numerics.linear` builds the augmented matrix ``Z = [[F, G C], [0, S]]`` of a piece (the state
+space and the exosystem generating its inputs); this module advances a state through it: :class:`Propagator`
+(``e^{Z h}`` per step, from a particular solution where one is well conditioned), :func:`march` on a grid, and
+:func:`spectral_states` at uneven times from the eigendecomposition.
+
+>>> import numpy as np
+>>> Z = np.array([[0.0, 1.0], [-4.0, 0.0]])          # x'' + 4x = 0
+>>> states = march(Propagator(Z), np.array([1.0, 0.0]), 0.0, np.linspace(0.25, 2.0, 8), 0.25)
+>>> bool(np.allclose(states[:, 0], np.cos(2 * np.linspace(0.25, 2.0, 8)), rtol=0, atol=1e-14))
+True
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .exosystem import _Exosystem
+
+__all__ = ["Propagator", "march", "spectral_states"]
+
+_EPS = np.finfo(float).eps
+
+
+class Propagator:
+    """``e^{Z h}`` for one augmented matrix ``Z``, cached per step ``h``; also its first powers.
+
+    With ``ny`` states and an exosystem below them (``Z = [[F, G C], [0, S]]``), the exponential is built from
+    a particular solution ``y_p = Π w`` where one is well conditioned: ``F Π − Π S = −G C`` (:func:`particular_solution`), so
+    ``e^{Z h} = [[e^{F h}, Π e^{S h} − e^{F h} Π], [0, e^{S h}]]``.  ``expm`` of the augmented matrix errs
+    relative to its norm, which a large ``G C`` (a force on a small mass, 7e3 1/s² next to ω² of 1e-2)
+    turns into up to 4e-9 of the response, erratically (2e-13 for a step 1e-11 longer); the split form keeps
+    the error of ``e^{F h}`` alone (3e-13 there).  Near resonance — an eigenvalue of ``F`` within ``1/horizon`` of one of ``S``, where ``Π`` is
+    large and the response the small difference of two large terms — ``expm`` of ``Z`` is used as is.
+    """
+
+    def __init__(self, Z: np.ndarray, ny: int | None = None, horizon: float = 0.0):
+        self.Z = Z
+        self._cache: dict[float, np.ndarray] = {}
+        self._powers: dict[float, np.ndarray] = {}
+        self.ny = ny
+        self.Pi = particular_solution(Z[:ny, :ny], Z[ny:, ny:], Z[:ny, ny:], horizon) if ny and ny < Z.shape[0] else None
+        self._spectral: tuple | None | bool = False  # not yet computed
+
+    def spectral(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """``(V, λ, V⁻¹)`` of the matrix that moves the free part of the state (``F`` in the split form, ``Z``
+        without inputs), or ``None``: an exosystem without a particular solution, or eigenvectors whose
+        condition number passes :data:`SPECTRAL_COND` (a nearly defective matrix: critical damping)."""
+        if self._spectral is False:
+            self._spectral = None
+            if self.ny is None or self.Pi is not None:
+                M = self.Z if self.ny is None else self.Z[: self.ny, : self.ny]
+                try:
+                    lam, V = np.linalg.eig(M)
+                    if np.all(np.isfinite(V)) and np.linalg.cond(V) <= SPECTRAL_COND:
+                        self._spectral = (V, lam, np.linalg.inv(V))
+                except np.linalg.LinAlgError:
+                    pass
+        return self._spectral
+
+    def powers(self, h: float, count: int) -> np.ndarray:
+        """``[Φ, Φ², …, Φ^count]`` for ``Φ = e^{Z h}``, stacked (at least ``count`` of them)."""
+        out = self._powers.get(h)
+        if out is None or out.shape[0] < count:
+            phi = self(h)
+            out = np.empty((count, *phi.shape))
+            out[0] = phi
+            for k in range(1, count):
+                out[k] = phi @ out[k - 1]
+            if len(self._powers) > 64:
+                self._powers.clear()
+            self._powers[h] = out
+        return out
+
+    def __call__(self, h: float) -> np.ndarray:
+        phi = self._cache.get(h)
+        if phi is None:
+            if len(self._cache) > 4096:
+                self._cache.clear()
+            from scipy.linalg import expm  # on first use: scipy.linalg is 0.15 s that compiled runs never need
+
+            if self.Pi is None:
+                phi = expm(self.Z * h)
+            else:
+                ny, Pi = self.ny, self.Pi
+                eF, eS = expm(self.Z[:ny, :ny] * h), expm(self.Z[ny:, ny:] * h)
+                phi = np.block([[eF, Pi @ eS - eF @ Pi], [np.zeros((eS.shape[0], ny)), eS]])
+            self._cache[h] = phi
+        return phi
+
+
+#: Up to this many states a uniform grid is marched by blocks of precomputed powers of ``e^{Z h}`` (one matrix
+#: product per block, against a Python step per output); beyond, the B powers cost ``B·ny³`` against ``B·ny²`` for
+#: stepping (a 200-section ladder, 404 states, 3,001 points: 1.1 s of powers), and a long march goes in lanes
+#: (:func:`lanes`).
+POWERS_MAX = 128
+#: Largest condition number of the eigenvectors with which outputs at uneven times are evaluated from the
+#: eigendecomposition (error about ε times it); past it the state is stepped from output to output.
+SPECTRAL_COND = 1e3
+#: Outputs in one piece from which uneven times are evaluated at once from the eigendecomposition.
+SPECTRAL_MIN = 16
+
+
+def spectral_states(prop: Propagator, exo: _Exosystem, z: np.ndarray, start: float, times: np.ndarray
+                     ) -> np.ndarray | None:
+    """States at ``times`` from ``z`` at ``start`` (the piece's start, where the exosystem is at ``exo.w0``), all
+    at once: ``y(τ) = Π w(τ) + V e^{Λτ} V⁻¹ (y0 − Π w0)`` with ``w(τ)`` in closed form; ``None`` where
+    :meth:`Propagator.spectral` has no decomposition.  One exponential per output and state, where stepping
+    through uneven times (the time points of ngspice) takes two matrix exponentials per distinct step."""
+    spec = prop.spectral()
+    if spec is None:
+        return None
+    V, lam, Vinv = spec
+    tau = times - start
+    if prop.Pi is None:  # no inputs
+        return ((np.exp(np.outer(tau, lam)) * (Vinv @ z)) @ V.T).real
+    ny, Pi = prop.ny, prop.Pi
+    W = exo.states(tau)
+    free = ((np.exp(np.outer(tau, lam)) * (Vinv @ (z[:ny] - Pi @ z[ny:]))) @ V.T).real
+    return np.hstack([free + W @ Pi.T, W])
+
+
+def particular_solution(F: np.ndarray, S: np.ndarray, GC: np.ndarray, horizon: float) -> np.ndarray | None:
+    """``Π`` with ``F Π − Π S = −G C``, or ``None`` where it is ill conditioned (see :class:`Propagator`).
+
+    Solved column by column on the complex Schur form ``S = Q T Qᴴ`` of the small exosystem matrix alone:
+    ``(F − T_kk) y_k = −(G C Q)_k + Σ_{j<k} T_jk y_j``, one LU solve with ``F`` as it is per column.  Measured
+    on a badly scaled shaft (‖F‖ = 1.8e6, ω² down to 1e-2): 8e-13 relative error in ``Π`` against 4.8e-10 for
+    Bartels–Stewart (``scipy.linalg.solve_sylvester``), which works on the Schur form of ``F`` as well.
+    """
+    try:
+        gap = float(np.min(np.abs(np.linalg.eigvals(F)[:, None] - np.linalg.eigvals(S)[None, :])))
+        if not gap * horizon > 1.0:
+            return None
+        from scipy.linalg import schur
+
+        T, Q = schur(S.astype(complex), output="complex")
+        R = -(GC @ Q).astype(complex)
+        Y = np.zeros((F.shape[0], S.shape[0]), dtype=complex)
+        eye = np.eye(F.shape[0])
+        for k in range(S.shape[0]):
+            Y[:, k] = np.linalg.solve(F - T[k, k] * eye, R[:, k] + Y[:, :k] @ T[:k, k])
+        Pi = (Y @ Q.conj().T).real
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    if not np.all(np.isfinite(Pi)):
+        return None
+    norm = np.linalg.norm
+    scale = norm(F) * norm(Pi) + norm(Pi) * norm(S) + norm(GC)
+    return Pi if norm(F @ Pi - Pi @ S + GC) <= 1e3 * _EPS * scale else None
+
+
+def march(prop: Propagator, z: np.ndarray, start: float, times: np.ndarray, uniform: float | None) -> np.ndarray:
+    """States at ``times`` (increasing, ≥ ``start``) from ``z`` at ``start``: one row per time."""
+    out = np.empty((times.size, z.size))
+    steps = np.diff(times, prepend=start)
+    if uniform is not None and steps.size > 1:
+        steps[1:] = uniform  # consecutive grid points of a uniform grid: one step, one exponential
+    i = 0
+    while i < steps.size:
+        h = steps[i]
+        m = 1
+        while i + m < steps.size and steps[i + m] == h:
+            m += 1
+        if h == 0:
+            out[i : i + m] = z
+        elif z.size > POWERS_MAX and m >= 4 * LANES:  # a large state, many steps: lanes a block apart
+            lanes(prop, h, z, out[i : i + m])
+        elif m < 8 or z.size > POWERS_MAX:  # a large state: one product per step costs less than the powers
+            phi = prop(h)
+            for k in range(m):
+                z = phi @ z
+                out[i + k] = z
+        else:  # blocks of powers Φ, Φ², …, Φ^B applied at once
+            B = min(m, 64)
+            powers = prop.powers(h, B)
+            B = powers.shape[0]
+            k = 0
+            while k < m:
+                c = min(B, m - k)
+                out[i + k : i + k + c] = powers[:c] @ z
+                z = out[i + k + c - 1]
+                k += c
+        z = out[i + m - 1]
+        i += m
+    return out
+
+
+#: States a large uniform march advances at once (:func:`lanes`).
+LANES = 32
+
+
+def lanes(prop: Propagator, h: float, z: np.ndarray, out: np.ndarray) -> None:
+    """Fill ``out`` (``m`` rows) with the states ``h, 2h, …, m h`` after ``z``: the first :data:`LANES` by steps of
+    ``Φ = e^{Z h}``, then each block of :data:`LANES` from the block before by one product with ``e^{Z h B}``
+    (its own exponential, as exact as ``Φ``).  The same arithmetic as stepping, but each pass reads the matrix once
+    for ``B`` states instead of once per state: stepping a large state is bound by memory traffic.  Measured on a
+    200-section ladder (402 states, 3,001 points, one BLAS thread): 0.37 s stepping, 0.06 s in lanes."""
+    m, B = out.shape[0], LANES
+    phi = prop(h)
+    for k in range(B):
+        z = phi @ z
+        out[k] = z
+    jump = prop(h * B)
+    for k in range(B, m, B):
+        c = min(B, m - k)
+        out[k : k + c] = (jump @ out[k - B : k - B + c].T).T
