@@ -22,6 +22,7 @@ import lazy_loader as _lazy_loader
 from .base.limits import limits
 from .errors import *  # noqa: F403 - the hierarchy is part of the public API
 from .errors import __all__ as _errors
+from .base import deferred as _deferred
 
 __version__ = "0.1.0"
 
@@ -88,6 +89,8 @@ _attribute, _, _ = _lazy_loader.attach(__name__, submod_attrs=_NAMES)
 def __getattr__(name: str):
     if name in _WHERE:
         return _importlib.import_module(f"{__name__}.{name}")
+    if name == "t":  # the symbol itself, not the stand-in the package's modules hold until SymPy is used
+        return _deferred.time_symbol()
     if name == "load":  # ``lagrangian.load("m.json")``: the model a model file describes (:meth:`Model.load`)
         return _attribute("Model").load
     try:

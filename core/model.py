@@ -19,7 +19,6 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from .base.arguments import RunOptions, check_atol, check_max_step, check_state, check_energy_tol, check_grid, check_mapping, check_positive, check_progress, check_span
 from .derivation.assembly import Assembly, assemble
@@ -27,7 +26,7 @@ from .base.component import GROUND, Component, check_value, t
 from .base.domain import Coordinate, check_name
 from .derivation.calculus import symbols_of
 from .derivation.equations import Equations
-from .base import display, modelfile, sliders
+from .base import deferred as _deferred, display, modelfile, sliders
 from .base.overrides import Rules
 from .base.latex import to_latex
 from .errors import LagrangianError, ModelError, ParameterError, UnknownNameError, closest, warn
@@ -40,6 +39,7 @@ from .numerics.events import Event, check as check_events
 from .numerics.linear import prepared, simulate_exact, state_space
 from .numerics.fmu import export as export_fmu
 from .numerics import assembled as _assembled, sensitivity as _sensitivity
+sp = _deferred.module("sympy", globals())  # SymPy imported when first used (lagrangian.base.deferred)
 
 __all__ = ["Model"]
 

@@ -15,11 +15,13 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from .base.text import as_expr
 from .errors import ModelError
 from .model import Model
+from .base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["spherical_pendulum", "heavy_top", "double_pendulum", "pendulum_chain", "spring_chain", "loudspeaker",
            "rlc_ladder", "whipple_bicycle"]

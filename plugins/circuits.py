@@ -38,7 +38,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from lagrangian import (
     GROUND,
@@ -58,11 +57,14 @@ from lagrangian import (
     Parameter,
     Quantity,
     hookimpl,
-    t,
 )
+from lagrangian.base.component import t
 from lagrangian.derive import time_derivative, time_integral
 from lagrangian.network import fundamental_loops, normal_tree, tree_potentials
 from lagrangian.spice import SpiceElement, spice_expression, spice_waveform
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass

@@ -40,10 +40,24 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
-from lagrangian import (Component, Context, Contribution, Example, Linear, LinearContext, ModelError, Parameter, ParameterError,
-                        UnknownNameError, hookimpl, t)
+from lagrangian import (
+    Component,
+    Context,
+    Contribution,
+    Example,
+    Linear,
+    LinearContext,
+    ModelError,
+    Parameter,
+    ParameterError,
+    UnknownNameError,
+    hookimpl,
+)
+from lagrangian.base.component import t
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Coupling"]
 

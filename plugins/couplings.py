@@ -16,10 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import sympy as sp
-from sympy.core.function import AppliedUndef
+from lagrangian import Component, Contribution, Example, ModelError, Parameter, coordinate, rate
+from lagrangian.base.component import t
+from lagrangian.base import deferred as _deferred
 
-from lagrangian import Component, Contribution, Example, ModelError, Parameter, coordinate, rate, t
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Constraint", "Gear", "RackAndPinion", "VelocityConstraint"]
 
@@ -70,7 +71,7 @@ class Constraint(Component):
             if any(isinstance(d, sp.Derivative) for d in sp.preorder_traversal(e)):
                 raise ModelError(f"constraint {self.name!r}: {e} holds a rate; a holonomic constraint is written in "
                                  f"coordinates and t alone (a constraint on velocities is nonholonomic).")
-            if not any(f.args == (t,) for f in e.atoms(AppliedUndef)):
+            if not any(f.args == (t,) for f in e.atoms(sp.core.function.AppliedUndef)):
                 raise ModelError(f"constraint {self.name!r}: {e} holds no coordinate (lagrangian.coordinate): it "
                                  f"constrains nothing.")
         return Contribution(constraints=rows)

@@ -3,9 +3,10 @@
 
 from __future__ import annotations
 
-import sympy as sp
-
 from lagrangian import GROUND, ModelError, Shape
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["shapes", "RIM"]
 

@@ -20,8 +20,6 @@ import functools
 from dataclasses import dataclass, field
 from typing import Any
 
-import sympy as sp
-
 from lagrangian import (
     UnknownNameError,
     Component,
@@ -43,11 +41,14 @@ from lagrangian import (
     dot,
     hookimpl,
     rate,
-    t,
 )
+from lagrangian.base.component import t
 from lagrangian.derive import time_derivative
 from lagrangian.plugins import drawing as _drawing
 from lagrangian.plugins.couplings import Constraint, Gear, RackAndPinion, VelocityConstraint
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 AXES = "xyz"
 

@@ -28,8 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import sympy as sp
-
 from lagrangian import (
     Component,
     Contribution,
@@ -45,8 +43,11 @@ from lagrangian import (
     Network,
     Parameter,
     hookimpl,
-    t,
 )
+from lagrangian.base.component import t
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass

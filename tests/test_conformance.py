@@ -29,8 +29,7 @@ def test_the_suite_covers_builtins_and_the_third_party_plugin():
 
 
 def build(kind: str, registry: lg.Registry | None = None) -> tuple[lg.Model, lg.Example]:
-    cls = (registry or lg.default_registry()).component_type(kind)
-    ex = cls.example()
+    ex = (registry or lg.default_registry()).example(kind)  # the plugin's example, checked (a PluginError if not)
     assert isinstance(ex, lg.Example)
     m = lg.Model(f"example-{kind}", registry=registry, **dict(ex.options))
     m.add(kind, kind, ex.nodes, **dict(ex.params))

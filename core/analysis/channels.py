@@ -21,10 +21,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import networkx as nx
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from ..base.component import GROUND, t
 from ..base.domain import Context
@@ -35,6 +32,10 @@ from ..derivation.numeric import assemble_numeric
 from ..derivation.stamps import NotStampable
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
+from ..base import deferred as _deferred
+
+nx = _deferred.module("networkx", globals())
+sp = _deferred.module("sympy", globals())
 
 _BRANCH = re.compile(r"^\s*([A-Za-z]\w*)\s*\(\s*([^()\s]+)\s*\)\s*$")
 _PRIMES = re.compile(r"^(.*?)('{0,2})$")
@@ -102,9 +103,9 @@ def _atoms(exprs, channels) -> set:
     """The applications ``w(…)`` and derivatives of input functions in ``exprs`` (of every undefined function when
     ``channels`` is empty), each distinct sub-expression visited once."""
     found = set()
-    for e in atoms_of([sp.sympify(e, strict=True) for e in exprs], sp.Derivative, AppliedUndef):
+    for e in atoms_of([sp.sympify(e, strict=True) for e in exprs], sp.Derivative, sp.core.function.AppliedUndef):
         if isinstance(e, sp.Derivative):
-            if isinstance(e.expr, AppliedUndef) and (not channels or e.expr.func in channels):
+            if isinstance(e.expr, sp.core.function.AppliedUndef) and (not channels or e.expr.func in channels):
                 found.add(e)
         elif not channels or e.func in channels:
             found.add(e)
@@ -138,18 +139,18 @@ def _outputs(twin: Model, eq, outputs, usym, channels, at_point):
     for r, (label, expr) in enumerate(exprs):
         e = sp.sympify(expr, strict=True)
         e = e.xreplace({d: to_sym[d] for d in e.atoms(sp.Derivative) if d in to_sym})
-        e = e.xreplace({f: to_sym[f] for f in e.atoms(AppliedUndef) if f in to_sym})
-        e = e.xreplace({a: sp.Integer(0) for a in e.atoms(AppliedUndef) if a.func in channels and a.args != (t,)})
+        e = e.xreplace({f: to_sym[f] for f in e.atoms(sp.core.function.AppliedUndef) if f in to_sym})
+        e = e.xreplace({a: sp.Integer(0) for a in e.atoms(sp.core.function.AppliedUndef) if a.func in channels and a.args != (t,)})
         ins = {}
         for d in e.atoms(sp.Derivative):
-            if isinstance(d.expr, AppliedUndef) and d.expr.func in channels:
+            if isinstance(d.expr, sp.core.function.AppliedUndef) and d.expr.func in channels:
                 col, k = channels[d.expr.func][1], d.derivative_count
                 ins[d] = (usym(col, k), col, k)
         e = e.xreplace({d: sym for d, (sym, _, _) in ins.items()})
-        bare = {a: (usym(channels[a.func][1], 0), channels[a.func][1], 0) for a in e.atoms(AppliedUndef) if a.func in channels}
+        bare = {a: (usym(channels[a.func][1], 0), channels[a.func][1], 0) for a in e.atoms(sp.core.function.AppliedUndef) if a.func in channels}
         e = e.xreplace({d: sym for d, (sym, _, _) in bare.items()})
         ins.update(bare)
-        left = e.atoms(sp.Derivative) | e.atoms(AppliedUndef)
+        left = e.atoms(sp.Derivative) | e.atoms(sp.core.function.AppliedUndef)
         if left:
             raise ModelError(f"output {label!r} depends on {sorted(map(str, left))[0]}, which is neither a "
                              f"coordinate, its first two derivatives, nor an input.")
@@ -297,7 +298,7 @@ def _solved(expr: Any, eliminated) -> Any:
     rates = {d: sp.diff(by_function[d.expr].solution, t, d.derivative_count) for d in expr.atoms(sp.Derivative)
              if d.expr in by_function and set(d.variables) == {t}}
     expr = expr.xreplace(rates) if rates else expr
-    return expr.xreplace({f: by_function[f].solution for f in expr.atoms(AppliedUndef) if f in by_function})
+    return expr.xreplace({f: by_function[f].solution for f in expr.atoms(sp.core.function.AppliedUndef) if f in by_function})
 
 
 def _views(model: Model) -> dict[str, Any]:

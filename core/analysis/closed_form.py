@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import math
 
-import sympy as sp
-
 from ..base.component import t
 from ..errors import ModelError
 from .linearize import s
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["CLOSED_DEGREE", "closed_roots", "inverse_laplace"]
 

@@ -31,14 +31,16 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..errors import ModelError
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["frequency_response_data", "state_space_system", "transfer_function"]
 
 #: The Laplace variable, as :data:`lagrangian.frequency.s` spells it (SymPy symbols of one name are one symbol).
-_s = sp.Symbol("s")
+_s = _deferred.symbol("s")
 
 
 def _python_control(what: str) -> Any:

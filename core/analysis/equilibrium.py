@@ -9,10 +9,12 @@ constraints on velocities, and the multipliers that hold a constrained point.
 from __future__ import annotations
 
 import numpy as np
-import sympy as sp
 
 from ..base.identity import is_zero
 from ..errors import ModelError
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["check_closure", "check_rest", "check_rolling", "multipliers", "settle"]
 

@@ -50,12 +50,14 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base import charts
 from ..errors import ModelError, NumericalError, UnknownNameError
 from ..model import Model
 from .parametric import ParametricResponse
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["fit", "Fit", "FrequencyData", "TimeSeries"]
 

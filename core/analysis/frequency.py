@@ -50,7 +50,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base import charts
 from ..base.latex import _latex_escape, to_latex
@@ -66,6 +65,9 @@ from .locus import RootLocus, pole_zero_map, root_locus
 from .modes import Modes, _descriptor, _eigenvalues, _linear, _numeric, _scale, modes
 from .parametric import ParametricResponse
 from .speeds import SpeedSweep, speed_sweep
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["FrequencyResponse", "Modes", "RootLocus", "SpeedSweep", "TransferFunction", "decades",
            "frequency_response", "impedance", "interact", "linearize", "modes", "pole_zero_map", "root_locus", "s",

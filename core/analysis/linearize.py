@@ -44,8 +44,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from ..base.component import check_value, t
 from ..base.identity import is_zero
@@ -58,11 +56,14 @@ from .control import state_space_system
 from .equilibrium import check_closure, check_rest, check_rolling, multipliers, settle
 from .motion import kane_state_space, null_space, number, rates, steady_check
 from .channels import _INPUT, _atoms, _channel, _input_unit, _label, _outputs, _signal_of, _unit, _with_inputs
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["LinearModel", "linearize", "s"]
 
 #: The Laplace variable of transfer functions.
-s = sp.Symbol("s")
+s = _deferred.symbol("s")
 
 
 @dataclass
@@ -424,7 +425,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
     replace: dict[Any, Any] = {}
     order = 0
     for expr in _atoms(list(f_g) + list(M_g) + list(g["constraints"]) + list(c_g), channels):
-        if isinstance(expr, AppliedUndef) and expr.args != (t,):
+        if isinstance(expr, sp.core.function.AppliedUndef) and expr.args != (t,):
             replace[expr] = sp.Integer(0)  # w(0), from integrating a source over [0, t]: w is 0 at the point
             continue
         k, col = _channel(expr, channels)
@@ -466,7 +467,7 @@ def linearize(model: Model, at: Mapping[str, Any] | None = None, *, velocity: Ma
             out[i, j] = value
         return out
 
-    unsupported = [str(a.func) for a in _atoms(list(f_u) + list(M_u), ()) if isinstance(a, AppliedUndef)]
+    unsupported = [str(a.func) for a in _atoms(list(f_u) + list(M_u), ()) if isinstance(a, sp.core.function.AppliedUndef)]
     if unsupported:
         raise ModelError(f"model {model.name!r}: signals given as Python callables ({', '.join(sorted(set(unsupported)))}) "
                          f"have no operating value to linearize about; give them as numbers or SymPy expressions of t.")
@@ -555,8 +556,8 @@ def _by_recursion(model: Model, twin: Model, eq, channels, values, outputs, poin
     found = sorted(_atoms([e for _, e in rec.definitions] + list(rec.accelerations), channels), key=sp.default_sort_key)
     env = {**{s: float(x) for s, x in values.items() if isinstance(x, (int, float))}, t: float(time)}
     env.update({s: 0.0 for s in v})
-    env.update({a: 0.0 for a in found if isinstance(a, AppliedUndef) and a.args != (t,)})  # (w(0): 0 at the point)
-    inputs = [a for a in found if not (isinstance(a, AppliedUndef) and a.args != (t,))]
+    env.update({a: 0.0 for a in found if isinstance(a, sp.core.function.AppliedUndef) and a.args != (t,)})  # (w(0): 0 at the point)
+    inputs = [a for a in found if not (isinstance(a, sp.core.function.AppliedUndef) and a.args != (t,))]
     slots = [_channel(a, channels) for a in inputs]  # (derivative order k, input column)
     x = np.array([float(point[nm]) for nm in names])
 

@@ -45,8 +45,6 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from ..base.component import _CallableSignal, t
 from ..derivation.numeric import NumericAssembly, assemble_numeric
@@ -54,6 +52,9 @@ from ..derivation.stamps import NotStampable, stamps
 from ..errors import ModelError
 from ..model import Model
 from .channels import _BRANCH, _PRIMES, _chosen, _label, _outputs, _signal_of, _voltage_graph, _voltage_path
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["numeric", "stamped"]
 
@@ -61,12 +62,12 @@ __all__ = ["numeric", "stamped"]
 def _column(shape: sp.Expr, channels: Mapping[Any, tuple]) -> tuple[int, int] | None:
     """``(column, k)`` when ``shape`` is the ``k``-th derivative of an input function, ``None`` when it holds no input
     (an operating value: a constant load, a bias, a signal of ``t``)."""
-    if isinstance(shape, AppliedUndef) and shape.func in channels and shape.args == (t,):
+    if isinstance(shape, sp.core.function.AppliedUndef) and shape.func in channels and shape.args == (t,):
         return channels[shape.func][1], 0
-    if (isinstance(shape, sp.Derivative) and isinstance(shape.expr, AppliedUndef) and shape.expr.func in channels
+    if (isinstance(shape, sp.Derivative) and isinstance(shape.expr, sp.core.function.AppliedUndef) and shape.expr.func in channels
             and set(shape.variables) == {t}):
         return channels[shape.expr.func][1], shape.derivative_count
-    if any(f.func in channels for f in shape.atoms(AppliedUndef)):
+    if any(f.func in channels for f in shape.atoms(sp.core.function.AppliedUndef)):
         raise NotStampable(f"an input enters as {shape}, not alone")
     return None
 
@@ -121,7 +122,7 @@ def stamped(twin: Model, channels: Mapping[Any, tuple], values: Mapping[sp.Symbo
         B = st.B.toarray()
         for j, shape in enumerate(st.inputs):
             # w(0), from integrating a source over [0, t] (a voltage source in node fluxes): 0 at the point
-            shape = shape.xreplace({a: sp.Integer(0) for a in shape.atoms(AppliedUndef)
+            shape = shape.xreplace({a: sp.Integer(0) for a in shape.atoms(sp.core.function.AppliedUndef)
                                     if a.func in channels and a.args != (t,)})
             if shape == 0:
                 continue

@@ -41,10 +41,12 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.identity import depends_on
 from ..errors import ModelError, UnknownNameError
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["kane_state_space", "null_space", "number", "rates", "steady_check"]
 

@@ -37,7 +37,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-import sympy as sp
 
 from ..base.budget import DEFAULT_SECONDS, BudgetExceeded, within
 from ..base.component import t
@@ -49,6 +48,9 @@ from .linearize import linearize
 from .modes import Modes
 from .routh.stability import Stability, _fmt
 from .routh.steady import _is_angle
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Equilibrium", "equilibria"]
 

@@ -28,10 +28,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..errors import NumericalError
 from .linearize import linearize
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["ParametricResponse", "COEFFICIENTS_MAX"]
 

@@ -64,7 +64,6 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base import display
 from ..base.identity import is_zero
@@ -82,6 +81,9 @@ from .scene_cost import reduction_skipped
 from .scene_graph import prune
 from .scene_plan import Offer, Part, ScenePlan, SceneResult, Sizes, _closure, _maybe_linear, _ops, _Output, _with_values
 from ..numerics.simulation import InitialConditionWarning, Result, _lambdify
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Scene", "ScenePlan", "Part", "SceneResult", "Offer"]
 

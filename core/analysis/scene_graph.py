@@ -36,11 +36,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import sympy as sp
-from sympy.core.function import AppliedUndef
-
 from ..base.component import GROUND, t
 from ..model import Model
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Pruned", "prune"]
 
@@ -119,7 +119,7 @@ def _local(components: list) -> bool:
         if c.kind == "coulomb_friction" and (c.params.get("stick_slip") or c.params.get("phase", "smooth") != "smooth"):
             return False
         for v in c.params.values():
-            if isinstance(v, (sp.Basic, sp.MatrixBase)) and v.atoms(AppliedUndef):
+            if isinstance(v, (sp.Basic, sp.MatrixBase)) and v.atoms(sp.core.function.AppliedUndef):
                 return False
     return True
 

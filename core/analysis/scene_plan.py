@@ -16,7 +16,6 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-import sympy as sp
 
 from ..base.component import t
 from ..derivation.equations import Equations
@@ -25,6 +24,9 @@ from ..model import Model
 from ..base import display
 from ..numerics.simulation import Result
 from ..numerics.tape import size
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass

@@ -40,7 +40,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.component import t
 from ..derivation.assembly import refuse_eliminated
@@ -48,6 +47,9 @@ from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..numerics.events import Event
 from ..numerics.result import Result
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["StickSlipResult", "Switch", "simulate"]
 

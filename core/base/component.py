@@ -11,23 +11,24 @@ from __future__ import annotations
 
 import math
 
-import pickle
-import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-import sympy as sp
-from sympy.core.function import AppliedUndef
-
 from ..errors import closest, ExpressionError, ModelError, ParameterError
 from .text import as_expr
 from .units import is_quantity, split, to_si
+from . import deferred as _deferred
+from .params import Params
+from .pickling import pickling_by_name, refuse_unpicklable  # noqa: F401 - (defined there; named here too)
+from .waveforms import Waveform
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["t", "GROUND", "Parameter", "Load", "Contribution", "Example", "Component", "dot"]
 
-#: The time symbol every model shares.
-t = sp.Symbol("t", real=True)
+#: The time symbol every model shares (a stand-in for it until SymPy is first used: :mod:`lagrangian.base.deferred`).
+t = _deferred.symbol("t", real=True)
 
 #: Name of the reference node shared by all domains.  ``"0"`` and ``"gnd"`` are accepted aliases.
 GROUND = "ground"
@@ -159,6 +160,14 @@ class Parameter:
             raise ParameterError(component, name, f"required ({self.doc}), got None.")
         return self._scalar(value, component, name, check=self.check)
 
+    def held(self, value: Any) -> bool:
+        """Whether a component holds ``value`` as given until it is read symbolically (:mod:`lagrangian.base.params`):
+        a plain number within this parameter's rule, or a waveform for a signal."""
+        kind = type(value)
+        if kind is float or kind is int:
+            return self.shape in ("scalar", "signal", "tensor") and abs(value) <= LARGEST and _CHECKS[self.check][0](value)
+        return self.shape == "signal" and isinstance(value, Waveform)
+
     def _scalar(self, value: Any, component: str, name: str, check: str) -> sp.Expr:
         kind = type(value)
         if (kind is float or kind is int) and abs(value) <= LARGEST and _CHECKS[check][0](value):  # (nan, inf: no)
@@ -200,13 +209,13 @@ class Parameter:
         for d in expr.atoms(sp.Derivative):
             if not self.state:
                 break
-            if isinstance(d.expr, AppliedUndef) and set(d.variables) == {t} and d.derivative_count > 1:
+            if isinstance(d.expr, sp.core.function.AppliedUndef) and set(d.variables) == {t} and d.derivative_count > 1:
                 raise ParameterError(component, name, f"holds the acceleration {d}: a load depends on the state "
                                                       f"(coordinates and rates), not on accelerations.")
-            if not isinstance(d.expr, AppliedUndef) or d.variables != (t,):
+            if not isinstance(d.expr, sp.core.function.AppliedUndef) or d.variables != (t,):
                 raise ParameterError(component, name, f"holds {d}: a load may hold coordinates x(t) and their rates "
                                                       f"dx/dt (lagrangian.coordinate, lagrangian.rate), no other derivative.")
-        for f in expr.atoms(AppliedUndef):
+        for f in expr.atoms(sp.core.function.AppliedUndef):
             if not self.state:
                 raise ParameterError(component, name, f"depends on {f}: a signal is a function of time alone. Loads "
                                                       f"depend on the state: force, torque, body_torque and "
@@ -315,35 +324,6 @@ class _Standing:
 def _plain_number(value: Any) -> bool:
     """A finite real number (a SymPy Number), as opposed to an expression, a matrix or a callable."""
     return isinstance(value, sp.Number) and value.is_finite is not False
-
-
-def pickling_by_name() -> bool:
-    """Whether what is under way is pickle's own pickling, which carries a function, class or module by an
-    importable name only: not cloudpickle's (which carries one built at run time by value), nor a
-    :func:`copy.deepcopy` (which keeps functions as they are)."""
-    cloudpickle = sys.modules.get("cloudpickle")
-    pickler = getattr(cloudpickle, "Pickler", None)
-    frame = sys._getframe(1)
-    while frame is not None:
-        if frame.f_globals.get("__name__") == "copy" or (
-                pickler is not None and isinstance(frame.f_locals.get("self"), pickler)):
-            return False
-        frame = frame.f_back
-    return True
-
-
-def refuse_unpicklable(func: Any, what: str) -> None:
-    """A :class:`ModelError` naming ``what`` when ``func`` (a Python callable a model holds) is one pickle cannot
-    carry — a lambda, a local function — and the pickling under way is pickle's; cloudpickle carries it by value."""
-    if not pickling_by_name():
-        return
-    try:
-        pickle.dumps(func)
-    except Exception as exc:
-        raise ModelError(f"{what} is the Python callable {func!r:.60}, which pickle cannot carry "
-                         f"({exc.__class__.__name__}: {exc}): pickle the model with cloudpickle (which carries it "
-                         f"by value), define the function in an importable module, or give a SymPy expression of "
-                         f"t.") from None
 
 
 class _CallableSignal:
@@ -540,25 +520,28 @@ class Component:
                 f"{self.kind!r} has no such parameter.{closest(bad, self.parameters)} "
                 f"Its parameters: {', '.join(self.parameters) or '(none)'}.",
             )
-        values = {}
+        values = Params()  # plain numbers and waveforms as given, read as SymPy objects (lagrangian.base.params)
         floats = {}  # the parameters given as plain numbers, as floats (what numeric assembly reads)
         for pname, spec in self.parameters.items():
             if pname in params:
-                values[pname] = spec.coerce(params[pname], name, pname)
                 raw = params[pname]
-                if type(raw) in (float, int) and abs(raw) <= LARGEST and isinstance(values[pname], (sp.Float, sp.Integer)):
+                held = spec.held(raw)
+                values[pname] = raw if held else spec.coerce(raw, name, pname)
+                if held and type(raw) in (float, int):
                     floats[pname] = float(raw)
             elif spec.required:
                 raise ParameterError(name, pname, f"required ({spec.doc}{', ' + spec.unit if spec.unit else ''}).")
+            elif spec.default is not None:
+                values[pname] = spec.default if spec.held(spec.default) else spec.coerce(spec.default, name, pname)
             else:
-                values[pname] = spec.coerce(spec.default, name, pname) if spec.default is not None else None
+                values[pname] = None
         self.params = values
         self._given = frozenset(params)
         self._floats = floats
 
     def __getstate__(self) -> dict[str, Any]:
         """Its attributes; a parameter given as a Python callable that pickle cannot carry is refused, by name."""
-        for pname, value in self.params.items():
+        for pname, value in dict.items(self.params):
             if isinstance(value, _CallableSignal):
                 refuse_unpicklable(value.func, f"component {self.name!r}: parameter {pname!r}")
         return self.__dict__
@@ -624,7 +607,7 @@ class Component:
             return self
         view = object.__new__(type(self))
         view.__dict__.update(self.__dict__)
-        view.params = {**self.params, **self._symbols}
+        view.params = Params({**self.params, **self._symbols})
         view._floats = {k: v for k, v in getattr(self, "_floats", {}).items() if k not in self._symbols}
         return view
 
@@ -669,7 +652,7 @@ class Component:
             base = base + rate
         twin = object.__new__(type(self))
         twin.__dict__.update(self.__dict__)
-        twin.params = {**self.params, pname: base}
+        twin.params = Params({**self.params, pname: base})
         twin._floats = {k: v for k, v in getattr(self, "_floats", {}).items() if k != pname}
         twin._symbols = {k: v for k, v in self._symbols.items() if k != pname}
         twin._inputs = {*self.inputs(), w}
@@ -701,8 +684,8 @@ class Component:
         value = self.params[pname]
         if not isinstance(value, (sp.Basic, sp.MatrixBase)):
             return []
-        return sorted({f for f in value.atoms(AppliedUndef) if f.args == (t,) and f.func not in self.inputs()},
-                      key=str)
+        return sorted({f for f in value.atoms(sp.core.function.AppliedUndef)
+                       if f.args == (t,) and f.func not in self.inputs()}, key=str)
 
     def __getattr__(self, item: str) -> Any:
         params = self.__dict__.get("params")

@@ -14,11 +14,13 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-import networkx as nx
-import sympy as sp
 
 from ..errors import ModelError
 from .component import GROUND, Component, t
+from . import deferred as _deferred
+
+nx = _deferred.module("networkx", globals())
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Coordinate", "Option", "Network", "DomainView", "Shape", "Domain", "Context", "Incidence", "check_name", "coordinate",
            "rate"]

@@ -12,10 +12,12 @@ import functools
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any
 
-import networkx as nx
 
 from .component import GROUND, GROUND_ALIASES, Component
 from ..errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, TopologyError, UnknownNodeError
+from . import deferred as _deferred
+
+nx = _deferred.module("networkx", globals())
 
 __all__ = ["ComponentGraph", "unchanged_while_running"]
 

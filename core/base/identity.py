@@ -54,17 +54,19 @@ False
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 import threading
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
-import mpmath
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from .budget import BudgetExceeded, interruptible
+from . import deferred as _deferred
+
+mpmath = _deferred.module("mpmath", globals())
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["is_zero", "equal", "depends_on", "negligible", "nodes", "symbols_of", "FLOAT_TOLERANCE", "EXACT_TOLERANCE"]
 
@@ -213,7 +215,7 @@ class _Evaluator:
     def _function(self, e):
         ctx = self.ctx
         args = [self(a) for a in e.args]
-        name = _MP_NAMES.get(type(e))
+        name = _mp_names().get(type(e))
         if name is not None and len(args) == 1:
             xa, ma = args[0]
             if name == "tanh" and abs(xa) > self.saturated:
@@ -260,11 +262,13 @@ class _Evaluator:
         return x, abs(x) + sum(a[1] for a in args)
 
 
-_MP_NAMES = {
-    sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.exp: "exp", sp.log: "log",
-    sp.asin: "asin", sp.acos: "acos", sp.atan: "atan",
-    sp.sinh: "sinh", sp.cosh: "cosh", sp.tanh: "tanh",
-}
+@functools.cache
+def _mp_names() -> dict:
+    """SymPy's functions that mpmath evaluates, to mpmath's names of them."""
+    return {getattr(sp, name): name for name in ("sin", "cos", "tan", "exp", "log", "asin", "acos", "atan", "sinh",
+                                                 "cosh", "tanh")}
+
+
 _SLOPES: dict[str, Callable] = {  # |f'| at the point, to carry the argument's rounding through
     "sin": lambda x, a: 1, "cos": lambda x, a: 1, "tan": lambda x, a: 1 + x * x,
     "exp": lambda x, a: abs(x), "log": lambda x, a: 1 / abs(a) if a else 0,
@@ -337,7 +341,7 @@ def _opaque(expr, found: set | None = None) -> list:
     (each distinct sub-expression visited once: :func:`nodes`)."""
     out: set = set()
     for e in nodes([expr]) if found is None else found:
-        if e.is_Symbol or isinstance(e, (AppliedUndef, sp.Derivative)):
+        if e.is_Symbol or isinstance(e, (sp.core.function.AppliedUndef, sp.Derivative)):
             out.add(e)
         elif e.args and getattr(e, "bound_symbols", None):
             out |= e.free_symbols
@@ -401,7 +405,9 @@ def is_zero(expr, values: Mapping[Any, Any] | None = None, *, points: int = _POI
     return _zero_at_points(expr, {k: sp.sympify(given[k]) for k in found if k in given}, points, found)
 
 
-_PIECEWISE = (sp.Piecewise, sp.Heaviside, sp.Min, sp.Max)
+@functools.cache
+def _piecewise() -> tuple:
+    return sp.Piecewise, sp.Heaviside, sp.Min, sp.Max
 
 
 def _zero_by_branches(expr, values: Mapping, points: int) -> bool:
@@ -414,7 +420,7 @@ def _zero_by_branches(expr, values: Mapping, points: int) -> bool:
         return False
     if isinstance(folded, sp.Piecewise):
         return all(is_zero(branch, values, points=points) for branch, _ in folded.args)
-    if folded.has(*_PIECEWISE):  # nested where folding could not reach: not decided, so not zero
+    if folded.has(*_piecewise()):  # nested where folding could not reach: not decided, so not zero
         return False
     return is_zero(folded, values, points=points)
 
@@ -422,7 +428,7 @@ def _zero_by_branches(expr, values: Mapping, points: int) -> bool:
 def _zero_at_points(expr, values: Mapping, points: int, found: set | None = None) -> bool:
     if found is None:  # (walked once, each shared sub-expression once: atoms and has walk every occurrence)
         found = nodes([expr])
-    if any(isinstance(e, _PIECEWISE) for e in found):
+    if any(isinstance(e, _piecewise()) for e in found):
         return _zero_by_branches(expr, values, points)
     floating = _has_float(expr, values, found)
     gen = _points(expr, values, _SEED, found)

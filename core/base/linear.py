@@ -46,7 +46,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-import sympy as sp
+from . import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Linear", "LinearContext", "Potential", "Quantity"]
 
@@ -140,7 +142,8 @@ class LinearContext:
         given = getattr(component, "_floats", {}).get(pname)
         if given is not None:
             return given
-        value = component.params.get(pname)
+        params = component.params
+        value = params.raw(pname) if hasattr(params, "raw") else params.get(pname)  # a default held as a number
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             return float(value)
         if getattr(value, "is_number", False):

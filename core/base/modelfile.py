@@ -69,6 +69,7 @@ plugin the file names for it) and every error ``Model.add`` raises for a compone
 from __future__ import annotations
 
 import ast
+import functools
 import json
 import keyword
 import math
@@ -78,15 +79,14 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
-from sympy.printing.precedence import PRECEDENCE
-from sympy.printing.str import StrPrinter
 
 from ..errors import LagrangianError, ModelFileError, UnknownKindError, closest
 from .component import Parameter, _CallableSignal, t
 from .text import FUNCTIONS, MAX_LENGTH, parse_expression
 from .units import split
+from . import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["VERSION", "MAX_BYTES", "MAX_DEPTH", "MAX_STRING", "MAX_DIGITS", "MAX_ITEMS", "MAX_COMPONENTS",
            "document", "dumps", "save", "load", "parse"]
@@ -135,55 +135,63 @@ def _double(x: sp.Float) -> float:
     return value
 
 
-class _Printer(StrPrinter):
-    """SymPy's text, restricted to what :mod:`lagrangian.text` reads: floats by ``repr``, ``E`` as ``exp(1)``,
-    coordinates and rates by the names of the ``state`` table; anything else it would not read is refused."""
+@functools.cache
+def _printers() -> tuple[type, type]:
+    """The printers, made on first use (subclasses of SymPy's, which is imported then)."""
+    from sympy.printing.precedence import PRECEDENCE
+    from sympy.printing.str import StrPrinter
 
-    def __init__(self, writer: "_Writer"):
-        super().__init__()
-        self.writer = writer
+    class _Printer(StrPrinter):
+        """SymPy's text, restricted to what :mod:`lagrangian.text` reads: floats by ``repr``, ``E`` as ``exp(1)``,
+        coordinates and rates by the names of the ``state`` table; anything else it would not read is refused."""
 
-    def _print_Float(self, expr):
-        return repr(_double(expr))
+        def __init__(self, writer: "_Writer"):
+            super().__init__()
+            self.writer = writer
 
-    def _print_Symbol(self, expr):
-        return self.writer.symbol(expr)
+        def _print_Float(self, expr):
+            return repr(_double(expr))
 
-    def _print_Dummy(self, expr):
-        raise _Unwritable(f"{expr} is a sympy.Dummy, which is unique to this process: use a sympy.Symbol")
+        def _print_Symbol(self, expr):
+            return self.writer.symbol(expr)
 
-    def _print_Exp1(self, expr):
-        return "exp(1)"
+        def _print_Dummy(self, expr):
+            raise _Unwritable(f"{expr} is a sympy.Dummy, which is unique to this process: use a sympy.Symbol")
 
-    def _print_AppliedUndef(self, expr):
-        return self.writer.state(expr)
+        def _print_Exp1(self, expr):
+            return "exp(1)"
 
-    def _print_Derivative(self, expr):
-        return self.writer.state(expr)
+        def _print_AppliedUndef(self, expr):
+            return self.writer.state(expr)
 
-    def _print_Piecewise(self, expr):
-        return "Piecewise(" + ", ".join(f"({self._print(e)}, {self._print(c)})" for e, c in expr.args) + ")"
+        def _print_Derivative(self, expr):
+            return self.writer.state(expr)
 
-    def _print_Function(self, expr):
-        name = type(expr).__name__
-        if FUNCTIONS.get(name) is not type(expr):
-            raise _Unwritable(f"{name}() is not a function lagrangian.text reads (it reads "
-                              f"{', '.join(sorted(FUNCTIONS, key=str.lower))})")
-        return super()._print_Function(expr)
+        def _print_Piecewise(self, expr):
+            return "Piecewise(" + ", ".join(f"({self._print(e)}, {self._print(c)})" for e, c in expr.args) + ")"
+
+        def _print_Function(self, expr):
+            name = type(expr).__name__
+            if FUNCTIONS.get(name) is not type(expr):
+                raise _Unwritable(f"{name}() is not a function lagrangian.text reads (it reads "
+                                  f"{', '.join(sorted(FUNCTIONS, key=str.lower))})")
+            return super()._print_Function(expr)
 
 
-class _PlainPrinter(_Printer):
-    """Products and powers as they stand, numbers last (``(x + 1.0)**(-1)*(1/2)``), for an expression SymPy would
-    read back arranged otherwise as :class:`_Printer` writes it (``1/(2*(x + 1.0))``, where ``2*(x + 1.0)`` reads
-    as ``2*x + 2.0``)."""
+    class _PlainPrinter(_Printer):
+        """Products and powers as they stand, numbers last (``(x + 1.0)**(-1)*(1/2)``), for an expression SymPy would
+        read back arranged otherwise as :class:`_Printer` writes it (``1/(2*(x + 1.0))``, where ``2*(x + 1.0)`` reads
+        as ``2*x + 2.0``)."""
 
-    def _print_Mul(self, expr):
-        args = sorted(expr.args, key=lambda a: a.is_Number)  # (stable: the others keep their order)
-        return "*".join(self.parenthesize(a, PRECEDENCE["Mul"], strict=a.is_Number) for a in args)
+        def _print_Mul(self, expr):
+            args = sorted(expr.args, key=lambda a: a.is_Number)  # (stable: the others keep their order)
+            return "*".join(self.parenthesize(a, PRECEDENCE["Mul"], strict=a.is_Number) for a in args)
 
-    def _print_Pow(self, expr, rational=False):
-        return f"{self.parenthesize(expr.base, PRECEDENCE['Pow'], strict=True)}**" \
-               f"{self.parenthesize(expr.exp, PRECEDENCE['Pow'], strict=True)}"
+        def _print_Pow(self, expr, rational=False):
+            return f"{self.parenthesize(expr.base, PRECEDENCE['Pow'], strict=True)}**" \
+                   f"{self.parenthesize(expr.exp, PRECEDENCE['Pow'], strict=True)}"
+
+    return _Printer, _PlainPrinter
 
 
 class _Writer:
@@ -193,7 +201,7 @@ class _Writer:
         self.symbols: dict[str, dict] = {}
         self.names: dict[str, sp.Basic] = {}  # every name a text uses → what it reads back as
         self.state_table: dict[str, dict] = {}
-        self.printers = (_Printer(self), _PlainPrinter(self))
+        self.printers = tuple(printer(self) for printer in _printers())
 
     def symbol(self, s: sp.Symbol) -> str:
         if s == t:
@@ -212,7 +220,7 @@ class _Writer:
     def state(self, expr: sp.Expr) -> str:
         if isinstance(expr, sp.Derivative):
             f, what = expr.expr, "rate"
-            if expr.variables != (t,) or not isinstance(f, AppliedUndef):
+            if expr.variables != (t,) or not isinstance(f, sp.core.function.AppliedUndef):
                 raise _Unwritable(f"{expr} is not the rate of a coordinate (lagrangian.rate)")
         else:
             f, what = expr, "coordinate"

@@ -9,9 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable
 
-import networkx as nx
 
 from ..errors import FloatingNetworkError, TopologyError
+from . import deferred as _deferred
+
+nx = _deferred.module("networkx", globals())
 
 __all__ = ["check_topology", "normal_tree", "fundamental_loops", "tree_potentials"]
 

@@ -21,10 +21,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 
-import sympy as sp
-
 from ..errors import ParameterError
 from .component import Component, _plain_within, check_value
+from . import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 class Rules:

@@ -18,31 +18,37 @@ straddles one can then be wrong by 1e-6 at ``rtol=1e-11``.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
 import numpy as np
-import sympy as sp
-from sympy.core.relational import Relational
 
 from .component import t
+from . import deferred as _deferred
 
-#: the functions that switch branch
-SWITCHES = (sp.Piecewise, sp.Heaviside, sp.sign, sp.Abs, sp.Min, sp.Max, sp.floor, sp.ceiling, sp.frac, sp.Mod)
+sp = _deferred.module("sympy", globals())
+
 #: at most this many switches in one span
 MAX_PIECES = 200_000
+
+
+@functools.cache
+def switches() -> tuple:
+    """The functions that switch branch (SymPy's: imported on first call)."""
+    return sp.Piecewise, sp.Heaviside, sp.sign, sp.Abs, sp.Min, sp.Max, sp.floor, sp.ceiling, sp.frac, sp.Mod
 
 
 def switching_times(exprs: Sequence[sp.Expr], lo: float, hi: float) -> list[float]:
     """Times in ``(lo, hi)`` where some switching function of ``exprs`` may change branch; raises ``ValueError``."""
     found: set[float] = set()
     for expr in exprs:
-        for atom in expr.atoms(*SWITCHES):
+        for atom in expr.atoms(*switches()):
             if t not in atom.free_symbols:
                 continue
             if isinstance(atom, sp.Piecewise):
                 for _, cond in atom.args:
-                    for rel in getattr(cond, "atoms", lambda *_: ())(Relational):
+                    for rel in getattr(cond, "atoms", lambda *_: ())(sp.core.relational.Relational):
                         found.update(_crossings(rel.lhs - rel.rhs, None, lo, hi, rel))
             elif isinstance(atom, (sp.Heaviside, sp.sign, sp.Abs)):
                 found.update(_crossings(atom.args[0], None, lo, hi, atom))
@@ -69,7 +75,7 @@ def _crossings(fun: sp.Expr, step: float | None, lo: float, hi: float, atom) -> 
     A ``fun`` that itself switches (``Mod(t, P) < w``) is split at its own switching times first.
     """
     find = _zeros if step is None else (lambda f, a, b, at: _levels(f, step, a, b, at))
-    if not fun.has(*SWITCHES):
+    if not fun.has(*switches()):
         return find(fun, lo, hi, atom)
     inner = switching_times([fun], lo, hi)
     edges = [lo, *inner, hi]
@@ -119,7 +125,7 @@ def _levels(expr: sp.Expr, step: float, lo: float, hi: float, atom) -> list[floa
 
 def resolve(expr: sp.Expr, at: float) -> sp.Expr:
     """``expr`` with every switching function replaced by the branch it takes at time ``at``."""
-    if not expr.has(*SWITCHES):
+    if not expr.has(*switches()):
         return expr
     if isinstance(expr, sp.Piecewise):
         for branch, cond in expr.args:

@@ -31,9 +31,11 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..errors import ExpressionError
+from . import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["parse_expression", "as_expr", "FUNCTIONS", "MAX_LENGTH"]
 
@@ -42,22 +44,37 @@ MAX_LENGTH = 10_000
 #: Deepest nesting of operations and calls.
 MAX_DEPTH = 200
 
+class _SymPyNames(Mapping):
+    """Names mapped to SymPy's objects of the given names, read from SymPy when asked for (the names alone import
+    nothing)."""
+
+    def __init__(self, names: Mapping[Any, str]):
+        self._names = dict(names)
+
+    def __getitem__(self, key: Any) -> Any:
+        return getattr(sp, self._names[key])
+
+    def __iter__(self):
+        return iter(self._names)
+
+    def __len__(self) -> int:
+        return len(self._names)
+
+
 #: Functions an expression may call, by the names it may call them.
-FUNCTIONS: dict[str, Any] = {
-    **{name: getattr(sp, name) for name in (
+FUNCTIONS: Mapping[str, Any] = _SymPyNames({
+    **{name: name for name in (
         "sin", "cos", "tan", "cot", "sec", "csc", "asin", "acos", "atan", "atan2", "sinh", "cosh", "tanh",
         "asinh", "acosh", "atanh", "exp", "log", "sqrt", "Abs", "sign", "floor", "ceiling", "Heaviside",
         "Min", "Max", "erf", "erfc", "Mod")},
-    "abs": sp.Abs, "ln": sp.log, "min": sp.Min, "max": sp.Max,
-}
+    "abs": "Abs", "ln": "log", "min": "Min", "max": "Max",
+})
 
 #: Comparisons a condition of ``Piecewise`` may make, and how conditions combine (``&``, ``|``, ``~``, as SymPy
 #: writes them).
-_COMPARE = {ast.Lt: sp.StrictLessThan, ast.LtE: sp.LessThan, ast.Gt: sp.StrictGreaterThan, ast.GtE: sp.GreaterThan}
-_LOGIC = {ast.BitAnd: sp.And, ast.BitOr: sp.Or}
-
-#: The time symbol (``lagrangian.t``; SymPy symbols of one name and assumptions are one symbol).
-_TIME = sp.Symbol("t", real=True)
+_COMPARE = _SymPyNames({ast.Lt: "StrictLessThan", ast.LtE: "LessThan", ast.Gt: "StrictGreaterThan",
+                        ast.GtE: "GreaterThan"})
+_LOGIC = _SymPyNames({ast.BitAnd: "And", ast.BitOr: "Or"})
 
 _BINARY = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
            ast.Div: lambda a, b: a / b}
@@ -166,7 +183,7 @@ class _Reader:
             if node.id == "pi":
                 return sp.pi
             if node.id == "t":
-                return _TIME
+                return _deferred.time_symbol()  # lagrangian.t
             if node.id in FUNCTIONS:
                 self.refuse(f"{node.id!r} is a function: call it, as {node.id}(x)")
             return sp.Symbol(node.id)

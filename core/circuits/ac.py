@@ -31,8 +31,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from ..base import charts
 from ..analysis.frequency import frequency_response, sweep_size
@@ -43,6 +41,9 @@ from ..model import Model
 from .analogy import Mapped, map_model
 from .netlist import ImportedNetlist
 from .spice import _fmt, netlist, run_ac
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["ACComparison", "OutputError", "compare_ac_with_ngspice"]
 
@@ -232,7 +233,7 @@ def compare_ac_with_ngspice(system: Model | ImportedNetlist, *, input: str | Non
             # is not in its meaning, so only rates (velocities) compare
             coordinates = {c.function for c in model.coordinates}
             rates = [not any(f in coordinates for f in e.xreplace({d: sp.Dummy() for d in e.atoms(sp.Derivative)})
-                             .atoms(AppliedUndef)) for e in meaning]
+                             .atoms(sp.core.function.AppliedUndef)) for e in meaning]
             if outputs is None:
                 labels = [label for label, ok in zip(labels, rates) if ok]
                 meaning = [e for e, ok in zip(meaning, rates) if ok]

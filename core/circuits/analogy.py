@@ -24,9 +24,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import networkx as nx
 import numpy as np
-import sympy as sp
 
 from ..base.arguments import check_mapping
 from ..base.component import GROUND, Component, _CallableSignal, t
@@ -36,6 +34,10 @@ from ..derivation.stamps import NotStampable
 from ..plugin.contracts import AnalogueBuilder, Analogy, Element, Ports
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
+from ..base import deferred as _deferred
+
+nx = _deferred.module("networkx", globals())
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Analogy", "Element", "Ports", "Mapped", "AnalogyError", "map_model", "dual_branches"]
 

@@ -19,8 +19,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from ..base import charts
 from ..base import display
@@ -28,6 +26,9 @@ from ..errors import ModelError
 from .analogy import map_model
 from ..model import Model
 from .spice import netlist, run_transient
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["QuantityError", "Comparison", "compare_with_ngspice"]
 
@@ -136,10 +137,10 @@ def _plain(expr) -> str:
     expr = sp.sympify(expr)
     names = {}
     for d in expr.atoms(sp.Derivative):
-        if isinstance(d.expr, AppliedUndef) and len(d.variables) <= 2 and len(set(d.variables)) == 1:
+        if isinstance(d.expr, sp.core.function.AppliedUndef) and len(d.variables) <= 2 and len(set(d.variables)) == 1:
             names[d] = sp.Symbol(d.expr.func.__name__ + "'" * len(d.variables))
     expr = expr.xreplace(names)
-    return sp.sstr(expr.xreplace({f: sp.Symbol(f.func.__name__) for f in expr.atoms(AppliedUndef)}))
+    return sp.sstr(expr.xreplace({f: sp.Symbol(f.func.__name__) for f in expr.atoms(sp.core.function.AppliedUndef)}))
 
 
 def _state_scale(model: Model, res) -> np.ndarray:

@@ -16,14 +16,17 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
-import sympy as sp
 
+from ..base.waveforms import Waveform
 from ..base.component import t
 from ..derivation.numeric import assemble_numeric
 from ..derivation.stamps import NotStampable
 from ..errors import ModelError
 from ..model import Model
 from .deck import _Parsed
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 if TYPE_CHECKING:
     import scipy.sparse as sps
@@ -78,8 +81,12 @@ def _operating_point(model: Model, deck: _Parsed) -> dict[str, float]:
     components = model.components
 
     def value(e) -> float:
-        expr = components[e.name].E if e.letter == "v" else components[e.name].I
-        return float(sp.sympify(expr).subs(t, 0))
+        raw = components[e.name].params.raw("E" if e.letter == "v" else "I")
+        if type(raw) in (int, float):
+            return float(raw)
+        if isinstance(raw, Waveform):
+            return float(raw(np.zeros(1))[0])
+        return float(sp.sympify(raw).subs(t, 0))
 
     def stamp(i, j, x):
         if i is not None and j is not None:

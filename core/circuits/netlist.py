@@ -135,18 +135,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..analysis.frequency import FrequencyResponse, frequency_response
 from ..base.component import GROUND, t
 from ..base.domain import Context
 from ..base.limits import limits, refuse
+from ..base.waveforms import Pulse, Sine, Waveform
 from ..errors import LagrangianError, ModelError, ParameterError, warn
 from ..model import Model
 from ..numerics.simulation import Result
 from ..plugin.registry import Registry
 from .deck import SUPPORTED, ACSweep, Transient, _Element, _Parsed, _parse, parse_number
 from .initial_state import _initial_state, _initial_values, _operating_point
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["ImportedNetlist", "Transient", "ACSweep", "NetlistWarning", "read_netlist", "read_netlist_file", "parse_number",
            "SUPPORTED"]
@@ -421,8 +424,9 @@ def _add(model: Model, deck: _Parsed, element: _Element, formulation: str) -> No
         raise ModelError(f"{where}: {exc}") from None
 
 
-def _waveform(wave: str, args: list[float], tran: Transient | None, where: str) -> sp.Expr | float:
-    """The SymPy expression of ``t`` for a source specification (ngspice 39 semantics); a DC value as its number."""
+def _waveform(wave: str, args: list[float], tran: Transient | None, where: str) -> Waveform | float:
+    """The waveform of a source specification (:mod:`lagrangian.base.waveforms`, ngspice 39 semantics); a DC value
+    as its number."""
     if wave == "dc":
         return args[0]  # a plain number, read as every element's value is
 
@@ -437,26 +441,8 @@ def _waveform(wave: str, args: list[float], tran: Transient | None, where: str) 
 
     if wave == "sin":
         vo, va, freq, td, theta, phase = (*args, *[0.0] * (6 - len(args)))
-        freq = freq or 1 / default(0.0, "tstop")
-        phi = sp.Float(phase) * sp.pi / 180
-        x = t - sp.Float(td)
-        damping = sp.exp(-sp.Float(theta) * x) if theta else 1
-        body = sp.Float(vo) + sp.Float(va) * sp.sin(2 * sp.pi * sp.Float(freq) * x + phi) * damping
-        if td > 0:
-            return sp.Piecewise((sp.Float(vo) + sp.Float(va) * sp.sin(phi), t <= sp.Float(td)), (body, True))
-        return body
+        return Sine(vo, va, freq or 1 / default(0.0, "tstop"), td, theta, phase)
     v1, v2, td, tr, tf, pw, per, count = (*args, *[0.0] * (8 - len(args)))
     tr, tf = default(tr, "tstep"), default(tf, "tstep")
     pw, per = default(pw, "tstop"), default(per, "tstop")
-    v1, v2, td, tr, tf, pw, per = map(sp.Float, (v1, v2, td, tr, tf, pw, per))
-    s = sp.Mod(t - td, per)
-    pieces = [(v1, t <= td)]
-    if count > 0:
-        pieces.append((v1, t >= td + sp.Float(count) * per))
-    pieces += [
-        (v1 + (v2 - v1) * s / tr, s < tr),
-        (v2, s <= tr + pw),
-        (v2 + (v1 - v2) * (s - tr - pw) / tf, s < tr + pw + tf),
-        (v1, True),
-    ]
-    return sp.Piecewise(*pieces)
+    return Pulse(v1, v2, td, tr, tf, pw, per, count)

@@ -18,6 +18,7 @@ serialized with a lock, and every run removes its circuit and plots.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import logging
 import math
@@ -30,7 +31,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.component import GROUND, t
 from ..base.domain import Context
@@ -38,6 +38,9 @@ from ..base.text import as_expr
 from ..errors import LagrangianError, ModelError, NumericalError
 from ..model import Model
 from ..numerics.simulation import initial_state
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = [
     "SpiceElement",
@@ -162,77 +165,84 @@ class SpiceRun:
 # -- expressions and waveforms -------------------------------------------------------------------
 
 
-class _SpicePrinter(sp.printing.str.StrPrinter):
-    def __init__(self, names: Mapping[sp.Symbol, str] | None = None):
-        super().__init__()
-        self.names = dict(names or {})
+@functools.cache
+def _spice_printer() -> type:
+    """:class:`_SpicePrinter`, made on first use (a subclass of SymPy's, which is imported then)."""
+    from sympy.printing.str import StrPrinter
 
-    def _print_Symbol(self, expr):
-        if expr == t:
-            return "time"
-        if expr in self.names:
-            return self.names[expr]
-        raise ModelError(f"the expression still has the symbol {expr}: give it a value (params=...).")
+    class _SpicePrinter(StrPrinter):
+        def __init__(self, names: Mapping[sp.Symbol, str] | None = None):
+            super().__init__()
+            self.names = dict(names or {})
 
-    _print_Dummy = _print_Symbol
+        def _print_Symbol(self, expr):
+            if expr == t:
+                return "time"
+            if expr in self.names:
+                return self.names[expr]
+            raise ModelError(f"the expression still has the symbol {expr}: give it a value (params=...).")
 
-    def _print_Pow(self, expr, rational=False):
-        base, exp = expr.as_base_exp()
-        if exp == sp.Rational(1, 2):
-            return f"sqrt({self._print(base)})"
-        if exp.is_Integer and int(exp) % 2:  # ngspice's pow(x, n) is |x|^n: odd powers keep the sign by a factor x
-            n = abs(int(exp))
-            odd = f"({self._print(base)})" if n == 1 else f"({self._print(base)})*pow({self._print(base)},{n - 1})"
-            return f"1/({odd})" if exp < 0 else odd
-        return f"pow({self._print(base)},{self._print(exp)})"
+        _print_Dummy = _print_Symbol
 
-    def _print_Float(self, expr):
-        return repr(float(expr))
+        def _print_Pow(self, expr, rational=False):
+            base, exp = expr.as_base_exp()
+            if exp == sp.Rational(1, 2):
+                return f"sqrt({self._print(base)})"
+            if exp.is_Integer and int(exp) % 2:  # ngspice's pow(x, n) is |x|^n: odd powers keep the sign by a factor x
+                n = abs(int(exp))
+                odd = f"({self._print(base)})" if n == 1 else f"({self._print(base)})*pow({self._print(base)},{n - 1})"
+                return f"1/({odd})" if exp < 0 else odd
+            return f"pow({self._print(base)},{self._print(exp)})"
 
-    def _print_Rational(self, expr):
-        return repr(float(expr))
+        def _print_Float(self, expr):
+            return repr(float(expr))
 
-    def _print_Integer(self, expr):
-        return str(int(expr))
+        def _print_Rational(self, expr):
+            return repr(float(expr))
 
-    def _print_Piecewise(self, expr):
-        out = self._print(expr.args[-1].expr) if expr.args[-1].cond == True else "0"  # noqa: E712
-        for piece in reversed(expr.args[:-1] if expr.args[-1].cond == True else expr.args):  # noqa: E712
-            out = f"(({self._print(piece.cond)}) ? ({self._print(piece.expr)}) : ({out}))"
-        return out
+        def _print_Integer(self, expr):
+            return str(int(expr))
 
-    def _print_Mod(self, expr):  # a periodic pulse's phase: ngspice has floor, not mod
-        a, b = (self._print(x) for x in expr.args)
-        return f"(({a}) - ({b}) * floor(({a}) / ({b})))"
+        def _print_Piecewise(self, expr):
+            out = self._print(expr.args[-1].expr) if expr.args[-1].cond == True else "0"  # noqa: E712
+            for piece in reversed(expr.args[:-1] if expr.args[-1].cond == True else expr.args):  # noqa: E712
+                out = f"(({self._print(piece.cond)}) ? ({self._print(piece.expr)}) : ({out}))"
+            return out
 
-    def _print_floor(self, expr):
-        return f"floor({self._print(expr.args[0])})"
+        def _print_Mod(self, expr):  # a periodic pulse's phase: ngspice has floor, not mod
+            a, b = (self._print(x) for x in expr.args)
+            return f"(({a}) - ({b}) * floor(({a}) / ({b})))"
 
-    def _print_ceiling(self, expr):
-        return f"ceil({self._print(expr.args[0])})"
+        def _print_floor(self, expr):
+            return f"floor({self._print(expr.args[0])})"
 
-    def _print_Heaviside(self, expr):
-        return f"u({self._print(expr.args[0])})"
+        def _print_ceiling(self, expr):
+            return f"ceil({self._print(expr.args[0])})"
 
-    def _print_log(self, expr):
-        return f"ln({self._print(expr.args[0])})"
+        def _print_Heaviside(self, expr):
+            return f"u({self._print(expr.args[0])})"
 
-    def _print_And(self, expr):
-        return " && ".join(f"({self._print(a)})" for a in expr.args)
+        def _print_log(self, expr):
+            return f"ln({self._print(expr.args[0])})"
 
-    def _print_Or(self, expr):
-        return " || ".join(f"({self._print(a)})" for a in expr.args)
+        def _print_And(self, expr):
+            return " && ".join(f"({self._print(a)})" for a in expr.args)
 
-    def _print_BooleanTrue(self, expr):
-        return "1"
+        def _print_Or(self, expr):
+            return " || ".join(f"({self._print(a)})" for a in expr.args)
 
-    def _print_Function(self, expr):
-        name = expr.func.__name__
-        if name not in {"sin", "cos", "tan", "exp", "sqrt", "abs", "sinh", "cosh", "tanh", "atan", "asin", "acos"}:
-            raise ModelError(f"ngspice has no function {name!r} (in {expr}); give the signal as an elementary expression of t.")
-        return f"{name}({', '.join(self._print(a) for a in expr.args)})"
+        def _print_BooleanTrue(self, expr):
+            return "1"
 
-    _print_Abs = lambda self, expr: f"abs({self._print(expr.args[0])})"  # noqa: E731
+        def _print_Function(self, expr):
+            name = expr.func.__name__
+            if name not in {"sin", "cos", "tan", "exp", "sqrt", "abs", "sinh", "cosh", "tanh", "atan", "asin", "acos"}:
+                raise ModelError(f"ngspice has no function {name!r} (in {expr}); give the signal as an elementary expression of t.")
+            return f"{name}({', '.join(self._print(a) for a in expr.args)})"
+
+        _print_Abs = lambda self, expr: f"abs({self._print(expr.args[0])})"  # noqa: E731
+
+    return _SpicePrinter
 
 
 def _fmt(x: Any) -> str:
@@ -252,7 +262,7 @@ def spice_expression(expr: Any, names: Mapping[sp.Symbol, str] | None = None) ->
     >>> spice_expression(sp.sin(t) ** 3)
     '(sin(time))*pow(sin(time),2)'
     """
-    return _SpicePrinter(names).doprint(sp.sympify(expr))
+    return _spice_printer()(names).doprint(sp.sympify(expr))
 
 
 def spice_waveform(expr: Any) -> str | None:
@@ -497,7 +507,7 @@ def _behaviour(law: Behaviour, subs: Mapping, nodes: Mapping[str, str], tags: Ma
                              f"('v', node), ('v', node_a, node_b) or ('i', tag of its own voltage source).")
     expr = sp.sympify(law.expr).xreplace(subs)
     try:
-        return f"{law.quantity}={_SpicePrinter(names).doprint(expr)}"
+        return f"{law.quantity}={_spice_printer()(names).doprint(expr)}"
     except ModelError as exc:
         raise ModelError(f"{comp.kind} {comp.name!r}: {exc}") from None
 

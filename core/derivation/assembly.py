@@ -13,9 +13,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-import sympy as sp
-from sympy.core.function import AppliedUndef
-
 from ..base.component import GROUND, Component, Contribution, Load, MovingFrame, StateCall, t
 from ..base.domain import Context, Coordinate, DomainView, Network
 from ..errors import DomainError, LagrangianError, ModelError, UnknownNameError, closest
@@ -24,6 +21,9 @@ from ..base.identity import is_zero, nodes
 from .calculus import Rewriter
 from ..base.network import check_topology
 from ..plugin.registry import Registry
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Assembly", "Elimination", "Signals", "assemble", "driven", "refuse_eliminated"]
 
@@ -287,10 +287,12 @@ def _with_values(c: Contribution, values: Mapping, rewriter: Rewriter | None = N
                         [put(e) for e in c.constraints], [put(e) for e in c.velocity_constraints])
 
 
-def _every(expr, kind=sp.Basic, seen: set | None = None) -> set:
+def _every(expr, kind=None, seen: set | None = None) -> set:
     """The sub-expressions of ``expr`` of ``kind``, each distinct one visited once (:func:`~lagrangian.identity.nodes`:
     ``atoms`` visits a shared one once per occurrence, 32 million visits for seven bodies on spherical joints), and
-    those inside nodes that bind a symbol (an integral); ``seen``: nodes an earlier walk visited, skipped."""
+    those inside nodes that bind a symbol (an integral); ``seen``: nodes an earlier walk visited, skipped.  ``kind``
+    by default: every SymPy object."""
+    kind = sp.Basic if kind is None else kind
     found = nodes([expr], seen)
     out = {e for e in found if isinstance(e, kind)}
     for e in found:
@@ -344,7 +346,7 @@ def _check_contribution(comp: Component, c: Any, allowed: set, names: list[str] 
             raise ModelError(f"{where}: {label} is not a SymPy expression: {expr!r}.") from None
         if label in ("T", "V", "D", "G") and not isinstance(expr, sp.Expr):
             raise ModelError(f"{where}: {label} must be a scalar expression.")
-        for f in _every(expr, AppliedUndef, seen):
+        for f in _every(expr, sp.core.function.AppliedUndef, seen):
             if f.func not in allowed:
                 if f.args == (t,) and names:  # a load written in lagrangian.coordinate(...)
                     raise ModelError(f"{where}: {label} depends on {f}, which is not a coordinate of the model."
@@ -449,7 +451,7 @@ def _eliminations(components: list[Component], generic: Mapping[str, Contributio
     if not out:
         return out
     names = {g: n for n, g in functions.items()}
-    return {n: replace(e, given_by=tuple(sorted({names[g] for g in e.solution.atoms(AppliedUndef) if g in names})))
+    return {n: replace(e, given_by=tuple(sorted({names[g] for g in e.solution.atoms(sp.core.function.AppliedUndef) if g in names})))
             for n, e in _resolved(out).items()}
 
 
@@ -457,7 +459,7 @@ def _solved(comp: Component, where: str, f: sp.Expr, name: str, functions: Mappi
     """``f = a·x + g = 0`` solved for ``x = −g / a``, with ``a`` free of every coordinate and not zero."""
     x = functions[name]
     coords = {g: n for n, g in functions.items()}
-    held = sorted({coords[g] for g in f.atoms(AppliedUndef) if g in coords})
+    held = sorted({coords[g] for g in f.atoms(sp.core.function.AppliedUndef) if g in coords})
     fix = (f"keep it with a multiplier (leave eliminate= out), or write the constraint solved, {name} − g(q, t), "
            f"and eliminate {name!r} from that")
     X = sp.Dummy(name, real=True)
@@ -470,7 +472,7 @@ def _solved(comp: Component, where: str, f: sp.Expr, name: str, functions: Mappi
     if a.has(X):
         raise ModelError(f"{where}: cannot eliminate {name!r}: the constraint {f} = 0 is not linear in it (solving "
                          f"it would choose a branch): {fix}.")
-    varying = sorted({coords[g] for g in a.atoms(AppliedUndef) if g in coords})
+    varying = sorted({coords[g] for g in a.atoms(sp.core.function.AppliedUndef) if g in coords})
     if varying:
         raise ModelError(f"{where}: cannot eliminate {name!r}: its coefficient in the constraint {f} = 0, {a}, "
                          f"depends on {', '.join(varying)} (where it vanishes the solution is singular): {fix}.")

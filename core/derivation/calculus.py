@@ -15,17 +15,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping
 
-import sympy as sp
-from sympy.core.function import AppliedUndef
-
 from ..base.identity import entries, nodes, symbols_of  # noqa: F401 - (defined there; named here too)
 from ..errors import ModelError
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Calculus", "Rewriter", "atoms_of", "cross", "nodes", "symbols_of", "time_derivative", "time_integral", "trig"]
 
-_ZERO = sp.Integer(0)
-_ONE = sp.Integer(1)
-_TWO = sp.Integer(2)
 _EMPTY: frozenset = frozenset()
 
 
@@ -71,7 +68,7 @@ class Calculus:
 
     def diff(self, e, s):
         if s not in self.deps(e):
-            return _ZERO
+            return sp.S.Zero
         key = (e, s)
         out = self._diff.get(key)
         if out is None:
@@ -90,7 +87,7 @@ class Calculus:
         2*y*cos(x) + 3*sin(x)
         """
         if self.deps(e).isdisjoint(rates):
-            return _ZERO
+            return sp.S.Zero
         out = memo.get(e)
         if out is not None:
             return out
@@ -109,11 +106,11 @@ class Calculus:
         elif e.is_Pow and self.deps(e.args[1]).isdisjoint(rates):
             base, exp = e.args
             db = self.along(base, rates, memo)
-            out = sp.Mul(_TWO, base, db) if exp == 2 else sp.Mul(exp, sp.Pow(base, exp - 1), db)
+            out = sp.Mul(sp.S(2), base, db) if exp == 2 else sp.Mul(exp, sp.Pow(base, exp - 1), db)
         elif isinstance(e, sp.sin):
             out = sp.Mul(trig(sp.cos, e.args[0]), self.along(e.args[0], rates, memo))
         elif isinstance(e, sp.cos):
-            out = sp.Mul(-_ONE, trig(sp.sin, e.args[0]), self.along(e.args[0], rates, memo))
+            out = sp.Mul(-sp.S.One, trig(sp.sin, e.args[0]), self.along(e.args[0], rates, memo))
         else:
             out = sp.Add(*[sp.Mul(self.diff(e, s), rates[s]) for s in self.deps(e) if s in rates])
         memo[e] = out
@@ -131,13 +128,13 @@ class Calculus:
         2
         """
         if s not in self.deps(e):
-            return _ZERO
+            return sp.S.Zero
         key = (e, s)
         out = memo.get(key)
         if out is not None:
             return out
         if e.is_Symbol:
-            out = _ONE
+            out = sp.S.One
         elif e.is_Add:
             out = sp.Add(*[self.at(a, s, value, memo) for a in self._holding(e, s)])
         elif e.is_Mul:
@@ -154,7 +151,7 @@ class Calculus:
         elif isinstance(e, sp.sin):
             out = sp.Mul(sp.cos(value(e.args[0])), self.at(e.args[0], s, value, memo))
         elif isinstance(e, sp.cos):
-            out = sp.Mul(-_ONE, sp.sin(value(e.args[0])), self.at(e.args[0], s, value, memo))
+            out = sp.Mul(-sp.S.One, sp.sin(value(e.args[0])), self.at(e.args[0], s, value, memo))
         else:
             out = value(sp.diff(e, s))
         memo[key] = out
@@ -207,7 +204,7 @@ class Calculus:
 
     def _rule(self, e, s):
         if e == s:
-            return _ONE
+            return sp.S.One
         if e.is_Add:
             return sp.Add(*[self.diff(a, s) for a in self._holding(e, s)])
         if e.is_Mul:
@@ -224,12 +221,12 @@ class Calculus:
             if s not in self.deps(exp):
                 db = self.diff(base, s)
                 if exp == 2:
-                    return sp.Mul(_TWO, base, db)
+                    return sp.Mul(sp.S(2), base, db)
                 return sp.Mul(exp, sp.Pow(base, exp - 1), db)
         elif isinstance(e, sp.sin):
             return sp.Mul(trig(sp.cos, e.args[0]), self.diff(e.args[0], s))
         elif isinstance(e, sp.cos):
-            return sp.Mul(-_ONE, trig(sp.sin, e.args[0]), self.diff(e.args[0], s))
+            return sp.Mul(-sp.S.One, trig(sp.sin, e.args[0]), self.diff(e.args[0], s))
         return sp.diff(e, s)
 
 
@@ -270,7 +267,7 @@ def cross(a, b) -> list:
     [0, 0, x*y]
     """
     def term(x, y):
-        return _ZERO if x == 0 or y == 0 else sp.Mul(x, y)
+        return sp.S.Zero if x == 0 or y == 0 else sp.Mul(x, y)
     return [sp.Add(term(a[1], b[2]), -term(a[2], b[1])), sp.Add(term(a[2], b[0]), -term(a[0], b[2])),
             sp.Add(term(a[0], b[1]), -term(a[1], b[0]))]
 
@@ -286,7 +283,7 @@ def trig(func, arg):
 
 def _plain(arg) -> bool:
     """A symbol or an undefined function that is not known to be infinite."""
-    return (arg.is_Symbol or isinstance(arg, AppliedUndef)) and not (arg.is_extended_real and arg.is_finite is False)
+    return (arg.is_Symbol or isinstance(arg, sp.core.function.AppliedUndef)) and not (arg.is_extended_real and arg.is_finite is False)
 
 
 # -- time derivative of expressions in q(t) -------------------------------------------------------
@@ -328,13 +325,13 @@ def time_derivative(expr, t: sp.Symbol):
 
 def _dt(e, t):
     if not _has_t(e, t):
-        return _ZERO
+        return sp.S.Zero
     key = (e, t)
     out = _DT_CACHE.get(key)
     if out is not None:
         return out
     if e == t:
-        out = _ONE
+        out = sp.S.One
     elif e.is_Add:
         out = sp.Add(*[_dt(a, t) for a in e.args])
     elif e.is_Mul:
@@ -347,14 +344,14 @@ def _dt(e, t):
         out = sp.Add(*terms)
     elif e.is_Pow and not _has_t(e.args[1], t):
         base, exp = e.args
-        out = sp.Mul(exp, sp.Pow(base, exp - 1), _dt(base, t)) if exp != 2 else sp.Mul(_TWO, base, _dt(base, t))
+        out = sp.Mul(exp, sp.Pow(base, exp - 1), _dt(base, t)) if exp != 2 else sp.Mul(sp.S(2), base, _dt(base, t))
     elif isinstance(e, sp.sin):
         out = sp.Mul(trig(sp.cos, e.args[0]), _dt(e.args[0], t))
     elif isinstance(e, sp.cos):
-        out = sp.Mul(-_ONE, trig(sp.sin, e.args[0]), _dt(e.args[0], t))
-    elif isinstance(e, AppliedUndef) and e.args == (t,):
+        out = sp.Mul(-sp.S.One, trig(sp.sin, e.args[0]), _dt(e.args[0], t))
+    elif isinstance(e, sp.core.function.AppliedUndef) and e.args == (t,):
         out = sp.Derivative(e, t, evaluate=False)  # what diff gives, without its checks
-    elif isinstance(e, sp.Derivative) and isinstance(e.expr, AppliedUndef) and e.expr.args == (t,) and e.variables == (t,) * len(e.variables):
+    elif isinstance(e, sp.Derivative) and isinstance(e.expr, sp.core.function.AppliedUndef) and e.expr.args == (t,) and e.variables == (t,) * len(e.variables):
         out = sp.Derivative(e.expr, (t, len(e.variables) + 1), evaluate=False)
     else:
         out = e.diff(t)
@@ -363,9 +360,6 @@ def _dt(e, t):
 
 
 # -- memoized substitution ------------------------------------------------------------------------
-
-
-_TRIG = (sp.sin, sp.cos)
 
 
 class Rewriter:
@@ -393,7 +387,7 @@ class Rewriter:
             new = [self(a) for a in args]
             if all(x is y for x, y in zip(new, args)):
                 out = e
-            elif e.func in _TRIG:
+            elif e.func in (sp.sin, sp.cos):
                 out = trig(e.func, new[0])
             else:
                 out = e.func(*new)
@@ -426,7 +420,7 @@ def time_integral(expr, t: sp.Symbol):
     if isinstance(expr, sp.Piecewise):
         return _piecewise_integral(expr, t)
     F = _antiderivative(expr, t)
-    return None if F is None else F - F.subs(t, _ZERO)
+    return None if F is None else F - F.subs(t, sp.S.Zero)
 
 
 def _piecewise_integral(expr: sp.Piecewise, t: sp.Symbol):
@@ -446,7 +440,7 @@ def _piecewise_integral(expr: sp.Piecewise, t: sp.Symbol):
     if bounds[-1] is not None or None in bounds[:-1] or any(not math.isfinite(x) for x in numbers) \
             or not (numbers == sorted(set(numbers)) and (not numbers or numbers[0] >= 0.0)):
         return None
-    out, start, carried = [], _ZERO, _ZERO
+    out, start, carried = [], sp.S.Zero, sp.S.Zero
     for (F, cond), bound in zip(pieces, bounds):
         total = carried + F - F.subs(t, start)
         out.append((total, cond))
@@ -460,7 +454,7 @@ def _linear(e, t):
     a = e.diff(t)
     if a.has(t):
         return None
-    return a, e.subs(t, _ZERO)
+    return a, e.subs(t, sp.S.Zero)
 
 
 def _antiderivative(expr, t):
@@ -471,13 +465,13 @@ def _antiderivative(expr, t):
             total.append(term * t)
             continue
         coeff, rest = term.as_independent(t, as_Add=False)
-        if rest == _ONE:
+        if rest == sp.S.One:
             total.append(coeff * t)
             continue
         if isinstance(rest, sp.Derivative) and rest.variables == (t,) and not coeff.has(t):
             total.append(coeff * rest.expr)
             continue
-        growth, wave, power = _ZERO, None, 0
+        growth, wave, power = sp.S.Zero, None, 0
         for f in sp.Mul.make_args(rest):
             if isinstance(f, sp.exp):
                 growth += f.args[0]
@@ -490,22 +484,22 @@ def _antiderivative(expr, t):
             else:
                 return None
         if power:
-            if growth != _ZERO or wave is not None:
+            if growth != sp.S.Zero or wave is not None:
                 return None
             total.append(coeff * t ** (power + 1) / (power + 1))
             continue
-        ab = _linear(growth, t) if growth != _ZERO else (_ZERO, _ZERO)
+        ab = _linear(growth, t) if growth != sp.S.Zero else (sp.S.Zero, sp.S.Zero)
         wp = _linear(wave.args[0], t) if wave is not None else None
-        if ab is None or (wave is not None and (wp is None or wp[0] == _ZERO)):
+        if ab is None or (wave is not None and (wp is None or wp[0] == sp.S.Zero)):
             return None
         a = ab[0]
         if wave is None:
-            if a == _ZERO:
+            if a == sp.S.Zero:
                 return None
             total.append(coeff * sp.exp(growth) / a)
             continue
         w, s, c = wp[0], sp.sin(wave.args[0]), sp.cos(wave.args[0])
-        if a == _ZERO:
+        if a == sp.S.Zero:
             total.append(coeff * (-c if isinstance(wave, sp.sin) else s) / w)
             continue
         rate = a * s - w * c if isinstance(wave, sp.sin) else a * c + w * s

@@ -37,10 +37,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import sympy as sp
-
-from .calculus import _ONE, _TRIG, _TWO, _ZERO, Calculus, Rewriter, from_entries, cross, time_derivative, time_integral, trig
+from .calculus import Calculus, Rewriter, from_entries, cross, time_derivative, time_integral, trig
 from .probe import float_value
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Calculus", "Derivation", "Rewriter", "cross", "float_value", "general", "time_derivative", "time_integral",
            "trig"]
@@ -130,7 +131,7 @@ class Derivation:
         if not self._vdep(term):
             out = [(None, term)]
         elif term in self.vidx:
-            out = [(self.vidx[term], _ONE)]
+            out = [(self.vidx[term], sp.S.One)]
         elif term.is_Mul:
             dep = [k for k, a in enumerate(term.args) if self._vdep(a)]
             out = None
@@ -201,11 +202,11 @@ class Derivation:
             return out
         deps = self.calc.deps(e)
         if not deps or deps <= self.vset:
-            out = _ZERO
+            out = sp.S.Zero
         elif e in self.qidx:
             out = self.v[self.qidx[e]]
         elif e == self.t:
-            out = _ONE
+            out = sp.S.One
         elif e.is_Add:
             out = sp.Add(*[self.rate(a) for a in e.args])
         elif e.is_Mul:
@@ -219,11 +220,11 @@ class Derivation:
         elif e.is_Pow and not self.calc.deps(e.args[1]):
             base, exp = e.args
             db = self.rate(base)
-            out = _ZERO if db == 0 else (sp.Mul(_TWO, base, db) if exp == 2 else sp.Mul(exp, sp.Pow(base, exp - 1), db))
+            out = sp.S.Zero if db == 0 else (sp.Mul(sp.S(2), base, db) if exp == 2 else sp.Mul(exp, sp.Pow(base, exp - 1), db))
         elif isinstance(e, sp.sin):
             out = sp.Mul(trig(sp.cos, e.args[0]), self.rate(e.args[0]))
         elif isinstance(e, sp.cos):
-            out = sp.Mul(-_ONE, trig(sp.sin, e.args[0]), self.rate(e.args[0]))
+            out = sp.Mul(-sp.S.One, trig(sp.sin, e.args[0]), self.rate(e.args[0]))
         else:
             calc = self.calc
             out = sp.Add(*[sp.Mul(calc.diff(e, s), self.v[self.qidx[s]]) for s in deps if s in self.qidx],
@@ -259,7 +260,7 @@ class Derivation:
                 for j in qdeps[i]:
                     seen.add(j)
                     d1 = calc.diff(Ji, q[j])
-                    d2 = calc.diff(A.J[j], q[i]) if j in A.J else _ZERO
+                    d2 = calc.diff(A.J[j], q[i]) if j in A.J else sp.S.Zero
                     if d1 is d2 or d1 == d2:
                         continue
                     terms.append(sp.Mul(sp.Add(d1, -d2), v[j]))
@@ -269,7 +270,7 @@ class Derivation:
                 if j not in seen and i in ks:
                     d2 = calc.diff(A.J[j], q[i])
                     if d2 != 0:
-                        terms.append(sp.Mul(-_ONE, d2, v[j]))
+                        terms.append(sp.Mul(-sp.S.One, d2, v[j]))
             if i in bdeps:
                 terms.append(-calc.diff(A.b, q[i]))
             g = sp.Add(*terms)
@@ -302,7 +303,7 @@ class Derivation:
         cols = sorted(set().union(*(a.J for a in A3), *(a.J for a in Om)))
 
         def col(As, i):
-            return [a.J.get(i, _ZERO) for a in As]
+            return [a.J.get(i, sp.S.Zero) for a in As]
 
         curls: list[dict] = [dict(), dict(), dict()]
         for i in cols:
@@ -349,7 +350,7 @@ class Derivation:
 
         for c, A, B in products:
             square = A is B
-            cM = sp.Mul(_TWO, c) if square else c
+            cM = sp.Mul(sp.S(2), c) if square else c
             if square:
                 items = list(A.J.items())
                 for k, (i, x) in enumerate(items):
@@ -359,7 +360,7 @@ class Derivation:
                 for i, x in items:
                     add_f(i, x, hA, cM)
             else:
-                c2 = sp.Mul(_TWO, c)
+                c2 = sp.Mul(sp.S(2), c)
                 for i, x in A.J.items():
                     for j, y in B.J.items():
                         add_M(i, j, x, y, c2 if i == j else c)  # M_ij = c (J_ai J_bj + J_aj J_bi)
@@ -375,26 +376,26 @@ class Derivation:
                               calc.diff(c, t))
                 if cdot != 0:
                     for i, x in A.J.items():
-                        fextra[i].append(sp.Mul(-_ONE, cdot, x, B.w))
+                        fextra[i].append(sp.Mul(-sp.S.One, cdot, x, B.w))
                     for i, y in B.J.items():
-                        fextra[i].append(sp.Mul(-_ONE, cdot, y, A.w))
+                        fextra[i].append(sp.Mul(-sp.S.One, cdot, y, A.w))
                 for s in cdeps:
                     if s in self.qidx:
                         fextra[self.qidx[s]].append(sp.Mul(calc.diff(c, s), A.w, B.w))
             for i, g in self._curl(A).items():
-                fextra[i].append(sp.Mul(-_ONE, c, g, B.w))
+                fextra[i].append(sp.Mul(-sp.S.One, c, g, B.w))
             for i, g in self._curl(B).items():
-                fextra[i].append(sp.Mul(-_ONE, c, g, A.w))
+                fextra[i].append(sp.Mul(-sp.S.One, c, g, A.w))
         M: dict[tuple[int, int], sp.Expr] = {}
         for (i, j), bucket in sorted(Mbuckets.items()):
             M[i, j] = M[j, i] = _collect([(sp.Mul(x, y), cs) for (x, y), cs in bucket.items()], pythagoras=i == j)
-        f = [_ZERO] * n
+        f = [sp.S.Zero] * n
         for i in range(n):
             parts = []
             for x, terms in fbuckets[i].items():
                 inner = _collect(list(terms.items()))
                 if inner != 0:
-                    parts.append(sp.Mul(-_ONE, x, inner))
+                    parts.append(sp.Mul(-sp.S.One, x, inner))
             f[i] = parts + fextra[i]
         # the general formulas for everything else
         Lrest_T = sp.Add(*rest, G)
@@ -408,16 +409,16 @@ class Derivation:
                     j = self.vidx[s]
                     d = calc.diff(p, s)
                     if d != 0:
-                        M[i, j] = sp.Add(M.get((i, j), _ZERO), d)
+                        M[i, j] = sp.Add(M.get((i, j), sp.S.Zero), d)
         for i, part in self.gradient(V).items():
-            f[i].append(sp.Mul(-_ONE, part))
+            f[i].append(sp.Mul(-sp.S.One, part))
         for s in calc.deps(Lrest_T):
             if s in self.qidx:
                 f[self.qidx[s]].append(calc.diff(Lrest_T, s))
         for i, p in pr.items():
             for s in calc.deps(p):
                 if s in self.qidx:
-                    f[i].append(sp.Mul(-_ONE, calc.diff(p, s), v[self.qidx[s]]))
+                    f[i].append(sp.Mul(-sp.S.One, calc.diff(p, s), v[self.qidx[s]]))
                 elif s == t:
                     f[i].append(-calc.diff(p, t))
         for s in calc.deps(D):
@@ -484,7 +485,7 @@ def _coef_sum(coefs: list) -> sp.Expr:
     """``Σ_k Π coefs[k]`` (each a tuple of factors), with the factors common to every addend taken out."""
     split = []
     for c in coefs:
-        num, sym = _ONE, []
+        num, sym = sp.S.One, []
         for x in c:
             if x.is_Number:
                 num *= x
@@ -499,7 +500,7 @@ def _coef_sum(coefs: list) -> sp.Expr:
         if not common:
             break
     nums = {num for num, _ in split}
-    cnum = nums.pop() if len(nums) == 1 else _ONE
+    cnum = nums.pop() if len(nums) == 1 else sp.S.One
     rest = []
     for num, sym in split:
         for x in common:
@@ -523,7 +524,7 @@ def _collect_sums(by_sum: dict) -> sp.Expr:
         if not neg:
             out.append(sp.Mul(s, pos[0] if len(pos) == 1 else sp.Add(*pos)))
         elif not pos:
-            out.append(sp.Mul(-_ONE, s, neg[0] if len(neg) == 1 else sp.Add(*neg)))
+            out.append(sp.Mul(-sp.S.One, s, neg[0] if len(neg) == 1 else sp.Add(*neg)))
         else:
             out.append(sp.Mul(s, sp.Add(*pos, *[-t for t in neg])))
     return sp.Add(*out)
@@ -548,7 +549,7 @@ def _pythagoras(terms: list) -> list:
     for k, term in enumerate(terms):
         args = term.args if term.is_Mul else (term,)
         for a in args:
-            if a.is_Pow and a.args[1] == 2 and isinstance(a.args[0], _TRIG):
+            if a.is_Pow and a.args[1] == 2 and isinstance(a.args[0], (sp.sin, sp.cos)):
                 rest = tuple(x for x in args if x is not a)
                 found.setdefault((a.args[0].args[0], rest), {})[a.args[0].func] = k
                 break

@@ -33,9 +33,6 @@ import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-import sympy as sp
-from sympy.core.function import AppliedUndef
-
 from .assembly import Assembly
 from ..base.component import t
 from .calculus import atoms_of, symbols_of
@@ -43,7 +40,10 @@ from .derive import Derivation, Rewriter
 from .recursion import Taken, position_rows, take, velocity_rows
 from ..errors import ModelError
 from ..base.identity import is_zero, nodes
-from ..base.switching import SWITCHES
+from ..base.switching import switches
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Equations"]
 
@@ -368,7 +368,7 @@ class Equations:
             solve = self._solve_exprs()
             energies = [sp.sympify(g[k]) for k in ("T", "V", "D", "L")] + [g["p"]]
             self._scan = {
-                "callables": sorted({f.func.__name__ for f in atoms_of(solve + energies, AppliedUndef)}),
+                "callables": sorted({f.func.__name__ for f in atoms_of(solve + energies, sp.core.function.AppliedUndef)}),
                 "derivatives": sorted(atoms_of(solve, sp.Derivative), key=sp.default_sort_key),
             }
         return self._scan
@@ -387,7 +387,7 @@ class Equations:
         (:mod:`lagrangian.switching`)."""
         if getattr(self, "_switches", None) is None:
             state = set(self.sym.q) | set(self.sym.v) | set(self.sym.a)
-            found = {a for a in atoms_of(self._solve_exprs(), *SWITCHES)
+            found = {a for a in atoms_of(self._solve_exprs(), *switches())
                      if t in a.free_symbols and not a.free_symbols & state}
             self._switches = sorted(found, key=sp.default_sort_key)
         return list(self._switches)

@@ -38,14 +38,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.component import GROUND, Component, _CallableSignal
 from ..base.component import t as _t
 from ..base.domain import Network
 from ..base.linear import Linear, LinearContext, Potential, Quantity
 from ..base.network import check_topology
+from ..base.waveforms import Waveform
 from .stamps import NotStampable, Quadratic, Stamps
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["NumericAssembly", "assemble_local", "assemble_numeric", "local_stamps", "numeric_branches", "numeric_stamps"]
 
@@ -375,11 +378,17 @@ def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
     import scipy.sparse as sps  # imported by what uses it, as the stamps do
 
     n = len(asm.names)
-    columns: dict[sp.Expr, int] = {}
+    columns: dict[Any, int] = {}  # input shape → column: 1 (a constant), a waveform, an expression of t
     entries: list[tuple[int, np.ndarray]] = []
     for cname, force in asm.forces.items():
         comp = model._graph.components[cname]
         signals = [p for p, spec in comp.parameters.items() if spec.shape == "signal"]
+        raw = comp.params.raw(signals[0]) if len(signals) == 1 else None
+        if type(raw) in (int, float) or isinstance(raw, Waveform):  # held as given: read without SymPy
+            if raw != 0 and force.any():
+                shape, coeff = (1, float(raw)) if type(raw) in (int, float) else (raw, 1.0)
+                entries.append((columns.setdefault(shape, len(columns)), coeff * force))
+            continue
         value = comp.params.get(signals[0]) if len(signals) == 1 else None
         if value is None or isinstance(value, _CallableSignal) or not isinstance(value, (sp.Expr, int, float)):
             raise NotStampable(f"{comp.kind} {cname!r}: its signal is not an expression of t")
@@ -392,14 +401,13 @@ def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
             entries.append((columns.setdefault(shape, len(columns)), float(coeff) * force))
     loaded = [] if asm.loads is None else [int(i) for i in np.flatnonzero(asm.loads)]
     if loaded:  # constant loads: an input of shape 1, as a DC source's
-        entries.append((columns.setdefault(sp.Integer(1), len(columns)), np.array(asm.loads)))
+        entries.append((columns.setdefault(1, len(columns)), np.array(asm.loads)))
     B = np.zeros((n, len(columns)))
     for col, values in entries:
         B[:, col] += values
     # over z = (q, q̇): T = ½ q̇ᵀ M q̇, V = ½ qᵀ K q, D = ½ q̇ᵀ Cd q̇
     forms = {"T": Quadratic(_placed(asm, "M", n)),
-             "V": Quadratic(_placed(asm, "K", 0), [(i, sp.Float(-asm.loads[i])) for i in loaded],
-                            sp.Float(asm.constant) if asm.constant else sp.Integer(0)),
+             "V": Quadratic(_placed(asm, "K", 0), [(i, float(-asm.loads[i])) for i in loaded], float(asm.constant)),
              "D": Quadratic(_placed(asm, "Cd", n))}
     inertial = [int(i) for i in np.flatnonzero(asm.inertial())]
     first = [int(i) for i in np.flatnonzero(~asm.inertial())]

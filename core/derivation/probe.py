@@ -9,14 +9,24 @@ anything else.
 
 from __future__ import annotations
 
+import functools
 import math
 
-import sympy as sp
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["float_value"]
 
-_FLOAT_FUNCS = {sp.sin: math.sin, sp.cos: math.cos, sp.exp: math.exp, sp.tan: math.tan}
-_MP_FUNCS = {sp.sin: "sin", sp.cos: "cos", sp.exp: "exp", sp.tan: "tan"}
+
+@functools.cache
+def _float_funcs():
+    return {sp.sin: math.sin, sp.cos: math.cos, sp.exp: math.exp, sp.tan: math.tan}
+
+
+@functools.cache
+def _mp_funcs():
+    return {sp.sin: "sin", sp.cos: "cos", sp.exp: "exp", sp.tan: "tan"}
 
 
 def float_value(expr, values: dict, digits: int | None = None) -> tuple[float, float] | None:
@@ -25,14 +35,14 @@ def float_value(expr, values: dict, digits: int | None = None) -> tuple[float, f
     bounds the rounding error relative to the working precision; None when ``expr`` has nodes other than sums,
     products, powers, numbers, ``sin``, ``cos``, ``tan`` and ``exp``.  Shared sub-expressions are evaluated once."""
     if digits is None:
-        num, fsum, funcs = float, math.fsum, _FLOAT_FUNCS
+        num, fsum, funcs = float, math.fsum, _float_funcs()
     else:
         import mpmath
 
         ctx = mpmath.MPContext()
         ctx.dps = digits
         num, fsum = ctx.mpf, ctx.fsum
-        funcs = {f: getattr(ctx, name) for f, name in _MP_FUNCS.items()}
+        funcs = {f: getattr(ctx, name) for f, name in _mp_funcs().items()}
         values = {s: ctx.mpf(x) for s, x in values.items()}
     memo: dict = {}
 

@@ -12,20 +12,22 @@ there, derived when something asks for them (display, linearization, the Routhia
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from ..base.domain import Recursion, RecursiveDynamics
 from ..base.component import t
 from ..errors import ModelError
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 #: A pivot of the recursion at most this fraction of the largest, at a random state, is zero: the motion of that
 #: coordinate is not determined by the recursion (a massless end of a chain), and the closed form decides.
 PIVOT_FLOOR = 1e-9
-EPS = sp.Float(2.0**-52)
+EPS = 2.0**-52
 
 
 @dataclass
@@ -221,23 +223,29 @@ def _zero_pivots(rec: Recursion, eq) -> list[str]:
     return zero or [eq.names[i] for i in range(len(out)) if not finite[i]]
 
 
-_RELATIONS = {sp.StrictGreaterThan: lambda a, b: a > b, sp.GreaterThan: lambda a, b: a >= b,
-              sp.StrictLessThan: lambda a, b: a < b, sp.LessThan: lambda a, b: a <= b}
-_UNARY = {sp.sin: np.sin, sp.cos: np.cos, sp.tan: np.tan, sp.exp: np.exp, sp.log: np.log, sp.sqrt: np.sqrt,
-          sp.Abs: np.abs}
+@functools.cache
+def _relations():
+    return {sp.StrictGreaterThan: lambda a, b: a > b, sp.GreaterThan: lambda a, b: a >= b,
+                  sp.StrictLessThan: lambda a, b: a < b, sp.LessThan: lambda a, b: a <= b}
+
+
+@functools.cache
+def _unary():
+    return {sp.sin: np.sin, sp.cos: np.cos, sp.tan: np.tan, sp.exp: np.exp, sp.log: np.log, sp.sqrt: np.sqrt,
+              sp.Abs: np.abs}
 
 
 def _value(e: sp.Expr, env: dict, rng) -> float:
     """``e`` in floats, its symbols from ``env`` (a symbol without a value gets one drawn within a decade of 1)."""
     if e.is_Number:
         return float(e)
-    if e.is_Symbol or isinstance(e, (AppliedUndef, sp.Derivative)):  # (a signal u(t), its rates: values at random)
+    if e.is_Symbol or isinstance(e, (sp.core.function.AppliedUndef, sp.Derivative)):  # (a signal u(t), its rates: values at random)
         if e not in env:
             env[e] = float(10 ** rng.uniform(-0.5, 0.5))
         return env[e]
     if isinstance(e, sp.Piecewise):  # (a recursion's guarded division: NaN where no branch holds)
         for expr, cond in e.args:
-            compare = _RELATIONS.get(type(cond))
+            compare = _relations().get(type(cond))
             if cond is sp.true or (compare is not None and compare(_value(cond.lhs, env, rng), _value(cond.rhs, env, rng))):
                 return _value(expr, env, rng)
         return float("nan")
@@ -248,14 +256,16 @@ def _value(e: sp.Expr, env: dict, rng) -> float:
         return float(np.prod(args))
     if e.is_Pow:
         return float(np.float64(args[0]) ** args[1])
-    if e.func in _UNARY:
-        return float(_UNARY[e.func](args[0]))
+    if e.func in _unary():
+        return float(_unary()[e.func](args[0]))
     return float(e.xreplace({a: sp.Float(x) for a, x in zip(e.args, args)}))
 
 
-_DUAL_UNARY = {sp.sin: (np.sin, np.cos), sp.cos: (np.cos, lambda x: -np.sin(x)), sp.exp: (np.exp, np.exp),
-               sp.tanh: (np.tanh, lambda x: 1 - np.tanh(x) ** 2), sp.log: (np.log, lambda x: 1 / x),
-               sp.atan: (np.arctan, lambda x: 1 / (1 + x * x)), sp.Abs: (np.abs, np.sign)}
+@functools.cache
+def _dual_unary():
+    return {sp.sin: (np.sin, np.cos), sp.cos: (np.cos, lambda x: -np.sin(x)), sp.exp: (np.exp, np.exp),
+                   sp.tanh: (np.tanh, lambda x: 1 - np.tanh(x) ** 2), sp.log: (np.log, lambda x: 1 / x),
+                   sp.atan: (np.arctan, lambda x: 1 / (1 + x * x)), sp.Abs: (np.abs, np.sign)}
 
 
 def tangents(rec: Recursion, env: dict, q, v, inputs=()) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -301,7 +311,7 @@ def _dual(e, dual: dict, env: dict):
         return float(env[e]), None
     if isinstance(e, sp.Piecewise):
         for expr, cond in e.args:
-            compare = _RELATIONS.get(type(cond))
+            compare = _relations().get(type(cond))
             if cond is sp.true or (compare is not None and compare(_dual(cond.lhs, dual, env)[0],
                                                                     _dual(cond.rhs, dual, env)[0])):
                 return _dual(expr, dual, env)
@@ -324,8 +334,8 @@ def _dual(e, dual: dict, env: dict):
         if tx is not None:
             raise ValueError("a power with a moving exponent")
         return value, (None if tb is None else tb * (x * np.float64(b) ** (x - 1)))
-    if e.func in _DUAL_UNARY and len(args) == 1:
-        f, df = _DUAL_UNARY[e.func]
+    if e.func in _dual_unary() and len(args) == 1:
+        f, df = _dual_unary()[e.func]
         (x, tx), = args
         return float(f(x)), (None if tx is None else tx * float(df(x)))
     raise ValueError(f"no forward rule for {e.func}")

@@ -52,14 +52,15 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 if TYPE_CHECKING:
     import scipy.sparse as sps
 
 from ..base.component import t
 from .assembly import Assembly
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["NotStampable", "Quadratic", "Stamps", "stamps"]
 
@@ -78,7 +79,7 @@ class Quadratic:
 
     H: sps.csr_matrix
     linear: list[tuple[int, sp.Expr]] = field(default_factory=list)
-    constant: sp.Expr = sp.Integer(0)
+    constant: sp.Expr | float = 0
 
     def values(self, times: np.ndarray, Z: np.ndarray) -> np.ndarray:
         """``E`` at ``times`` for states ``Z`` (``2n × len(times)``)."""
@@ -90,9 +91,9 @@ class Quadratic:
         return out
 
 
-def _on_grid(expr: sp.Expr, times: np.ndarray) -> np.ndarray:
-    """An expression of ``t`` on a grid (SciPy's special functions, huge integers as floats)."""
-    if not expr.free_symbols:
+def _on_grid(expr: sp.Expr | float, times: np.ndarray) -> np.ndarray:
+    """An expression of ``t`` on a grid (SciPy's special functions, huge integers as floats); a number as itself."""
+    if type(expr) in (int, float) or not expr.free_symbols:
         return np.full(times.shape, float(expr))
     fn = sp.lambdify(t, expr, modules=["scipy", "numpy"])
     with np.errstate(all="ignore"):
@@ -173,11 +174,11 @@ class _Local:
             for d in e.atoms(sp.Derivative):
                 if d.expr in coordinates and d.derivative_count == 1 and d.variables == (t,):
                     rates[d] = coordinates[d.expr]
-                elif isinstance(d.expr, AppliedUndef) and d.expr.func in inputs:
+                elif isinstance(d.expr, sp.core.function.AppliedUndef) and d.expr.func in inputs:
                     continue  # an input's rate: a function of t
                 else:
                     raise NotStampable(f"{name}: the term {d} is not the velocity of a coordinate")
-            for f in e.atoms(AppliedUndef):
+            for f in e.atoms(sp.core.function.AppliedUndef):
                 if f in coordinates:
                     funcs[f] = coordinates[f]
                 elif f.func in inputs:

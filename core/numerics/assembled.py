@@ -34,7 +34,6 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.arguments import RunOptions, check_grid
 from ..base.component import t as _t
@@ -47,6 +46,9 @@ from .problem import Problem, Structure
 from .result import Result
 from .simulation import initial_state
 from .tape import TapeError, record
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 _log = logging.getLogger(__name__)
 

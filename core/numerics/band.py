@@ -33,7 +33,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import sympy as sp
+
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 #: The fewest unknowns for which a banded solve is taken.  Measured (``benchmarks/band.py``, one evaluation on the
 #: tape interpreter): a chain of masses (diagonal) takes 2.5 µs banded and 2.9 µs dense at 16 unknowns, 3.7 and

@@ -7,14 +7,15 @@ from __future__ import annotations
 
 import functools
 
-import sympy as sp
-
 from ..base.component import t as time_symbol
 from ..derivation.calculus import dense
 
 from .band import BAND_MATRIX, BAND_RUNTIME, BAND_SOLVE, NATIVE_BAND_RHS, Band, band_of, native_tables, recursive_arrays, solve_size
 from .c_dop853 import ENSEMBLE_SOURCE, dop853_source
 from .tape import OPS, Program, TapeError, c_body, record
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 #: Bumped whenever the generated C changes shape, so that old cache entries are not reused.
 CODEGEN_VERSION = "9"

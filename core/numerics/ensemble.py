@@ -29,7 +29,6 @@ from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
-import sympy as sp
 
 from ..base.component import t as time_symbol
 from ..errors import ModelError
@@ -37,6 +36,9 @@ from .c_build import _cache, _key, _libraries, _shipped, check_key, compiler
 from .c_source import _runtime_source, _Unavailable, parametric_source, solve_size
 from .codegen import _prog
 from .tape import Program, TapeError, record
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["CompiledForm", "RunSpec", "compile_form", "bind", "run_chunk", "METHODS", "LOOP_MESSAGES"]
 

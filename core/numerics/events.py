@@ -52,12 +52,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.component import t as time_symbol
 from ..base.text import parse_expression
 from ..errors import IntegrationError, ModelError
 from ..plugin.contracts import Solution
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Event", "Occurrence", "StateCondition"]
 

@@ -15,10 +15,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import sympy as sp
 
 from ..base.budget import BudgetExceeded, interruptible
+from ..base import waveforms as _waveforms
 from ..base.component import t
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
+
 
 class _Unrepresentable(Exception):
     """An input term outside the exosystem class: ``args = (term,)`` or ``(term, channel index)``."""
@@ -117,14 +121,40 @@ def _terms(expr: sp.Expr) -> dict[tuple[int, complex], complex]:
 
 def _exosystem(channels: Sequence[sp.Expr], length: float) -> _Exosystem:
     """The exosystem whose output is ``channels`` (expressions of τ = ``t``); raises :class:`_Unrepresentable`."""
-    real: list[dict[tuple[float, float, int, int], float]] = []
     terms_of = []
     for i, expr in enumerate(channels):
         try:
-            terms = _exp_terms(expr)
+            terms_of.append(_exp_terms(expr))
         except _Unrepresentable as exc:
             raise type(exc)(exc.args[0], i) from None
-        terms_of.append(terms)
+    exo = _from_terms(terms_of)
+    _check_exosystem(exo, channels, terms_of, length)
+    return exo
+
+
+def numeric_exosystem(inputs: list, a: float, b: float) -> _Exosystem:
+    """The exosystem of inputs given in numbers (waveforms and constants: :mod:`lagrangian.base.waveforms`) on the
+    piece ``[a, b]``, in the piece's time ``τ = t − a``; its output checked against the waveforms' values at a few
+    times of the piece (a guard, as for expressions)."""
+    terms_of = _waveforms.piece_terms(inputs, a, b)
+    exo = _from_terms(terms_of)
+    taus = np.array([0.25, 0.3819660112501051, 0.9]) * (b - a)  # inside the piece: its ends are switching times
+    with np.errstate(over="ignore", invalid="ignore"):
+        got = exo.C @ exo.states(taus).T if exo.w0.size else np.zeros((len(inputs), taus.size))
+    ref = _waveforms.values(inputs, a + taus)
+    for i, terms in enumerate(terms_of):
+        scale = np.array([sum(abs(c) * tau**k * math.exp(lam.real * tau) for (k, lam), c in terms.items())
+                          for tau in taus])
+        ok = ~np.isfinite(scale) | (np.abs(got[i] - ref[i]) <= 1e-9 * scale + 1e-300)
+        if not np.all(ok):
+            raise _Unrepresentable(inputs[i], i)
+    return exo
+
+
+def _from_terms(terms_of: list[dict[tuple[int, complex], complex]]) -> _Exosystem:
+    """The exosystem whose outputs are the channels ``Σ c τ^k e^{λτ}`` (``{(k, λ): c}`` each)."""
+    real: list[dict[tuple[float, float, int, int], float]] = []
+    for terms in terms_of:
         coeffs: dict[tuple[float, float, int, int], float] = {}
         for (k, lam), c in terms.items():
             alpha, omega, fact = lam.real, lam.imag, math.factorial(k)
@@ -166,16 +196,14 @@ def _exosystem(channels: Sequence[sp.Expr], length: float) -> _Exosystem:
     S = np.zeros((nw, nw))
     for start, block in blocks:
         S[start : start + block.shape[0], start : start + block.shape[0]] = block
-    C = np.zeros((len(channels), nw))
+    C = np.zeros((len(terms_of), nw))
     for i, coeffs in enumerate(real):
         for key, value in coeffs.items():
             C[i, index[key]] += value
     w0 = np.zeros(nw)
     for alpha, omega, _ in modes:
         w0[index[(alpha, omega, 0, 0)]] = 1.0
-    exo = _Exosystem(S, C, w0, modes)
-    _check_exosystem(exo, channels, terms_of, length)
-    return exo
+    return _Exosystem(S, C, w0, modes)
 
 
 def _check_exosystem(exo: _Exosystem, channels, terms_of, length: float) -> None:

@@ -43,8 +43,6 @@ import uuid
 import zipfile
 from pathlib import Path
 
-import sympy as sp
-
 from ..base.component import t
 from ..base.units import coordinate_unit
 from ..derivation.assembly import driven
@@ -53,6 +51,9 @@ from .c_build import _cache, _key, _libraries, compiler
 from .c_dop853 import dop853_source
 from .c_source import _LOOPS, _Unavailable, c_comment, parametric_source
 from .simulation import check_start, initial_state
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["export", "model_identifier", "xml_text", "KINDS"]
 

@@ -32,6 +32,7 @@ import numpy as np
 if TYPE_CHECKING:
     import scipy.sparse as sps
 
+from ..base import waveforms as _waveforms
 from ..derivation.stamps import NotStampable, Stamps
 from ..base.component import t
 from .simulation import _lambdify
@@ -131,6 +132,8 @@ def input_values(space, times: np.ndarray) -> np.ndarray:
     times = np.asarray(times, dtype=float)
     if not len(space.inputs):
         return np.zeros((0, times.size))
+    if _waveforms.is_numeric(space.inputs):  # constants and waveforms: in numbers
+        return _waveforms.values(list(space.inputs), times)
     if space._input_fn is None:
         space._input_fn = _lambdify(t, list(space.inputs), {})  # huge integers as floats, erf from SciPy
     with np.errstate(all="ignore"):

@@ -59,23 +59,25 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from ..base.arguments import check_grid, check_mapping, check_span
 from ..base.component import t
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError
 from ..base.identity import depends_on, is_zero
-from .exosystem import EXPAND_SECONDS, _Exosystem, _exosystem, _TooLarge, _Unrepresentable
+from .exosystem import EXPAND_SECONDS, _Exosystem, _exosystem, _TooLarge, _Unrepresentable, numeric_exosystem
 from ..derivation.assembly import refuse_eliminated
 from ..derivation.numeric import numeric_stamps
 from ..derivation.stamps import NotStampable, Stamps, stamps
 from .propagation import SPECTRAL_MIN, Propagator, march, spectral_states
 from .krylov import KrylovPropagator, SparseSpace, input_values, unknowns
 from .simulation import Result, initial_state
-from ..base.switching import SWITCHES as _SWITCHES
+from ..base import waveforms as _waveforms
+from ..base.switching import switches as _switches
 from ..base.switching import resolve as _resolve
 from ..base.switching import switching_times as _switching_times
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["StateSpace", "state_space", "simulate_exact", "stamped"]
 
@@ -192,7 +194,7 @@ def _build(model, values: Mapping[sp.Symbol, float]) -> StateSpace:
         return text if len(text) <= 160 else text[:157] + "..."
 
     def time_varying(expr) -> bool:
-        return bool(expr.atoms(AppliedUndef, sp.Derivative) or _dependence(expr, {t}))
+        return bool(expr.atoms(sp.core.function.AppliedUndef, sp.Derivative) or _dependence(expr, {t}))
 
     for i in range(n):
         for j in range(A.shape[1]):
@@ -345,7 +347,7 @@ def _space(st: Stamps) -> StateSpace | SparseSpace:
     return StateSpace(
         F=Sel @ U[:, :ny] + E.toarray(),
         G=Sel @ U[:, ny:],
-        inputs=sp.Matrix(st.inputs) if st.inputs else sp.Matrix(0, 1, []),
+        inputs=list(st.inputs),
         states=names + [f"{names[i]}'" for i in I],
         names=names,
         inertial=[names[i] for i in I],
@@ -442,9 +444,12 @@ def simulate_exact(
         y0, defaulted = initial_state(eq, initial or {}, velocity or {})
         inputs = list(ss.inputs)
         ny = len(ss.states)
+        numeric = _waveforms.is_numeric(inputs)  # constants and waveforms only: no SymPy (lagrangian.base.waveforms)
+        if not numeric:
+            inputs = [sp.sympify(e) for e in inputs]
 
-        for expr, eqname in zip(inputs, ss.equations):
-            bad = expr.atoms(AppliedUndef, sp.Derivative)
+        for expr, eqname in zip([] if numeric else inputs, ss.equations):
+            bad = expr.atoms(sp.core.function.AppliedUndef, sp.Derivative)
             if bad:
                 raise ModelError(
                     f"model {model.name!r}: the input {sp.sstr(next(iter(bad)))} in the equation of {eqname} is a Python "
@@ -462,7 +467,7 @@ def simulate_exact(
         cuts = ss._cuts.get(span)
         if cuts is None:
             try:
-                cuts = _switching_times(inputs, *span)
+                cuts = _waveforms.cuts(inputs, *span) if numeric else _switching_times(inputs, *span)
             except (TypeError, ValueError) as exc:
                 raise ModelError(
                     f"model {model.name!r}: a piecewise input cannot be split into pieces ({exc}); {_ADVICE}."
@@ -592,8 +597,18 @@ def _piece(ss: StateSpace, model: str, inputs: list[sp.Expr], a: float, b: float
     exo = ss._pieces.get((a, b))
     if exo is not None:
         return exo
+    if _waveforms.is_numeric(inputs):
+        try:
+            exo = numeric_exosystem(inputs, a, b)
+        except _Unrepresentable as exc:
+            raise ModelError(f"model {model!r}: the input {exc.args[0]!r} in the equation of {ss.equations[exc.args[1]]} "
+                             f"is not reproduced by its exponential modes on [{a:g}, {b:g}]; {_ADVICE}.") from None
+        if len(ss._pieces) > 8192:
+            ss._pieces.clear()
+        ss._pieces[(a, b)] = exo
+        return exo
     try:
-        resolved = [_resolve(e, (a + b) / 2) for e in inputs] if any(e.has(*_SWITCHES) for e in inputs) else inputs
+        resolved = [_resolve(e, (a + b) / 2) for e in inputs] if any(e.has(*_switches()) for e in inputs) else inputs
     except (TypeError, ValueError) as exc:
         raise ModelError(f"model {model!r}: a piecewise input cannot be evaluated on [{a:g}, {b:g}] ({exc}); {_ADVICE}.") from None
     local = tuple(e.xreplace({t: sp.Float(a) + t}) if a else e for e in resolved)

@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.component import t as time_symbol
 from ..base.identity import depends_on, is_zero
@@ -21,7 +20,9 @@ from ..derivation.calculus import symbols_of
 from ..errors import IntegrationError, ModelError, SingularMassMatrixError, warn
 from .c_source import programs
 from .simulation import NumericModel, _lambdify
+from ..base import deferred as _deferred
 
+sp = _deferred.module("sympy", globals())
 
 #: Central differences: the step (relative to max(1, |y_j|)) that balances truncation and round-off, eps^(1/3).
 _CENTRAL_STEP = float(np.finfo(float).eps ** (1 / 3))

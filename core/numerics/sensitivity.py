@@ -64,6 +64,7 @@ True
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import sys
 import threading
@@ -73,7 +74,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ..base.arguments import check_grid
 from ..base.component import t as time_symbol
@@ -88,6 +88,9 @@ from .sensitivity_c import _Compiled, _library
 from .result import Result
 from .simulation import NumericModel, _EPS, _lambdify, check_start, initial_state
 from .tape import Program, TapeError, record
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["SCIPY_METHODS", "asked", "plan", "refuse", "simulate"]
 
@@ -245,14 +248,18 @@ def _expressions(eq, groups: tuple) -> tuple[list[sp.Expr], list[sp.Symbol], int
 
 #: Functions that jump where their argument (a Piecewise: its conditions) crosses a value.  Abs, Min and Max bend
 #: but do not jump: the sensitivity equations hold through them.
-_JUMPS = (sp.Piecewise, sp.Heaviside, sp.sign, sp.floor, sp.ceiling, sp.frac, sp.Mod)
+
+
+@functools.cache
+def _jumps():
+    return (sp.Piecewise, sp.Heaviside, sp.sign, sp.floor, sp.ceiling, sp.frac, sp.Mod)
 
 
 def _refuse_switches(eq, exprs, symbols: set) -> None:
     """A :class:`ModelError` for a function in ``exprs`` that jumps where a state or an asked parameter crosses a
     value (a Coulomb friction's sign of a rate, a pulse whose time is the parameter): there the sensitivities jump
     by what the linear equations do not give."""
-    for atom in sorted({a for e in exprs for a in e.atoms(*_JUMPS)}, key=sp.default_sort_key):
+    for atom in sorted({a for e in exprs for a in e.atoms(*_jumps())}, key=sp.default_sort_key):
         switching = [c for _, c in atom.args] if isinstance(atom, sp.Piecewise) else list(atom.args)
         held = set().union(*(sp.sympify(c).free_symbols for c in switching)) & symbols
         if held:

@@ -15,8 +15,6 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from .band import recursive_arrays
 from .codegen import _Unavailable, compile_model, programs
@@ -29,6 +27,9 @@ from ..errors import (ExpressionError, LagrangianError, ModelError, NumericalErr
 from ..errors import warn as _warn
 from ..base.switching import switching_times
 from ..base.text import as_expr, parse_expression
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["NumericModel", "Result", "InitialConditionWarning", "initial_state", "check_start"]
 
@@ -597,7 +598,7 @@ class NumericModel:
         accelerations = sorted((d for d in expr.atoms(sp.Derivative) if d.derivative_count > 1), key=str)
         if accelerations:
             d = accelerations[0]
-            named = d.expr.func.__name__ + "'" * d.derivative_count if isinstance(d.expr, AppliedUndef) else sp.sstr(d)
+            named = d.expr.func.__name__ + "'" * d.derivative_count if isinstance(d.expr, sp.core.function.AppliedUndef) else sp.sstr(d)
             raise ModelError(f"the quantity {sp.sstr(expr)[:80]!r} holds an acceleration ({named}), "
                              f"and a result holds coordinates and rates only: give a quantity of those, or the "
                              f"accelerations' expression from the equations of motion.")

@@ -41,15 +41,17 @@ out[1] = w5;
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
 import numpy as np
-import sympy as sp
-from sympy.core.function import AppliedUndef
 
 from .c_units import BEGIN, END, PART, PREAMBLE, UNIT_PARTS
+from ..base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["C_PART", "OPS", "Program", "TapeError", "c_body", "record", "size"]
 
@@ -118,16 +120,31 @@ _NP = {  # the same operations on arrays, for Program.evaluate_many (IEEE arithm
     **{name: _elementwise(_PY[name]) for name in ("erf", "erfc", "gamma", "loggamma")},
 }
 
-_FUNCTIONS = {
-    sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.asin: "asin", sp.acos: "acos", sp.atan: "atan",
-    sp.sinh: "sinh", sp.cosh: "cosh", sp.tanh: "tanh", sp.asinh: "asinh", sp.acosh: "acosh", sp.atanh: "atanh",
-    sp.exp: "exp", sp.Abs: "abs", sp.sign: "sign", sp.floor: "floor", sp.ceiling: "ceil", sp.erf: "erf",
-    sp.erfc: "erfc", sp.gamma: "gamma", sp.loggamma: "loggamma",
-}
-_BINARY = {sp.atan2: "atan2", sp.Mod: "mod"}
-_RELATIONS = {sp.StrictLessThan: "lt", sp.LessThan: "le", sp.StrictGreaterThan: "gt", sp.GreaterThan: "ge",
-              sp.Equality: "eq", sp.Unequality: "ne"}
-_FOLDS = {sp.Min: "min", sp.Max: "max", sp.And: "and", sp.Or: "or"}
+
+@functools.cache
+def _functions():
+    return {
+        sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.asin: "asin", sp.acos: "acos", sp.atan: "atan",
+        sp.sinh: "sinh", sp.cosh: "cosh", sp.tanh: "tanh", sp.asinh: "asinh", sp.acosh: "acosh", sp.atanh: "atanh",
+        sp.exp: "exp", sp.Abs: "abs", sp.sign: "sign", sp.floor: "floor", sp.ceiling: "ceil", sp.erf: "erf",
+        sp.erfc: "erfc", sp.gamma: "gamma", sp.loggamma: "loggamma",
+    }
+
+
+@functools.cache
+def _binary():
+    return {sp.atan2: "atan2", sp.Mod: "mod"}
+
+
+@functools.cache
+def _relations():
+    return {sp.StrictLessThan: "lt", sp.LessThan: "le", sp.StrictGreaterThan: "gt", sp.GreaterThan: "ge",
+                  sp.Equality: "eq", sp.Unequality: "ne"}
+
+
+@functools.cache
+def _folds():
+    return {sp.Min: "min", sp.Max: "max", sp.And: "and", sp.Or: "or"}
 
 
 @dataclass
@@ -409,7 +426,7 @@ class _Recorder:
     def _expr(self, e) -> int:
         if e.is_Number or e.is_NumberSymbol:
             return self.const(float(e))
-        if self.opaque and (e.is_Symbol or isinstance(e, (AppliedUndef, sp.Derivative))):
+        if self.opaque and (e.is_Symbol or isinstance(e, (sp.core.function.AppliedUndef, sp.Derivative))):
             return self.constants.setdefault(("leaf", e), -1 - len(self.constants))  # a leaf of its own, no instruction
         if e.is_Symbol and e in self.parameters:
             return self.constants.setdefault(("param", e), -1 - len(self.constants))
@@ -425,21 +442,21 @@ class _Recorder:
                 return self.emit("exp", self.reg(exp))
             return self._pow(base, exp)
         func = e.func
-        if func in _FUNCTIONS:
-            return self.emit(_FUNCTIONS[func], self.reg(e.args[0]))
+        if func in _functions():
+            return self.emit(_functions()[func], self.reg(e.args[0]))
         if func is sp.log:
             if len(e.args) == 2:
                 return self.emit("div", self.emit("log", self.reg(e.args[0])), self.emit("log", self.reg(e.args[1])))
             return self.emit("log", self.reg(e.args[0]))
-        if func in _BINARY:
-            return self.emit(_BINARY[func], self.reg(e.args[0]), self.reg(e.args[1]))
-        if func in _RELATIONS:
-            return self.emit(_RELATIONS[func], self.reg(e.args[0]), self.reg(e.args[1]))
-        if func in _FOLDS:
+        if func in _binary():
+            return self.emit(_binary()[func], self.reg(e.args[0]), self.reg(e.args[1]))
+        if func in _relations():
+            return self.emit(_relations()[func], self.reg(e.args[0]), self.reg(e.args[1]))
+        if func in _folds():
             regs = [self.reg(a) for a in e.args]
             out = regs[0]
             for r in regs[1:]:
-                out = self.emit(_FOLDS[func], out, r)
+                out = self.emit(_folds()[func], out, r)
             return out
         if func is sp.Not:
             return self.emit("not", self.reg(e.args[0]))
@@ -454,7 +471,7 @@ class _Recorder:
             for piece in reversed(pieces):
                 out = self.emit("select", self.reg(piece.cond), self.reg(piece.expr), out)
             return out
-        if isinstance(e, (AppliedUndef, sp.Derivative)):
+        if isinstance(e, (sp.core.function.AppliedUndef, sp.Derivative)):
             raise TapeError(f"{e} is a time signal given as a Python callable, which compiled code cannot call; "
                             f"give it as a SymPy expression of t")
         if e.is_number:  # a constant the cases above do not name (sin(1), Catalan, ...)

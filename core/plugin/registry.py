@@ -237,6 +237,21 @@ class Registry:
         except KeyError:
             raise UnknownKindError(kind, self.kinds) from None
 
+    def example(self, kind: str) -> Example:
+        """Kind ``kind``'s :class:`~lagrangian.Example`: a small model using it, what the conformance suite builds
+        (called when asked for, not at registration: an example may build SymPy expressions of time, which a
+        numeric model never needs).  A :class:`~lagrangian.errors.PluginError` naming the plugin when ``example()``
+        raises or gives something else.
+
+        >>> Registry().example("capacitor").params
+        {'C': 0.5}
+        """
+        cls = self.component_type(kind)
+        example, problem = _example_problem(cls)
+        if problem:
+            raise PluginError(self._owner(kind), f"component kind {kind!r}: {problem}")
+        return example
+
     def options(self) -> dict[str, tuple[str, Option]]:
         """Every model option any domain accepts, as ``{option: (domain, Option)}``."""
         return {name: (d.name, opt) for d in self.domains.values() for name, opt in d.options.items()}
@@ -286,13 +301,20 @@ def _component_type_problem(cls: Any) -> str | None:
         return f"role must be None, 'across' or 'through', not {cls.role!r}"
     if cls.contribute is Component.contribute:
         return "it does not implement contribute(ctx)"
+    if getattr(cls.example, "__func__", None) is Component.example.__func__:
+        return "it does not implement example()"
+    return None
+
+
+def _example_problem(cls: type[Component]) -> tuple[Any, str | None]:
+    """``(example, problem)`` of a registered kind: what its ``example()`` gives, or why it is not an example."""
     try:
         example = cls.example()
     except Exception as exc:
-        return f"example() raised {exc.__class__.__name__}: {exc}"
+        return None, f"example() raised {exc.__class__.__name__}: {exc}"
     if not isinstance(example, Example):
-        return "example() must return a lagrangian.Example"
-    return None
+        return None, "example() must return a lagrangian.Example"
+    return example, None
 
 
 class _ImportedPlugin:

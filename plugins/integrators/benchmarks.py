@@ -9,10 +9,12 @@ import math
 import types
 
 import numpy as np
-import sympy as sp
 
 from lagrangian import Component, Contribution, Example, Parameter, dot, hookimpl
 from lagrangian.bench import Benchmark
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 class InverseSquare(Component):

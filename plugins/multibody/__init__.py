@@ -56,7 +56,7 @@ from .joints import Fixed, Free, PlanarJoint, Prismatic, Revolute, Spherical
 from .kinematics import build_kinematics  # noqa: F401 - the mechanics plugin's domain calls it
 from .loads import BodyTorque, RotationalDamper, RotationalSpring  # noqa: F401
 from .rolling import Rolling
-from .rotations import E3, PROPER_EULER, SEQUENCES, TAIT_BRYAN, Pose, transform  # noqa: F401
+from .rotations import PROPER_EULER, SEQUENCES, TAIT_BRYAN, Pose, transform  # noqa: F401
 
 __all__ = [
     "Pose", "Body", "Link", "Rod", "Disc", "Revolute", "Prismatic", "Spherical", "PlanarJoint", "Fixed", "Free", "Rolling",

@@ -3,12 +3,13 @@
 
 from __future__ import annotations
 
-import sympy as sp
-
 from lagrangian import GROUND, Component, Contribution, Example, ModelError, MovingFrame, Parameter, dot
 from lagrangian.derive import cross
 
 from .checks import _need_dim, _vec, lg_param_error
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 class _BodyBase(Component):

@@ -3,9 +3,10 @@ dimension, and the parameter error they raise."""
 
 from __future__ import annotations
 
-import sympy as sp
-
 from lagrangian import Component, ModelError, dot
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 def _vec(value, dim: int, comp: Component, pname: str, default=None) -> sp.Matrix:

@@ -6,9 +6,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import sympy as sp
+from lagrangian import ModelError, UnknownNameError
+from lagrangian.base.component import t
+from lagrangian.base import deferred as _deferred
 
-from lagrangian import ModelError, UnknownNameError, t
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass

@@ -6,12 +6,14 @@ from __future__ import annotations
 
 from typing import Any
 
-import sympy as sp
-
-from lagrangian import Component, Contribution, Example, ModelError, Parameter, t
+from lagrangian import Component, Contribution, Example, ModelError, Parameter
+from lagrangian.base.component import t
 
 from .checks import _unit, _vec, lg_param_error
-from .rotations import E3, _angle_descriptions, _angle_names, _check_sequence, _euler, _euler_body, _rot3
+from .rotations import unit_vectors, _angle_descriptions, _angle_names, _check_sequence, _euler, _euler_body, _rot3
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 class _Joint(Component):
@@ -96,7 +98,7 @@ class Revolute(_Joint):
         (theta,) = q
         if dim == 2:
             return theta, sp.zeros(2, 1), None
-        axis = _unit(_vec(self.params.get("axis"), 3, self, "axis", E3[2]), self, "axis")
+        axis = _unit(_vec(self.params.get("axis"), 3, self, "axis", unit_vectors()[2]), self, "axis")
         return _rot3(axis, theta), sp.zeros(3, 1), axis * theta.diff(t)
 
     def relative_body_rate(self, q, R_rel, w_rel):
@@ -244,7 +246,7 @@ class PlanarJoint(_Joint):
         x, y, theta = q
         if dim == 2:
             return theta, sp.Matrix([x, y]), None
-        return _rot3(E3[2], theta), sp.Matrix([x, y, 0]), E3[2] * theta.diff(t)
+        return _rot3(unit_vectors()[2], theta), sp.Matrix([x, y, 0]), unit_vectors()[2] * theta.diff(t)
 
     def relative_body_rate(self, q, R_rel, w_rel):
         return w_rel  # a turn about z leaves z where it is

@@ -5,15 +5,17 @@ from __future__ import annotations
 
 from collections import deque
 
-import sympy as sp
-
-from lagrangian import GROUND, Coordinate, ModelError, UnknownNameError, t
+from lagrangian import GROUND, Coordinate, ModelError, UnknownNameError
+from lagrangian.base.component import t
 from lagrangian.derive import cross, time_derivative
 
 from .bodies import _BodyBase
 from .joints import _Joint
 from .recursive import offer
 from .rotations import Pose, _rot2, product, transform
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 def build_kinematics(network, view, dynamics: str = "auto") -> None:

@@ -4,12 +4,14 @@ coordinate."""
 
 from __future__ import annotations
 
-import sympy as sp
-
-from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter, rate, t
+from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter, rate
+from lagrangian.base.component import t
 
 from .checks import _need_dim
 from lagrangian.plugins.mechanics import STICK_SLIP, _check_phase, friction_contribution
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 class BodyTorque(Component):

@@ -49,11 +49,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import sympy as sp
-
 from lagrangian import GROUND, ModelError, Recursion, RecursiveDynamics
 
-from .rotations import E3
+from .rotations import unit_vectors
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 #: The fewest joint coordinates for which ``dynamics="auto"`` (the default) takes the recursive form.  Measured by
 #: ``benchmarks/dynamics_choice.py`` (one evaluation in a C loop, closed form / recursion): planar 8 links 3.2 / 3.3 µs
@@ -62,8 +63,7 @@ from .rotations import E3
 #: there on the recursion wins by more with every size (planar 16: 2.2× on the tape, 4.6× native, half the build).
 RECURSIVE_FROM = 9
 
-ZERO = sp.S.Zero
-EPS = sp.Float(2.0**-52)
+EPS = 2.0**-52
 
 
 class _Steps:
@@ -91,7 +91,7 @@ class _Steps:
 # expression (0.8 ms a product on a chain of 30 bodies).
 def _mul(*factors):
     if any(f == 0 for f in factors):
-        return ZERO
+        return sp.S.Zero
     return sp.Mul(*factors)
 
 
@@ -132,7 +132,7 @@ def _t(A):
 
 
 def _skew(c):
-    return [[ZERO, -c[2], c[1]], [c[2], ZERO, -c[0]], [-c[1], c[0], ZERO]]
+    return [[sp.S.Zero, -c[2], c[1]], [c[2], sp.S.Zero, -c[0]], [-c[1], c[0], sp.S.Zero]]
 
 
 def _msub(A, B):
@@ -148,23 +148,23 @@ def _outer(a, b, k):
 
 
 def _eye():
-    return [[sp.S.One if i == j else ZERO for j in range(3)] for i in range(3)]
+    return [[sp.S.One if i == j else sp.S.Zero for j in range(3)] for i in range(3)]
 
 
 def _zeros():
-    return [[ZERO] * 3 for _ in range(3)]
+    return [[sp.S.Zero] * 3 for _ in range(3)]
 
 
 def _rotation(axis, c, s):
     """Rotation by the angle of cosine ``c`` and sine ``s`` about the unit ``axis`` (Rodrigues)."""
     k = _skew(axis)
     kk = _mm(k, k)
-    return [[(sp.S.One if i == j else ZERO) + _mul(s, k[i][j]) + _mul(1 - c, kk[i][j]) for j in range(3)] for i in range(3)]
+    return [[(sp.S.One if i == j else sp.S.Zero) + _mul(s, k[i][j]) + _mul(1 - c, kk[i][j]) for j in range(3)] for i in range(3)]
 
 
 def _pad(v, dim: int) -> list:
     v = list(v)
-    return v + [ZERO] * (3 - len(v)) if dim == 2 else v
+    return v + [sp.S.Zero] * (3 - len(v)) if dim == 2 else v
 
 
 @dataclass
@@ -189,23 +189,23 @@ def _elements(joint, dim: int, parent: int, base: int) -> list[_Elem]:
     P, C = (_pad(v, dim) for v in joint.points(dim))
     names = joint.names(dim)
     kind = joint.kind
-    zero = [ZERO] * 3
+    zero = [sp.S.Zero] * 3
     steps: list[tuple[str, list, str | None]] = []  # (kind, axis, coordinate)
     if kind == "revolute":
-        steps = [("revolute", [ZERO, ZERO, sp.S.One] if dim == 2 else _revolute_axis(joint), names[0])]
+        steps = [("revolute", [sp.S.Zero, sp.S.Zero, sp.S.One] if dim == 2 else _revolute_axis(joint), names[0])]
     elif kind == "prismatic":
         _, d, _ = joint.relative(dim, [sp.S.One])
         steps = [("prismatic", _pad(d, dim), names[0])]
     elif kind in ("planar", "free") and dim == 2 or kind == "planar":
-        steps = [("prismatic", list(E3[0]), names[0]), ("prismatic", list(E3[1]), names[1]),
-                 ("revolute", list(E3[2]), names[2])]
+        steps = [("prismatic", list(unit_vectors()[0]), names[0]), ("prismatic", list(unit_vectors()[1]), names[1]),
+                 ("revolute", list(unit_vectors()[2]), names[2])]
     elif kind == "spherical":
-        steps = [("revolute", list(E3["xyz".index(a)]), n) for a, n in zip(joint.sequence, names)]
+        steps = [("revolute", list(unit_vectors()["xyz".index(a)]), n) for a, n in zip(joint.sequence, names)]
     elif kind == "free":
-        steps = [("prismatic", list(E3[k]), names[k]) for k in range(3)]
-        steps += [("revolute", list(E3["xyz".index(a)]), n) for a, n in zip(joint.sequence, names[3:])]
+        steps = [("prismatic", list(unit_vectors()[k]), names[k]) for k in range(3)]
+        steps += [("revolute", list(unit_vectors()["xyz".index(a)]), n) for a, n in zip(joint.sequence, names[3:])]
     elif kind == "fixed":
-        R0 = _rotation([ZERO, ZERO, sp.S.One], sp.cos(joint.angle), sp.sin(joint.angle)) if dim == 2 else None
+        R0 = _rotation([sp.S.Zero, sp.S.Zero, sp.S.One], sp.cos(joint.angle), sp.sin(joint.angle)) if dim == 2 else None
         return [_Elem(parent, "fixed", zero, P, C, R0, None, None)]
     else:  # pragma: no cover - every joint kind of the plugin is listed
         raise ModelError(f"joint {joint.name!r}: no recursive form for a {kind} joint.")
@@ -219,7 +219,7 @@ def _elements(joint, dim: int, parent: int, base: int) -> list[_Elem]:
 def _revolute_axis(joint) -> list:
     from .checks import _unit, _vec
 
-    return list(_unit(_vec(joint.params.get("axis"), 3, joint, "axis", E3[2]), joint, "axis"))
+    return list(_unit(_vec(joint.params.get("axis"), 3, joint, "axis", unit_vectors()[2]), joint, "axis"))
 
 
 def _body(body, dim: int, points: list) -> list | None:
@@ -231,7 +231,7 @@ def _body(body, dim: int, points: list) -> list | None:
         c = _pad(body.com_offset(dim), dim)
         I = body.inertia_matrix(dim)
         if dim == 2:
-            Ic = [[ZERO, ZERO, ZERO], [ZERO, ZERO, ZERO], [ZERO, ZERO, I]]
+            Ic = [[sp.S.Zero, sp.S.Zero, sp.S.Zero], [sp.S.Zero, sp.S.Zero, sp.S.Zero], [sp.S.Zero, sp.S.Zero, I]]
         else:
             Ic = [[I[i, j] for j in range(3)] for i in range(3)]
         parts.append((m, c, Ic))
@@ -274,13 +274,13 @@ class Tree:
             elif e.kind == "prismatic":
                 R = _eye()
                 r[i] = w.vec(_sub(_add(e.P, _scale(q[k], e.axis)), e.C))
-                S[i] = ([ZERO] * 3, e.axis)
+                S[i] = ([sp.S.Zero] * 3, e.axis)
             else:
                 R = e.R0 if e.R0 is not None else _eye()
                 r[i] = w.vec(_sub(e.P, _mv(R, e.C)))
             E[i] = R  # the child's axes in the parent's: X maps (ω, v) to (Rᵀ ω, Rᵀ (v − r × ω))
             if e.parent < 0:
-                om, vv = [ZERO] * 3, [ZERO] * 3
+                om, vv = [sp.S.Zero] * 3, [sp.S.Zero] * 3
             else:
                 om0, v0 = vel[e.parent]
                 om = _mtv(R, om0)
@@ -291,7 +291,7 @@ class Tree:
                 cor[i] = w.vec(_cross(om, sw)) + w.vec(_add(_cross(om, sv), _cross(vv, sw)))
             else:
                 om, vv = w.vec(om), w.vec(vv)
-                cor[i] = [ZERO] * 6
+                cor[i] = [sp.S.Zero] * 6
             vel[i] = (om, vv)
             if e.body is not None:
                 J, H, M = _zeros(), _zeros(), _zeros()
@@ -299,7 +299,7 @@ class Tree:
                     X = _skew(cc)
                     J = _madd(J, _msub(Ic, [[_mul(m, x) for x in row] for row in _mm(X, X)]))
                     H = _madd(H, [[_mul(m, x) for x in row] for row in X])
-                    M = _madd(M, [[m if a == b else ZERO for b in range(3)] for a in range(3)])
+                    M = _madd(M, [[m if a == b else sp.S.Zero for b in range(3)] for a in range(3)])
                 J, H = w.mat(J), w.mat(H)
                 hw = w.vec(_add(_mv(J, om), _mv(H, vv)))
                 hv = w.vec(_add(_mtv(H, om), _mv(M, vv)))
@@ -309,10 +309,10 @@ class Tree:
                 h[i] = hw + hv
             else:
                 IA[i] = [_zeros(), _zeros(), _zeros()]
-                pA[i] = [ZERO] * 6
-                h[i] = [ZERO] * 6
+                pA[i] = [sp.S.Zero] * 6
+                h[i] = [sp.S.Zero] * 6
         U, Dinv, u = [None] * N, [None] * N, [None] * N
-        momenta, pivots = [ZERO] * len(self.names), [ZERO] * len(self.names)
+        momenta, pivots = [sp.S.Zero] * len(self.names), [sp.S.Zero] * len(self.names)
         for i in reversed(range(N)):  # pass 2: in towards the ground
             e = self.elems[i]
             J, H, M = IA[i]
@@ -354,14 +354,14 @@ class Tree:
             pA[e.parent] = w.vec(_add(P1, [*_add(_mv(R, pa[:3]), _cross(r[i], fv)), *fv]))
             hv = _mv(R, h[i][3:])
             h[e.parent] = w.vec(_add(h[e.parent], [*_add(_mv(R, h[i][:3]), _cross(r[i], hv)), *hv]))
-        g = [ZERO] * 3
+        g = [sp.S.Zero] * 3
         for f in self.fields:
             g = _add(g, _pad(f, self.dim))
         acc: list = [None] * N
-        qdd = [ZERO] * len(self.names)
+        qdd = [sp.S.Zero] * len(self.names)
         for i, e in enumerate(self.elems):  # pass 3: out again
             if e.parent < 0:
-                aw, av = [ZERO] * 3, [-x for x in g]
+                aw, av = [sp.S.Zero] * 3, [-x for x in g]
             else:
                 aw, av = acc[e.parent]
             R = E[i]
@@ -381,8 +381,8 @@ class Tree:
         """``M⁻¹ τ``: the accelerations the generalized forces ``τ`` alone give the tree at rest, without gravity
         (passes 2 and 3 again, on the articulated inertias already there; Featherstone's §7.3 with ``v = 0``)."""
         N = len(self.elems)
-        pA: list = [[ZERO] * 6 for _ in range(N)]
-        u: list = [ZERO] * N
+        pA: list = [[sp.S.Zero] * 6 for _ in range(N)]
+        u: list = [sp.S.Zero] * N
         for i in reversed(range(N)):  # in: the bias of τ alone
             e = self.elems[i]
             pa = pA[i]
@@ -397,9 +397,9 @@ class Tree:
             fv = _mv(R, pa[3:])
             pA[e.parent] = w.vec(_add(pA[e.parent], [*_add(_mv(R, pa[:3]), _cross(r[i], fv)), *fv]))
         acc: list = [None] * N
-        qdd = [ZERO] * len(self.names)
+        qdd = [sp.S.Zero] * len(self.names)
         for i, e in enumerate(self.elems):  # out: from a ground at rest
-            aw, av = ([ZERO] * 3, [ZERO] * 3) if e.parent < 0 else acc[e.parent]
+            aw, av = ([sp.S.Zero] * 3, [sp.S.Zero] * 3) if e.parent < 0 else acc[e.parent]
             R = E[i]
             aw2, av2 = w.vec(_mtv(R, aw)), w.vec(_mtv(R, _sub(av, _cross(r[i], aw))))
             if S[i] is not None:

@@ -3,13 +3,14 @@ or in space, without slipping or, given a friction force ``F_c``, sliding agains
 
 from __future__ import annotations
 
-import sympy as sp
-
 from lagrangian import Component, Contribution, Example, Load, ModelError, Parameter
 from lagrangian.plugins.mechanics import STICK_SLIP, _check_phase, friction_contribution
 
 from .bodies import _BodyBase
 from .checks import _need_dim, lg_param_error
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 SHAPES = ("disc", "sphere")
 

@@ -4,13 +4,15 @@ turned into a rotation with its angular velocity)."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
-import sympy as sp
-
-from lagrangian import t
+from lagrangian.base.component import t
 from lagrangian.derive import trig
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass
@@ -45,7 +47,16 @@ def _rot3(axis: sp.Matrix, angle) -> sp.Matrix:
     return sp.eye(3) + sp.sin(angle) * k + (1 - sp.cos(angle)) * k * k
 
 
-E3 = [sp.Matrix([1, 0, 0]), sp.Matrix([0, 1, 0]), sp.Matrix([0, 0, 1])]
+@functools.cache
+def unit_vectors() -> tuple:
+    """The unit vectors of the axes x, y, z, as SymPy column matrices (``E3``)."""
+    return sp.Matrix([1, 0, 0]), sp.Matrix([0, 1, 0]), sp.Matrix([0, 0, 1])
+
+
+def __getattr__(name: str):
+    if name == "E3":  # the unit vectors, made when first asked for (SymPy imported then)
+        return list(unit_vectors())
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def product(A: sp.Matrix, B: sp.Matrix) -> sp.Matrix:
@@ -138,7 +149,7 @@ def _angle_descriptions(kind: str, name: str, sequence: str, names: list[str]) -
 def _euler(sequence: str, a, b, c):
     """Rotation ``R = R_1(a) R_2(b) R_3(c)`` (body-fixed rotations about the axes named by ``sequence``) and the
     angular velocity in the parent frame, ``e_1 ȧ + R_1 e_2 ḃ + R_1 R_2 e_3 ċ``."""
-    e1, e2, e3 = (E3["xyz".index(axis)] for axis in sequence)
+    e1, e2, e3 = (unit_vectors()["xyz".index(axis)] for axis in sequence)
     R1, R2, R3 = _rot3(e1, a), _rot3(e2, b), _rot3(e3, c)
     omega = e1 * a.diff(t) + R1 * e2 * b.diff(t) + R1 * R2 * e3 * c.diff(t)
     return R1 * R2 * R3, omega
@@ -147,6 +158,6 @@ def _euler(sequence: str, a, b, c):
 def _euler_body(sequence: str, a, b, c) -> sp.Matrix:
     """The angular velocity of :func:`_euler`'s rotation in the rotated (body) frame,
     ``Rᵀ ω = R_3ᵀ R_2ᵀ e_1 ȧ + R_3ᵀ e_2 ḃ + e_3 ċ``: each rate turned back only through the later rotations."""
-    e1, e2, e3 = (E3["xyz".index(axis)] for axis in sequence)
+    e1, e2, e3 = (unit_vectors()["xyz".index(axis)] for axis in sequence)
     R2, R3 = _rot3(e2, b), _rot3(e3, c)
     return R3.T * (R2.T * e1 * a.diff(t) + e2 * b.diff(t)) + e3 * c.diff(t)

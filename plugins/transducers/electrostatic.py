@@ -11,13 +11,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 import lagrangian as lg
-from lagrangian import ModelError, t
+from lagrangian import ModelError
+from lagrangian.base.component import t
 
 from .components import VariableCapacitor
 from .errors import GapClosedError, PullInError
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass(frozen=True)

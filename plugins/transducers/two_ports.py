@@ -3,11 +3,12 @@
 
 from __future__ import annotations
 
-import sympy as sp
-
 from lagrangian import GROUND, Component, Example
 
 from .components import Solenoid, VariableCapacitor
+from lagrangian.base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 class _TwoPort(Component):

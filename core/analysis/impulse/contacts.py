@@ -9,13 +9,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ...base.component import t
 from ...errors import ModelError, NumericalError, SingularMassMatrixError, UnknownNameError, closest
 from ...errors import ExpressionError
 from ...base.text import as_expr
+from ...base import deferred as _deferred
 
+sp = _deferred.module("sympy", globals())
 
 # -- errors ----------------------------------------------------------------------------------------
 

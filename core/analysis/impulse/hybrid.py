@@ -12,7 +12,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ...base.arguments import check_grid
 from ...base.component import t
@@ -24,7 +23,9 @@ from ...model import Model
 from ...plugin.contracts import resolve
 from .contacts import Contact, ContactError, ImpactError
 from .jump import _Setup, _solve_numeric
+from ...base import deferred as _deferred
 
+sp = _deferred.module("sympy", globals())
 
 # -- hybrid simulation -----------------------------------------------------------------------------
 

@@ -10,12 +10,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ...base.component import t
 from ...errors import UnknownNameError
 from ...base.text import as_expr
 from .contacts import Contact, ContactError, GrazingImpactError, Impulse, Lock, SingularImpactError, _as_vector, _check_names, _position
+from ...base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 def _applied(model, impulses) -> sp.Matrix:

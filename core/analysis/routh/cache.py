@@ -13,10 +13,10 @@ from collections import OrderedDict
 from collections.abc import Mapping
 from typing import Any
 
-import sympy as sp
-
 from ...derivation.calculus import Rewriter
+from ...base import deferred as _deferred
 
+sp = _deferred.module("sympy", globals())
 
 #: Reductions kept by structure (least recently used dropped first).
 CACHE_SIZE = 128

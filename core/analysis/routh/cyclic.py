@@ -11,11 +11,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import sympy as sp
-
 from ...base.identity import depends_on, is_zero
 from ...derivation.equations import Equations
 from ...model import Model
+from ...base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import sympy as sp
 
 from ...base.component import t
 from ...base.identity import equal, is_zero, nodes
@@ -21,6 +20,9 @@ from ...numerics.simulation import Result
 from .cache import _by_structure, _put
 from .cyclic import _depends, _named
 from .tidy import _tidy
+from ...base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass

@@ -13,8 +13,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import sympy as sp
-
 from ...base.budget import DEFAULT_SECONDS, BudgetExceeded, within
 from ...base.component import t
 from ...base.identity import equal, is_zero
@@ -30,6 +28,9 @@ from .cache import _by_structure, _put
 from .cyclic import _coupling, _named, ignorability
 from .steady import SteadyMotion, _numeric_roots, _solve
 from .tidy import _drop, _factors_vanishing, _terms, _tidy
+from ...base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 class ReducedModel(DerivedModel):

@@ -11,12 +11,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import sympy as sp
 
 from ...base.component import t
 from ...base import display
 from ...errors import ReductionError
 from .tidy import _tidy
+from ...base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass

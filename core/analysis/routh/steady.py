@@ -19,13 +19,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-import sympy as sp
 
 from ...base import display
 from ...base.identity import is_zero
 from ...errors import LagrangianError, ReductionError, UnknownNameError
 from ..linearize import linearize
 from .stability import Perturbation, Stability, _fmt, _off_singular
+from ...base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 
 @dataclass(repr=False)

@@ -12,12 +12,10 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 
-import sympy as sp
-from sympy.functions.elementary.hyperbolic import HyperbolicFunction
-from sympy.functions.elementary.trigonometric import TrigonometricFunction
-
 from ...base.budget import BudgetExceeded, interruptible
+from ...base import deferred as _deferred
 
+sp = _deferred.module("sympy", globals())
 
 #: Seconds one cosmetic simplification may take before the expression is kept as it is.
 TIDY_SECONDS = 2.0
@@ -55,7 +53,7 @@ def _simplified(expr: sp.Expr) -> sp.Expr:
     try:
         out = sp.cancel(sp.together(expr.xreplace(floats)))
         # the identities pay off on small expressions with trigonometric functions, and cost seconds on large ones
-        if sp.count_ops(out) <= 80 and out.has(TrigonometricFunction, HyperbolicFunction):
+        if sp.count_ops(out) <= 80 and out.has(sp.functions.elementary.trigonometric.TrigonometricFunction, sp.functions.elementary.hyperbolic.HyperbolicFunction):
             out = _squares_to_one(out)
     except (sp.PolynomialError, TypeError, ValueError):  # pragma: no cover - sympy corner cases
         return expr

@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import sympy as sp
 
 from ...base.arguments import check_grid, check_positive, check_span
 from ...base.component import _CHECKS, LARGEST, t
@@ -32,6 +31,9 @@ from ...numerics.problem import Problem
 from ...numerics.simulation import InitialConditionWarning, initial_state
 from ..channels import _BRANCH, _PRIMES, _output_expr, _unit
 from .designs import Samples
+from ...base import deferred as _deferred
+
+sp = _deferred.module("sympy", globals())
 
 __all__ = ["Plan", "plan", "ENERGIES"]
 

@@ -17,8 +17,6 @@ formulation) and declares each kind the analogue of the other.
 0.125*x_p(t)**4 + x_p(t)**2/2
 """
 
-import sympy as sp
-
 from lagrangian import Component, Contribution, Example, ModelError, Parameter, dot, hookimpl
 from lagrangian.analogy import Element
 
@@ -42,7 +40,7 @@ class CubicSpring(Component):
 
     @classmethod
     def example(cls) -> Example:
-        return Example(("ground", "p"), {"k": 1, "k3": sp.Rational(1, 2)}, context=[("mass", "m", "p", {"m": 1})])
+        return Example(("ground", "p"), {"k": 1, "k3": 0.5}, context=[("mass", "m", "p", {"m": 1})])
 
 
 class CubicCapacitor(Component):
@@ -64,7 +62,7 @@ class CubicCapacitor(Component):
 
     @classmethod
     def example(cls) -> Example:
-        return Example(("n1", "0"), {"C": 1, "k3": sp.Rational(1, 2)}, context=[("inductor", "L", ("n1", "0"), {"L": 1})])
+        return Example(("n1", "0"), {"C": 1, "k3": 0.5}, context=[("inductor", "L", ("n1", "0"), {"L": 1})])
 
 
 @hookimpl
