@@ -81,7 +81,7 @@ def _chosen(model: Model, inputs: Sequence[str] | str | None) -> dict[str, tuple
         name, pname, index = spec.group(1), spec.group(2) or "", spec.group(3)
         comp = model.component(name)
         pname = pname or _signal_of(comp)
-        if pname is not None and comp.params.get(pname) is None:
+        if pname is not None and comp.params.raw(pname) is None:
             raise ModelError(f"{comp.kind} {name!r} has no value for {pname!r} to drive (a free joint): give it one "
                              f"(0 for a joint held at its reference) to make it an input.")
         if pname is None:

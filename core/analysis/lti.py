@@ -46,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from ..base.waveforms import Waveform
 from ..base.component import _CallableSignal, t
 from ..derivation.numeric import NumericAssembly, assemble_numeric
 from ..derivation.stamps import NotStampable, stamps
@@ -191,7 +192,7 @@ def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
             pname = _signal_of(comp)
             if pname is None:
                 raise NotStampable(f"{comp.kind} {cname!r} has a force but no one signal")
-            signal[cname] = _at(comp.params[pname], time)
+            signal[cname] = _at(comp.params.raw(pname), time)
             b0 += force * signal[cname]
         if asm.loads is not None:  # constant loads (gravity, rest lengths) move the rest point
             b0 += asm.loads
@@ -220,7 +221,11 @@ def _at(value: Any, time: float) -> float:
     """A signal's value at ``t₀`` as a float, or :class:`NotStampable` (a Python callable, a symbol)."""
     if isinstance(value, _CallableSignal):
         raise NotStampable("a signal given as a Python callable")
-    if isinstance(value, sp.Basic) and value.has(t):
+    if type(value) in (int, float):  # held as given (lagrangian.base.params)
+        value = float(value)
+    elif isinstance(value, Waveform):
+        value = float(value(np.array([time]))[0])
+    elif isinstance(value, sp.Basic) and value.has(t):
         value = value.xreplace({t: sp.Float(time)})
     try:
         out = float(value)

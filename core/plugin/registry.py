@@ -37,7 +37,12 @@ ENTRY_POINT_GROUP = "lagrangian"
 
 @dataclass
 class PluginInfo:
-    """One loaded plugin: its name, the distribution that installed it, and what it provides."""
+    """One loaded plugin: its name, the distribution that installed it, and what it provides.
+
+    A plugin of the entry-point group names its distribution (``dist``): its name and version are read from the
+    distribution's metadata when first asked for (parsing a distribution's metadata, its long description
+    included, took half the time of building the registry).
+    """
 
     name: str
     distribution: str | None = None
@@ -46,6 +51,28 @@ class PluginInfo:
     domains: list[str] = field(default_factory=list)
     integrators: list[str] = field(default_factory=list)
     benchmarks: list[str] = field(default_factory=list)
+    dist: Any = field(default=None, repr=False, compare=False)
+
+    def __getattribute__(self, attr: str) -> Any:
+        if attr in ("distribution", "version"):
+            value = object.__getattribute__(self, attr)
+            dist = object.__getattribute__(self, "dist")
+            if value is None and dist is not None:
+                value = _dist_fields(dist)[0 if attr == "distribution" else 1]
+                object.__setattr__(self, attr, value)
+            return value
+        return object.__getattribute__(self, attr)
+
+    @property
+    def installed(self) -> bool:
+        """Whether a distribution installed the plugin (it came from the entry-point group)."""
+        return self.dist is not None or object.__getattribute__(self, "distribution") is not None
+
+
+def _dist_fields(dist: Any) -> tuple[str, str]:
+    """A distribution's name and version, from its metadata."""
+    meta = dist.metadata
+    return meta["Name"], meta["Version"]
 
 
 class Registry:
@@ -78,7 +105,7 @@ class Registry:
         if entry_points:
             for ep in sorted(metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name):
                 dist = getattr(ep, "dist", None)
-                info = PluginInfo(ep.name, dist.name if dist else None, dist.version if dist else None)
+                info = PluginInfo(ep.name, dist=dist)
                 try:
                     module = ep.load()
                 except Exception as exc:  # any import failure is the plugin's
@@ -101,7 +128,7 @@ class Registry:
         and by value under cloudpickle; else pickling refuses with a :class:`~lagrangian.errors.ModelError`
         naming it.  Unpickling checks that every plugin of the entry-point group it was built with is installed
         (a :class:`~lagrangian.errors.PluginError` naming the one that is not)."""
-        loaded = sorted(n for n, info in self.info.items() if info.distribution is not None and n not in self._given)
+        loaded = sorted(n for n, info in self.info.items() if info.installed and n not in self._given)
         given = {name: _plugin_reference(name, plugin) for name, plugin in self._given.items()}
         return _unpickled_registry, (given, self._entry_points, loaded)
 
