@@ -24,7 +24,9 @@ integration are all timed, with no warm caches): the full model simulated
 with DOP853 at rtol = tol, and the scene (plan + run + outputs).  Times are
 given with the import (the wall time of the process's work) and after it
 (what the scene changes: the CPU time of the work, the least of the runs,
-which a busy machine disturbs less than wall time).  The scene's report (the whole model's sizes among
+which a busy machine disturbs less than wall time).  The import is that of
+the libraries either path needs (SymPy, SciPy, networkx, mpmath: the
+package itself imports them on first use) and of ``lagrangian.scene``.  The scene's report (the whole model's sizes among
 it) is read after the timing: a scene pruned by its component graph derives
 the whole model only for it.  Scenes weigh a Routhian reduction against
 integrating the part as it is (``Scene(reduce="auto")``) and report why.  The error
@@ -137,9 +139,12 @@ def build(name: str):
 def one(name: str, which: str, tol: float) -> dict:
     """One timed run in this (fresh) process; returns its outputs, wall time and the CPU time of the work."""
     start = time.perf_counter()
-    import scipy.integrate  # noqa: F401 - what either path imports when it first needs it: part of the import
+    import mpmath  # noqa: F401 - what either path imports when it first needs it: part of the import (the package
+    import networkx  # noqa: F401 - imports SymPy, networkx and mpmath on first use: lagrangian.base.deferred)
+    import scipy.integrate  # noqa: F401
     import scipy.linalg  # noqa: F401
     import scipy.sparse  # noqa: F401
+    import sympy  # noqa: F401
 
     from lagrangian.scene import Scene
 

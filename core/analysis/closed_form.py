@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ..base.component import t
 from ..errors import ModelError
-from .linearize import s
 from ..base import deferred as _deferred
 
 sp = _deferred.module("sympy", globals())
+_s = _deferred.symbol("s")  # the Laplace variable (lagrangian.linearize.s)
 
-__all__ = ["CLOSED_DEGREE", "closed_roots", "inverse_laplace"]
+__all__ = ["CLOSED_DEGREE", "cancel_pairs", "closed_roots", "inverse_laplace", "polynomial_roots", "sorted_roots"]
 
 #: Highest degree of a symbolic numerator or denominator whose roots :meth:`TransferFunction.poles` gives in closed
 #: form (the quartic's formula; beyond, none in radicals in general, Abel–Ruffini).
@@ -29,11 +31,11 @@ def closed_roots(poly: sp.Expr, what: str) -> list:
     (``s²`` and a quadratic are found as such at any degree), each factor up to :data:`CLOSED_DEGREE`; ``what``
     names them in a refusal ("the poles of …").
 
-    >>> a = sp.Symbol("a", positive=True)
+    >>> a, s = sp.Symbol("a", positive=True), sp.Symbol("s")
     >>> closed_roots(s**3 + a * s, "the roots")
     [0, -I*sqrt(a), I*sqrt(a)]
     """
-    p = sp.Poly(poly, s)
+    p = sp.Poly(poly, _s)
     out: list = []
     for factor, multiplicity in sp.factor_list(p)[1]:
         degree = factor.degree()
@@ -63,25 +65,25 @@ def inverse_laplace(F: sp.Expr, what: str) -> sp.Expr:
     complex pair is written as ``e^(a t) (α cos b t + β sin b t)``; with symbols the terms are left as SymPy gives
     them (``sp.simplify`` or ``sp.expand_complex`` rewrite them).  ``what`` names the function in a refusal.
 
-    >>> a = sp.Symbol("a", positive=True)
+    >>> a, s = sp.Symbol("a", positive=True), sp.Symbol("s")
     >>> inverse_laplace(1 / (s * (s + a)), "f")
     1/a - exp(-a*t)/a
     """
     num, den = sp.fraction(sp.cancel(sp.together(F)))
-    q, r = sp.div(sp.Poly(num, s), sp.Poly(den, s))
+    q, r = sp.div(sp.Poly(num, _s), sp.Poly(den, _s))
     out = sp.Add(*[c * (sp.DiracDelta(t, k) if k else sp.DiracDelta(t)) for (k,), c in q.terms() if c != 0])
-    den_poly = sp.Poly(den, s)
-    numeric = not (num.free_symbols | den.free_symbols) - {s}
+    den_poly = sp.Poly(den, _s)
+    numeric = not (num.free_symbols | den.free_symbols) - {_s}
     lc = den_poly.LC()
     roots: dict = {}
     for root in closed_roots(den, f"the poles of {what}"):
         roots[root] = roots.get(root, 0) + 1
     terms = []
     for p, m in roots.items():
-        others = sp.Mul(*[(s - pj) ** mj for pj, mj in roots.items() if pj != p])
+        others = sp.Mul(*[(_s - pj) ** mj for pj, mj in roots.items() if pj != p])
         G = r.as_expr() / (lc * others)
         for j in range(m):
-            c = sp.diff(G, s, j).subs(s, p) / math.factorial(j)
+            c = sp.diff(G, _s, j).subs(_s, p) / math.factorial(j)
             if not numeric and sp.count_ops(c) <= SIMPLIFY_OPS:
                 c = sp.simplify(c)
             terms.append((c, p, m - 1 - j))
@@ -106,3 +108,32 @@ def _real_terms(terms: list) -> sp.Expr:
             out += 2 * power * sp.exp(sp.Float(p.real) * t) * (sp.Float(c.real) * sp.cos(sp.Float(p.imag) * t)
                                                             - sp.Float(c.imag) * sp.sin(sp.Float(p.imag) * t))
     return out
+
+
+def cancel_pairs(zeros: np.ndarray, poles: np.ndarray, w0: float, tol: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
+    """Zeros and poles with the pairs that coincide (within ``tol`` of ``w0`` or of their size) removed: modes the
+    input does not reach or the output does not see."""
+    zeros, poles = list(zeros), list(poles)
+    for z in list(zeros):
+        near = [i for i, p in enumerate(poles) if abs(p - z) <= tol * max(w0, abs(z))]
+        if near:
+            poles.pop(near[0])
+            zeros.remove(z)
+    return np.array(zeros, dtype=complex), np.array(poles, dtype=complex)
+
+
+def polynomial_roots(expr: sp.Expr) -> np.ndarray:
+    """The roots of a polynomial in :data:`s` with number coefficients; a factor ``s^k`` gives ``k`` exact zeros."""
+    coeffs = [complex(c) for c in sp.Poly(expr, _s).all_coeffs()]
+    k = 0
+    while len(coeffs) > 1 and coeffs[-1] == 0:  # exact zeros: the coefficients come from exact arithmetic
+        coeffs.pop()
+        k += 1
+    roots = np.roots(coeffs) if len(coeffs) > 1 else np.zeros(0, dtype=complex)
+    return np.concatenate([roots.astype(complex), np.zeros(k, dtype=complex)])
+
+
+def sorted_roots(roots: np.ndarray) -> np.ndarray:
+    """Roots by size, then imaginary part; those real to rounding made real."""
+    roots = np.where(np.abs(roots.imag) <= 1e-12 * np.abs(roots), roots.real + 0j, roots)
+    return roots[np.lexsort((roots.imag, np.abs(roots)))]

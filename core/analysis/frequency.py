@@ -57,8 +57,8 @@ from ..base.limits import refuse
 from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from . import control as _control
-from .linearize import LinearModel, linearize, s
-from .closed_form import closed_roots, inverse_laplace
+from .linearize import LinearModel, linearize
+from .closed_form import cancel_pairs, closed_roots, inverse_laplace, polynomial_roots, sorted_roots
 from .interactive import interact
 from .laplace import FLOOR, _respond, _solve
 from .locus import RootLocus, pole_zero_map, root_locus
@@ -68,6 +68,7 @@ from .speeds import SpeedSweep, speed_sweep
 from ..base import deferred as _deferred
 
 sp = _deferred.module("sympy", globals())
+_s = _deferred.symbol("s")  # the Laplace variable (lagrangian.linearize.s)
 
 __all__ = ["FrequencyResponse", "Modes", "RootLocus", "SpeedSweep", "TransferFunction", "decades",
            "frequency_response", "impedance", "interact", "linearize", "modes", "pole_zero_map", "root_locus", "s",
@@ -246,9 +247,9 @@ class TransferFunction:
                              f"{SYMBOLIC_MAX}; give the parameters values (params=) for a numeric one.")
         if not lin.symbolic:  # the floats' exact binary values: what cancels, cancels exactly
             lin = _rational(lin)
-        P, rhs = lin.pencil(s)
+        P, rhs = lin.pencil(_s)
         X = sp.Matrix(P).LUsolve(sp.Matrix(rhs))
-        Cq, D = lin.output_rows(s)
+        Cq, D = lin.output_rows(_s)
         n = len(lin.coordinates)
         H = sp.cancel(sp.together((sp.Matrix(Cq) * X[:n, :] + sp.Matrix(D))[0, 0]))
         if self.inverse:
@@ -256,10 +257,10 @@ class TransferFunction:
         if self.linear.symbolic:
             return sp.factor(H)
         num, den = sp.fraction(H)
-        num, den = sp.Poly(num, s), sp.Poly(den, s)
+        num, den = sp.Poly(num, _s), sp.Poly(den, _s)
         lead = den.LC()
-        return (sp.Poly([sp.Float(c / lead) for c in num.all_coeffs()], s).as_expr()
-                / sp.Poly([sp.Float(c / lead) for c in den.all_coeffs()], s).as_expr())
+        return (sp.Poly([sp.Float(c / lead) for c in num.all_coeffs()], _s).as_expr()
+                / sp.Poly([sp.Float(c / lead) for c in den.all_coeffs()], _s).as_expr())
 
     def _from_roots(self) -> sp.Expr:
         z, p = self._roots()
@@ -271,7 +272,7 @@ class TransferFunction:
             gain = gain.real
         num = np.real_if_close(np.poly(z) * gain, tol=1e6) if len(z) else np.array([gain])
         den = np.real_if_close(np.poly(p), tol=1e6) if len(p) else np.array([1.0])
-        poly = (lambda c: sum(sp.Float(x) * s ** (len(c) - 1 - i) if np.isreal(x) else sp.sympify(complex(x)) * s ** (len(c) - 1 - i)
+        poly = (lambda c: sum(sp.Float(x) * _s ** (len(c) - 1 - i) if np.isreal(x) else sp.sympify(complex(x)) * _s ** (len(c) - 1 - i)
                               for i, x in enumerate(c)))
         return poly(np.atleast_1d(num)) / poly(np.atleast_1d(den))
 
@@ -284,7 +285,7 @@ class TransferFunction:
             raise ModelError(f"the gain of {self!r} is read off its rational function, solved up to {SYMBOLIC_MAX} "
                              f"unknowns (this model has {self.linear.size}): use dc_gain, or poles() and zeros().")
         num, den = sp.fraction(self.expr)
-        k = sp.cancel(sp.Poly(num, s).LC() / sp.Poly(den, s).LC())
+        k = sp.cancel(sp.Poly(num, _s).LC() / sp.Poly(den, _s).LC())
         return k if self.linear.symbolic else float(k) if k.is_real else complex(k)
 
     def poles(self) -> np.ndarray | list:
@@ -316,11 +317,11 @@ class TransferFunction:
         _numeric(lin, "poles and zeros")
         if lin.size <= SYMBOLIC_MAX:
             num, den = sp.fraction(self.expr)
-            return _sorted(_poly_roots(num)), _sorted(_poly_roots(den))
+            return sorted_roots(polynomial_roots(num)), sorted_roots(polynomial_roots(den))
         w0 = _scale(lin)
         z = _eigenvalues(_descriptor(lin, with_io=True), w0)
         p = _eigenvalues(_descriptor(lin, with_io=False), w0)
-        z, p = _cancel(z, p, w0)
+        z, p = cancel_pairs(z, p, w0)
         return (p, z) if self.inverse else (z, p)
 
     def step_response(self) -> sp.Expr:
@@ -337,7 +338,7 @@ class TransferFunction:
         >>> transfer_function(m, "V1", "v(C1)").step_response()
         1.0 - 1.0*exp(-1.0*t)
         """
-        return inverse_laplace(self._rational_expr("step_response") / s, f"the step response of {self!r}")
+        return inverse_laplace(self._rational_expr("step_response") / _s, f"the step response of {self!r}")
 
     def impulse_response(self) -> sp.Expr:
         """The response to a unit impulse at ``t = 0`` from rest, in closed form (as :meth:`step_response`, of
@@ -355,12 +356,12 @@ class TransferFunction:
     def dc_gain(self) -> float | complex:
         """``H(0)``; ``inf`` where a pole sits at ``s = 0`` (a free mass, a capacitor with no path to ground)."""
         if self.linear.symbolic:
-            return sp.limit(self.expr, s, 0)
+            return sp.limit(self.expr, _s, 0)
         if self.linear.size <= SYMBOLIC_MAX:
             num, den = sp.fraction(self.expr)
-            n0, d0 = complex(num.subs(s, 0)), complex(den.subs(s, 0))
+            n0, d0 = complex(num.subs(_s, 0)), complex(den.subs(_s, 0))
             if d0 == 0:  # an exact zero of the denominator (the coefficients are exact up to this point)
-                return math.inf if n0 != 0 else float(sp.limit(self.expr, s, 0))
+                return math.inf if n0 != 0 else float(sp.limit(self.expr, _s, 0))
             value = n0 / d0
             return value.real if abs(value.imag) <= 1e-12 * abs(value) else value
         with np.errstate(all="ignore"):
@@ -441,34 +442,6 @@ def impedance(system: Model, source: str, **kwargs: Any) -> TransferFunction:
         lin = linearize(system, inputs=[source], outputs=[f"x_{node}'"], **kwargs)
         return TransferFunction(lin, lin.inputs[0], lin.outputs[0], inverse=True)
     raise ModelError(f"impedance takes a voltage source, a current source or a force; {source!r} is a {comp.kind}.")
-
-
-def _cancel(zeros: np.ndarray, poles: np.ndarray, w0: float, tol: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
-    """Zeros and poles with the pairs that coincide (within ``tol`` of ``w0`` or of their size) removed: modes the
-    input does not reach or the output does not see."""
-    zeros, poles = list(zeros), list(poles)
-    for z in list(zeros):
-        near = [i for i, p in enumerate(poles) if abs(p - z) <= tol * max(w0, abs(z))]
-        if near:
-            poles.pop(near[0])
-            zeros.remove(z)
-    return np.array(zeros, dtype=complex), np.array(poles, dtype=complex)
-
-
-def _poly_roots(expr: sp.Expr) -> np.ndarray:
-    """The roots of a polynomial in :data:`s` with number coefficients; a factor ``s^k`` gives ``k`` exact zeros."""
-    coeffs = [complex(c) for c in sp.Poly(expr, s).all_coeffs()]
-    k = 0
-    while len(coeffs) > 1 and coeffs[-1] == 0:  # exact zeros: the coefficients come from exact arithmetic
-        coeffs.pop()
-        k += 1
-    roots = np.roots(coeffs) if len(coeffs) > 1 else np.zeros(0, dtype=complex)
-    return np.concatenate([roots.astype(complex), np.zeros(k, dtype=complex)])
-
-
-def _sorted(roots: np.ndarray) -> np.ndarray:
-    roots = np.where(np.abs(roots.imag) <= 1e-12 * np.abs(roots), roots.real + 0j, roots)
-    return roots[np.lexsort((roots.imag, np.abs(roots)))]
 
 
 def _rational(lin: LinearModel) -> LinearModel:
@@ -798,3 +771,9 @@ def _frequencies(frequencies: Any) -> np.ndarray:
         bad = f[~(np.isfinite(f) & (f >= 0))][0]
         raise ModelError(f"frequencies must be finite and ≥ 0 Hz, got {bad!r} in {shown}: {fix}.")
     return f
+
+
+def __getattr__(name: str):
+    if name == "s":  # the Laplace variable, SymPy's symbol (imported when first asked for)
+        return sp.Symbol("s")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

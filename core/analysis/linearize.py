@@ -62,8 +62,11 @@ sp = _deferred.module("sympy", globals())
 
 __all__ = ["LinearModel", "linearize", "s"]
 
-#: The Laplace variable of transfer functions.
-s = _deferred.symbol("s")
+
+def __getattr__(name: str):
+    if name == "s":  # the Laplace variable of transfer functions, SymPy's symbol (imported when first asked for)
+        return sp.Symbol("s")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass

@@ -546,6 +546,11 @@ class Component:
                 refuse_unpicklable(value.func, f"component {self.name!r}: parameter {pname!r}")
         return self.__dict__
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        if type(self.__dict__.get("params")) is dict:  # pickled before values were held as given
+            self.params = Params(self.params)
+
     def _stand(self) -> None:
         """Make the symbols standing for the parameters given as numbers (:attr:`values`), on first use: a model
         assembled in numbers (:mod:`lagrangian.derivation.numeric`) never needs them, and they are a third of the
