@@ -110,3 +110,38 @@ def test_eager_import_loads_every_public_name_at_once():
     code = ("import sys, lagrangian\nprint(all(f'lagrangian.{m}' in sys.modules for m in ('model', 'base.component', "
             "'analysis.fitting', 'numerics.simulation', 'plugin.registry')))")
     assert fresh(code, env={**os.environ, "EAGER_IMPORT": "1"}).strip() == "True"
+
+
+SYMBOLIC_WORK = """
+import json, sys
+{first}
+import numpy as np
+import lagrangian as lg
+m = lg.Model("driven")
+m.add("mass", "m1", "p", m=0.3)
+m.add("spring", "k1", ("ground", "p"), k=40.0)
+m.add("damper", "c1", ("ground", "p"), c=0.2)
+m.add("force", "F", "p", F="1.5*sin(7*t)")
+res = m.simulate(2.0, initial={{"x_p": 0.01}}, velocity={{"x_p": 0.0}}, points=5, rtol=1e-10, atol=1e-13)
+exact = lg.linear.simulate_exact(m, 2.0, initial={{"x_p": 0.01}}, velocity={{"x_p": 0.0}}, points=5)
+tf = lg.frequency.transfer_function(m, "F", "x_p")
+x = m.coordinates[0].function
+print(json.dumps({{"x": res["x_p"].tolist(), "exact": exact["x_p"].tolist(), "power": float(res.quantity(
+    40.0 * x ** 2 / 2)[-1]), "eq": str(m.equations[0]), "latex": m.latex()[:60], "tf": str(tf.expr),
+    "dc": complex(tf.dc_gain).real, "t": type(lg.t).__name__, "s": type(lg.frequency.s).__name__}}))
+"""
+
+
+@pytest.mark.slow
+def test_symbolic_work_begun_without_sympy_is_the_same_as_with_it():
+    # the package's modules hold stand-ins for SymPy and its symbols until SymPy is first used
+    # (lagrangian.base.deferred): a process that imports SymPy first and one that never does give the same equations,
+    # LaTeX, transfer function and runs; the run agrees with the exact solution, and the DC gain is 1/k
+    import json
+
+    cold = json.loads(fresh(SYMBOLIC_WORK.format(first="")).strip().splitlines()[-1])
+    warm = json.loads(fresh(SYMBOLIC_WORK.format(first="import sympy")).strip().splitlines()[-1])
+    assert cold == warm
+    assert cold["t"] == cold["s"] == "Symbol"
+    assert max(abs(a - b) for a, b in zip(cold["x"], cold["exact"])) < 1e-8 * 0.05
+    assert cold["dc"] == pytest.approx(1 / 40.0, rel=1e-12)
