@@ -145,3 +145,20 @@ def test_symbolic_work_begun_without_sympy_is_the_same_as_with_it():
     assert cold["t"] == cold["s"] == "Symbol"
     assert max(abs(a - b) for a, b in zip(cold["x"], cold["exact"])) < 1e-8 * 0.05
     assert cold["dc"] == pytest.approx(1 / 40.0, rel=1e-12)
+
+
+def test_registering_the_plugins_and_adding_numbers_load_no_heavy_library_but_numpy():
+    # every installed plugin (the example third-party one included) registers, and a model of plain numbers is
+    # built, without SymPy, SciPy, networkx, mpmath, matplotlib, pint, Dask, PySpice, pandas or xarray
+    code = (
+        "import sys, lagrangian as lg\n"
+        "registry = lg.default_registry()\n"
+        "m = lg.Model('rlc')\n"
+        "m.add('voltage_source', 'V1', ('in', '0'), E=1.5)\n"
+        "m.add('resistor', 'R1', ('in', 'a'), R=220.0)\n"
+        "m.add('inductor', 'L1', ('a', 'b'), L=7e-3)\n"
+        "m.add('capacitor', 'C1', ('b', '0'), C=2.2e-6)\n"
+        f"print(len(registry.kinds), sorted({{m.split('.')[0] for m in sys.modules}} & set({HEAVY!r}) - {{'numpy'}}))\n"
+    )
+    kinds, loaded = fresh(code).strip().splitlines()[-1].split(" ", 1)
+    assert int(kinds) > 40 and loaded == "[]"
