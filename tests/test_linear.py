@@ -827,3 +827,24 @@ def test_a_ladder_of_many_states_on_a_long_uniform_grid_is_exact(seed, amplitude
     for k in (0, 35, 69):  # q_Lk: the charge through inductor k; capacitor k holds q_Lk − q_L(k+1)
         charge = res[f"q_L{k}"] - (res[f"q_L{k + 1}"] if k + 1 < len(values) else 0.0)
         assert max_err(charge / values[k][2], reference[k]) < EXACT_TOL * scale
+
+
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(1, 6), scale=st.floats(-3, 2.7), stable=st.booleans(), seed=st.integers(0, 2**16))
+def test_our_matrix_exponential_errs_no_more_than_scipys_against_forty_digits(n, scale, stable, seed):
+    # lagrangian.numerics.propagation.expm (NumPy; what the dense exact solution uses) and scipy.linalg.expm, each
+    # against mpmath's exponential at 40 digits: ours within 4× SciPy's error, plus a few ulps of the norm
+    import mpmath as mp
+
+    from lagrangian.numerics.propagation import expm
+
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n, n)) * 10**scale
+    if stable:  # a damped system's: eigenvalues in the left half-plane
+        A -= (np.abs(A).sum(axis=1).max() + 10**scale) * np.eye(n)
+    with mp.workdps(40):
+        exact = np.array(mp.expm(mp.matrix(A.tolist())).tolist(), dtype=float)
+    norm = np.linalg.norm(exact, 1)
+    ours = np.linalg.norm(expm(A) - exact, 1) / norm
+    theirs = np.linalg.norm(scipy.linalg.expm(A) - exact, 1) / norm
+    assert ours <= 4 * theirs + 8 * np.finfo(float).eps

@@ -98,13 +98,13 @@ def test_a_netlists_source_solved_in_numbers_is_its_expression_solved_by_sympy(s
 
 
 @pytest.mark.slow
-def test_a_netlist_run_in_numbers_imports_no_sympy_and_is_the_closed_form(tmp_path):
+def test_a_netlist_run_in_numbers_imports_neither_sympy_nor_scipy_and_is_the_closed_form(tmp_path):
     # a fresh process: the RC low-pass under VA sin(ωt) from rest, v(t) = VA/(1+(ωτ)²) (sin ωt − ωτ cos ωt + ωτ e^(−t/τ))
     deck, out = tmp_path / "rc.cir", tmp_path / "v.csv"
     deck.write_text("rc\nV1 in 0 SIN(0 1.7 60)\nR1 in a 2.2k\nC1 a 0 4.7u\n.tran 0.1m 40m\n.end\n")
     code = ("import sys\nfrom lagrangian.cli import main\n"
             f"status = main(['simulate', {str(deck)!r}, '--output', 'v(a)', '--out', {str(out)!r}])\n"
-            "print(status, sorted(m for m in ('sympy', 'mpmath', 'matplotlib') if m in sys.modules))\n")
+            "print(status, sorted(m for m in ('sympy', 'mpmath', 'matplotlib', 'scipy') if m in sys.modules))\n")
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.stdout.strip().splitlines()[-1] == "0 []", run.stdout + run.stderr
     table = np.loadtxt(out, delimiter=",", skiprows=1)
