@@ -142,6 +142,7 @@ class ElectricalDomain(Domain):
     """Lumped circuits, in loop charges or node flux linkages."""
 
     name = "electrical"
+    light_incidence = True  # its incidence reads nodes and edges only: no networkx for a circuit in numbers
     options = {
         "formulation": Option(
             "charge", "circuit coordinates: loop charges or node flux linkages", choices=("charge", "flux")

@@ -34,7 +34,6 @@ from ..errors import ModelError, UnknownNameError
 from ..model import Model
 from ..base import deferred as _deferred
 
-nx = _deferred.module("networkx", globals())
 sp = _deferred.module("sympy", globals())
 
 _BRANCH = re.compile(r"^\s*([A-Za-z]\w*)\s*\(\s*([^()\s]+)\s*\)\s*$")
@@ -323,31 +322,44 @@ def _node_voltage(model: Model, node: str) -> sp.Expr:
     return total
 
 
-def _voltage_graph(model: Model) -> nx.Graph:
-    """The graph of the two-terminal elements that name their voltage (what :func:`_voltage_path` walks)."""
-    graph = nx.Graph()
+def _voltage_graph(model: Model) -> dict:
+    """The two-terminal elements that name their voltage (what :func:`_voltage_path` walks), as adjacency: node →
+    {neighbour: element} (the last element added between two nodes)."""
+    graph: dict = {}
     for comp in model.components.values():
         if len(comp.nodes) == 2 and "v" in comp.quantities:
             a, b = comp.nodes
-            graph.add_edge(a, b, component=comp)
+            graph.setdefault(a, {})[b] = comp
+            graph.setdefault(b, {})[a] = comp
     return graph
 
 
-def _voltage_path(model: Model, node: str, graph: nx.Graph | None = None) -> list[tuple[Any, int]]:
-    """The two-terminal elements that name their voltage along a path from ``node`` to ground, each with the sign
-    of the direction walked (+1 from its ``a`` to its ``b``); ``graph``: :func:`_voltage_graph`, when made
+def _voltage_path(model: Model, node: str, graph: dict | None = None) -> list[tuple[Any, int]]:
+    """The two-terminal elements that name their voltage along a shortest path from ``node`` to ground, each with
+    the sign of the direction walked (+1 from its ``a`` to its ``b``); ``graph``: :func:`_voltage_graph`, when made
     already."""
     graph = _voltage_graph(model) if graph is None else graph
-    try:
-        path = nx.shortest_path(graph, node, GROUND) if node in graph and GROUND in graph else None
-    except nx.NetworkXNoPath:
-        path = None
+    path = None
+    if node in graph and GROUND in graph:  # breadth first from the node
+        came = {node: None}
+        queue = [node]
+        for here in queue:
+            if here == GROUND:
+                path = [here]
+                while came[path[-1]] is not None:
+                    path.append(came[path[-1]])
+                path.reverse()
+                break
+            for other in graph[here]:
+                if other not in came:
+                    came[other] = here
+                    queue.append(other)
     if path is None:
         raise ModelError(f"node {node!r} has no path of circuit elements to ground, so it has no voltage to report; "
                          f"give a voltage across an element, 'v(<element>)'.")
     out = []
     for a, b in zip(path, path[1:]):
-        comp = graph.edges[a, b]["component"]
+        comp = graph[a][b]
         out.append((comp, 1 if comp.nodes == (a, b) else -1))
     return out
 

@@ -274,6 +274,10 @@ class Domain:
 
     name: ClassVar[str]
     options: ClassVar[Mapping[str, Option]] = {}
+    #: Whether :meth:`incidence` reads of ``network.graph`` only its ``nodes`` and ``edges(keys=, data=)`` (and the
+    #: algorithms of :mod:`lagrangian.base.network`): then a model solved in numbers gives it a
+    #: :class:`lagrangian.base.network.Multigraph`, and networkx is not imported.
+    light_incidence: ClassVar[bool] = False
 
     def build(self, network: Network, options: Mapping[str, Any]) -> DomainView:  # pragma: no cover
         raise NotImplementedError

@@ -14,6 +14,7 @@ from typing import Any
 
 
 from .component import GROUND, GROUND_ALIASES, Component
+from .network import Multigraph
 from ..errors import DanglingNodeError, DomainError, DuplicateNameError, ModelError, TopologyError, UnknownNodeError
 from . import deferred as _deferred
 
@@ -141,14 +142,15 @@ class ComponentGraph:
             )
         return {n: d for n, (d, _) in domains.items()}
 
-    def graph(self, components: Iterable[Component] | None = None, domain: str | None = None) -> nx.MultiGraph:
+    def graph(self, components: Iterable[Component] | None = None, domain: str | None = None, *,
+              light: bool = False) -> nx.MultiGraph:
         """A ``MultiGraph`` of the given components' branches (all components by default).
 
         Edges are keyed by component name (``name#i`` for a component's
         branch ``i > 0``).  With ``domain``, only nodes and branches of that
-        domain are included.
+        domain are included.  ``light``: a :class:`lagrangian.base.network.Multigraph` (no networkx).
         """
-        g = nx.MultiGraph()
+        g = Multigraph() if light else nx.MultiGraph()
         g.add_node(GROUND)
         for comp in self.components.values() if components is None else components:
             if domain is None:  # every node and branch

@@ -210,19 +210,20 @@ def _branches(model: Any) -> tuple[list[str], dict[str, dict[int, float]]]:
     if not components:
         raise NotStampable("the model has no components")
     graph.node_domains()
-    whole = graph.graph()
+    domains = list(dict.fromkeys(d for c in components for d in c.domains))
+    light = all(getattr(registry.domains.get(d), "light_incidence", False) for d in domains)  # no networkx
+    whole = graph.graph(light=light)
     roles = {k: d["component"].role for _, _, k, d in whole.edges(keys=True, data=True)}
     check_topology(whole, GROUND, roles.get)
     names: list[str] = []
     branch: dict[str, dict[int, float]] = {}
-    domains = list(dict.fromkeys(d for c in components for d in c.domains))
     for dname in domains:
         domain = registry.domains.get(dname)
         if domain is None:
             raise NotStampable(f"no domain {dname!r}")
         members = [c for c in components if dname in c.domains]
         opts = {name: options.get(name, opt.default) for name, opt in domain.options.items()}
-        network = whole if len(domains) == 1 else graph.graph(members, domain=dname)  # one domain: the whole graph
+        network = whole if len(domains) == 1 else graph.graph(members, domain=dname, light=light)  # one: the whole
         inc = domain.incidence(Network(network, members), opts)
         if inc is None:
             raise NotStampable(f"the {dname} domain gives no incidence in numbers")
