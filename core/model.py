@@ -36,7 +36,7 @@ from .plugin.registry import Registry, default_registry
 from .numerics.simulation import NumericModel, Result, check_start, initial_state
 from .numerics.integrate import choose, integrate, Problem, resolve
 from .numerics.events import Event, check as check_events
-from .numerics.linear import prepared, simulate_exact, state_space
+from .numerics.linear import prepared, simulate_exact, stamped, state_space
 from .numerics.fmu import export as export_fmu
 from .numerics import assembled as _assembled, sensitivity as _sensitivity
 sp = _deferred.module("sympy", globals())  # SymPy imported when first used (lagrangian.base.deferred)
@@ -515,15 +515,9 @@ class Model:
         self,
         t_end: float | tuple[float, float] = 10.0,
         *,
-        initial: Mapping[str, float] | None = None,
-        velocity: Mapping[str, float] | None = None,
-        params: Mapping[str, float] | None = None,
-        points: int = 1001,
-        t_eval: Sequence[float] | None = None,
-        method: Any = "DOP853",
-        rtol: float | None = None,
-        atol: float | None = None,
-        max_step: float | None = None,
+        initial: Mapping[str, float] | None = None, velocity: Mapping[str, float] | None = None,
+        params: Mapping[str, float] | None = None, points: int = 1001, t_eval: Sequence[float] | None = None,
+        method: Any = "DOP853", rtol: float | None = None, atol: float | None = None, max_step: float | None = None,
         step: float | None = None,
         energy_tol: float | bool | None = None,
         progress: bool | Callable[[float, float], None] = False,
@@ -727,8 +721,11 @@ class Model:
     interact = sliders.interact  # sliders over parameters, each move a run and a chart again
 
     def _linear(self, params) -> bool:
-        """Whether the model is linear time-invariant (so ``method="exact"`` may apply)."""
+        """Whether the model is linear time-invariant (so ``method="exact"`` may apply): in numbers where it is
+        assembled so (no symbolic derivation), else from its state-space form."""
         try:
+            if not params and "assembly" not in self._cache and stamped(self) is not None:
+                return True
             state_space(self, params)
         except ModelError:
             return False
