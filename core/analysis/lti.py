@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from ..base.waveforms import Waveform
+from ..base import waveforms as _waveforms
 from ..base.component import _CallableSignal, t
 from ..derivation.numeric import NumericAssembly, assemble_numeric
 from ..derivation.stamps import NotStampable, stamps
@@ -221,10 +221,8 @@ def _at(value: Any, time: float) -> float:
     """A signal's value at ``t₀`` as a float, or :class:`NotStampable` (a Python callable, a symbol)."""
     if isinstance(value, _CallableSignal):
         raise NotStampable("a signal given as a Python callable")
-    if type(value) in (int, float):  # held as given (lagrangian.base.params)
-        value = float(value)
-    elif isinstance(value, Waveform):
-        value = float(value(np.array([time]))[0])
+    if _waveforms.numeric(value):  # held as given (lagrangian.base.params)
+        value = _waveforms.value_at(value, time)
     elif isinstance(value, sp.Basic) and value.has(t):
         value = value.xreplace({t: sp.Float(time)})
     try:

@@ -230,11 +230,7 @@ def fundamental_loops(graph: nx.MultiGraph, tree: set[str]) -> dict[str, list[tu
     much on a 100-section ladder.
     """
     edges = list(_edges(graph))
-    adjacent: dict[Hashable, list] = {n: [] for n in graph.nodes}
-    for u, v, k, d in edges:
-        if k in tree:
-            adjacent[u].append((v, k, d["a"], d["b"]))
-            adjacent[v].append((u, k, d["a"], d["b"]))
+    adjacent = _tree_adjacency(graph, edges, tree)
     parent: dict[Hashable, tuple | None] = {}
     depth: dict[Hashable, int] = {}
     root: dict[Hashable, Hashable] = {}
@@ -284,6 +280,16 @@ def fundamental_loops(graph: nx.MultiGraph, tree: set[str]) -> dict[str, list[tu
     return loops
 
 
+def _tree_adjacency(graph, edges: list, tree: set[str]) -> dict[Hashable, list]:
+    """Each node's tree edges, in the edges' order, as ``(other end, key, a, b)``."""
+    adjacent: dict[Hashable, list] = {n: [] for n in graph.nodes}
+    for u, v, k, d in edges:
+        if k in tree:
+            adjacent[u].append((v, k, d["a"], d["b"]))
+            adjacent[v].append((u, k, d["a"], d["b"]))
+    return adjacent
+
+
 def _child(p, k: str, a, b):
     """The other end of tree edge ``k`` (``a → b``) from node ``p``."""
     return b if a == p else a
@@ -294,15 +300,11 @@ def tree_potentials(graph: nx.MultiGraph, tree: set[str], ground: str) -> dict[s
 
     A branch drop is ``φ_a − φ_b``; so ``φ_node = Σ sign · drop``.
     """
-    adjacent: dict[Hashable, list] = {n: [] for n in graph.nodes}  # the tree's, in the edges' order
-    for u, v, k, d in _edges(graph):
-        if k in tree and u != v:
-            adjacent[u].append((v, k, d["b"]))
-            adjacent[v].append((u, k, d["b"]))
+    adjacent = _tree_adjacency(graph, list(_edges(graph)), tree)
     result = {ground: []}
     queue = [ground] if ground in adjacent else []
     for parent in queue:  # breadth first from ground
-        for child, key, b in adjacent[parent]:
+        for child, key, _, b in adjacent[parent]:
             if child not in result:
                 # φ_child = φ_parent - drop if child is b (a=parent), + drop if child is a
                 result[child] = result[parent] + [(key, -1 if b == child else 1)]

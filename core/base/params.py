@@ -20,15 +20,11 @@ from collections.abc import Iterator
 from typing import Any
 
 from . import deferred as _deferred
-from .waveforms import Waveform
+from .waveforms import numeric
 
 __all__ = ["Params"]
 
 sp = _deferred.module("sympy", globals())
-
-
-def _held(value: Any) -> bool:
-    return type(value) in (float, int) or isinstance(value, Waveform)
 
 
 def _symbolic(value: Any) -> Any:
@@ -44,7 +40,7 @@ class Params(dict):
 
     def __getitem__(self, key: str) -> Any:
         value = dict.__getitem__(self, key)
-        if _held(value):
+        if numeric(value):
             value = _symbolic(value)
             dict.__setitem__(self, key, value)
         return value

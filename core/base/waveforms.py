@@ -32,7 +32,7 @@ import numpy as np
 
 from . import deferred as _deferred
 
-__all__ = ["Pulse", "Sine", "Waveform", "cuts", "is_numeric", "piece_terms", "values"]
+__all__ = ["Pulse", "Sine", "Waveform", "cuts", "is_numeric", "numeric", "piece_terms", "value_at", "values"]
 
 sp = _deferred.module("sympy", globals())
 
@@ -216,10 +216,20 @@ class Pulse(Waveform):
         return sp.Piecewise(*pieces)
 
 
+def numeric(x: Any) -> bool:
+    """Whether ``x`` is a waveform or a plain number (a Python ``int`` or ``float``): a signal given in numbers."""
+    return type(x) in (int, float) or isinstance(x, Waveform)
+
+
+def value_at(x: Any, time: float) -> float:
+    """The signal ``x`` given in numbers (:func:`numeric`) at ``time``."""
+    return float(x(np.array([float(time)]))[0]) if isinstance(x, Waveform) else float(x)
+
+
 def is_numeric(inputs: Any) -> bool:
     """Whether every input is a waveform or a plain number: what :func:`values`, :func:`cuts` and
     :func:`piece_terms` take."""
-    return all(isinstance(x, Waveform) or type(x) in (int, float) for x in inputs)
+    return all(numeric(x) for x in inputs)
 
 
 def values(inputs: list, times: np.ndarray) -> np.ndarray:

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..base.waveforms import Waveform
+from ..base.waveforms import numeric, value_at
 from ..base.component import t
 from ..derivation.numeric import assemble_numeric
 from ..derivation.stamps import NotStampable
@@ -82,11 +82,7 @@ def _operating_point(model: Model, deck: _Parsed) -> dict[str, float]:
 
     def value(e) -> float:
         raw = components[e.name].params.raw("E" if e.letter == "v" else "I")
-        if type(raw) in (int, float):
-            return float(raw)
-        if isinstance(raw, Waveform):
-            return float(raw(np.zeros(1))[0])
-        return float(sp.sympify(raw).subs(t, 0))
+        return value_at(raw, 0.0) if numeric(raw) else float(sp.sympify(raw).subs(t, 0))
 
     def stamp(i, j, x):
         if i is not None and j is not None:

@@ -44,7 +44,7 @@ from ..base.component import t as _t
 from ..base.domain import Network
 from ..base.linear import Linear, LinearContext, Potential, Quantity
 from ..base.network import check_topology
-from ..base.waveforms import Waveform
+from ..base.waveforms import numeric
 from .stamps import NotStampable, Quadratic, Stamps
 from ..base import deferred as _deferred
 
@@ -383,7 +383,7 @@ def _stamps(model: Any, asm: NumericAssembly) -> Stamps:
         comp = model._graph.components[cname]
         signals = [p for p, spec in comp.parameters.items() if spec.shape == "signal"]
         raw = comp.params.raw(signals[0]) if len(signals) == 1 else None
-        if type(raw) in (int, float) or isinstance(raw, Waveform):  # held as given: read without SymPy
+        if numeric(raw):  # held as given: read without SymPy
             if raw != 0 and force.any():
                 shape, coeff = (1, float(raw)) if type(raw) in (int, float) else (raw, 1.0)
                 entries.append((columns.setdefault(shape, len(columns)), coeff * force))

@@ -37,7 +37,7 @@ from ..derivation.stamps import NotStampable, Stamps
 from ..base.component import t
 from .simulation import _lambdify
 
-__all__ = ["KrylovPropagator", "SparseSpace", "input_values", "unknowns"]
+__all__ = ["KrylovPropagator", "SparseSpace", "dense_unknowns", "input_values", "unknowns"]
 
 
 def unknowns(st: Stamps) -> tuple[sps.csc_matrix, sps.csr_matrix, sps.csr_matrix, sps.csr_matrix]:
@@ -51,10 +51,29 @@ def unknowns(st: Stamps) -> tuple[sps.csc_matrix, sps.csr_matrix, sps.csr_matrix
     ny = n + nI
     A = sps.hstack([st.M[:, I], st.C[:, Fo]]).tocsc()
     R = sps.hstack([-st.K, -st.C[:, I]]).tocsr()
-    rows = [n + p for p in range(nI)] + list(Fo)
-    Sel = sps.csr_matrix((np.ones(n), (rows, np.arange(n))), shape=(ny, n))
+    Sel = sps.csr_matrix((np.ones(n), (_selected(st), np.arange(n))), shape=(ny, n))
     E = sps.csr_matrix((np.ones(nI), (I, n + np.arange(nI))), shape=(ny, ny))
     return A, R, Sel, E
+
+
+def dense_unknowns(st: Stamps) -> tuple[np.ndarray, ...]:
+    """:func:`unknowns` and the stamps' ``B``, ``(A, R, B, Sel, E)``, as dense arrays: from a numeric assembly's
+    dense matrices where the stamps have them (``NumericStamps.dense``: no ``scipy.sparse``), else from the
+    stamps' sparse ones."""
+    n, I, Fo = st.n, st.inertial, st.first_order
+    nI = len(I)
+    dense = getattr(st, "dense", None)
+    M, C, K, B = (dense(w) if dense is not None else getattr(st, w).toarray() for w in "MCKB")
+    Sel = np.zeros((n + nI, n))
+    Sel[_selected(st), np.arange(n)] = 1.0
+    E = np.zeros((n + nI, n + nI))
+    E[I, n + np.arange(nI)] = 1.0
+    return np.hstack([M[:, I], C[:, Fo]]), np.hstack([-K, -C[:, I]]), B, Sel, E
+
+
+def _selected(st: Stamps) -> list[int]:
+    """The rows of ``ẏ`` the unknowns ``u = (q̈_inertial, q̇_first_order)`` go to."""
+    return [st.n + p for p in range(len(st.inertial))] + list(st.first_order)
 
 
 @dataclass

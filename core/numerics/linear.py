@@ -66,10 +66,10 @@ from ..errors import IntegrationError, ModelError, SingularMassMatrixError
 from ..base.identity import depends_on, is_zero
 from .exosystem import EXPAND_SECONDS, _Exosystem, _exosystem, _TooLarge, _Unrepresentable, numeric_exosystem
 from ..derivation.assembly import refuse_eliminated
-from ..derivation.numeric import NumericStamps, numeric_stamps
+from ..derivation.numeric import numeric_stamps
 from ..derivation.stamps import NotStampable, Stamps, stamps
 from .propagation import SPECTRAL_MIN, Propagator, march, spectral_states
-from .krylov import KrylovPropagator, SparseSpace, input_values, unknowns
+from .krylov import KrylovPropagator, SparseSpace, dense_unknowns, input_values
 from .simulation import Result, initial_state
 from ..base import waveforms as _waveforms
 from ..base.switching import switches as _switches
@@ -338,7 +338,7 @@ def _space(st: Stamps) -> StateSpace | SparseSpace:
     n, I = st.n, st.inertial
     if n + len(I) > DENSE_MAX:
         return SparseSpace(st)
-    A, R, B, Sel, E = _dense_unknowns(st)
+    A, R, B, Sel, E = dense_unknowns(st)
     if np.linalg.cond(A) > 1 / (_EPS * 16):
         raise NotStampable("the matrix of the unknowns is singular")
     U = np.linalg.solve(A, np.hstack([R, B]))
@@ -353,25 +353,6 @@ def _space(st: Stamps) -> StateSpace | SparseSpace:
         first_order=[names[i] for i in st.first_order],
         equations=[names[r] for r in st.input_rows],
     )
-
-
-def _dense_unknowns(st: Stamps) -> tuple[np.ndarray, ...]:
-    """``(A, R, B, Sel, E)`` of :func:`lagrangian.numerics.krylov.unknowns` (and the stamps' ``B``) as dense arrays:
-    from a numeric assembly's dense matrices where the stamps have them (no ``scipy.sparse``), else from the
-    stamps' sparse ones."""
-    if not isinstance(st, NumericStamps):
-        A, R, Sel, E = unknowns(st)
-        return A.toarray(), R.toarray(), st.B.toarray(), Sel.toarray(), E.toarray()
-    n, I, Fo = st.n, st.inertial, st.first_order
-    nI = len(I)
-    M, C, K = (st.dense(which) for which in "MCK")
-    A = np.hstack([M[:, I], C[:, Fo]])
-    R = np.hstack([-K, -C[:, I]])
-    Sel = np.zeros((n + nI, n))
-    Sel[[n + p for p in range(nI)] + list(Fo), np.arange(n)] = 1.0
-    E = np.zeros((n + nI, n + nI))
-    E[I, n + np.arange(nI)] = 1.0
-    return A, R, st.dense("B"), Sel, E
 
 
 def _dependence(expr: sp.Expr, symbols: set) -> set:
