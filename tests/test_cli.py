@@ -301,3 +301,18 @@ def test_help_is_plain_text_with_examples_and_the_version_is_single_sourced(caps
     root = Path(__file__).resolve().parents[1]
     assert (root / "LICENSE").read_text().startswith("MIT License") and (root / "core" / "py.typed").exists()
     assert "License :: OSI Approved :: MIT License" in metadata.metadata("lagrangian").get_all("Classifier")
+
+
+@pytest.mark.parametrize("given, numpy_first, expected", [(None, False, "4"), ("12", False, "12"), (None, True, None)])
+def test_the_command_lets_idle_blas_threads_sleep_unless_told_otherwise(given, numpy_first, expected):
+    """A fresh command sets ``OPENBLAS_THREAD_TIMEOUT`` before NumPy loads OpenBLAS; a value in the environment wins,
+    and a process that imported NumPy first (where OpenBLAS has read its settings) is left as it is."""
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_THREAD_TIMEOUT"}
+    if given:
+        env["OPENBLAS_THREAD_TIMEOUT"] = given
+    code = ("import os, sys\n" + ("import numpy\n" if numpy_first else "") +
+            "from lagrangian.cli import main\nmain(['--version'])\n"
+            "print(os.environ.get('OPENBLAS_THREAD_TIMEOUT'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == str(expected)
