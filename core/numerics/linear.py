@@ -131,11 +131,18 @@ class StateSpace:
         return sp.Matrix(self.G) * self.inputs
 
     def velocities(self, y: np.ndarray, s: np.ndarray) -> np.ndarray:
-        """Velocities of all coordinates from states ``y`` (``len(states) × N``) and input values ``s`` (``len(inputs) × N``)."""
+        """Velocities of all coordinates from states ``y`` (``len(states) × N``) and input values ``s`` (``len(inputs) × N``):
+        an inertial coordinate's is its state (``y`` holds it), the others' are ``F y + G s`` on their rows."""
         n = len(self.names)
-        out = self.F[:n] @ y
-        if self.G.shape[1]:
-            out = out + self.G[:n] @ s
+        index = {name: i for i, name in enumerate(self.names)}
+        inertial = [index[name] for name in self.inertial]
+        rest = sorted(set(range(n)) - set(inertial))
+        out = np.empty((n, *y.shape[1:]))
+        out[inertial] = y[n : n + len(inertial)]
+        if rest:
+            out[rest] = self.F[rest] @ y
+            if self.G.shape[1]:
+                out[rest] += self.G[rest] @ s
         return out
 
     def input_values(self, times: np.ndarray) -> np.ndarray:
