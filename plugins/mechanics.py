@@ -272,13 +272,15 @@ class Spring(Component):
         k = ctx.number(self, "k")
         if k is None or not _one_axis(ctx):
             return None
+        rest = ctx.number(self, "rest_length")
+        if rest is None:
+            return None
         if "beta" not in self._given:
-            rest = float(self.rest_length)
             return Linear(V={(0, 0): k}, load={0: -k * rest} if rest else {}, constant=k * rest * rest / 2)
         beta = ctx.number(self, "beta")
         if beta is None:
             return None
-        return Linear(potential=Potential(_spring_energy(), (k, float(self.rest_length), beta)))
+        return Linear(potential=Potential(_spring_energy(), (k, rest, beta)))
 
     @classmethod
     def example(cls) -> Example:
@@ -444,13 +446,15 @@ class Gravity(Component):
         g = ctx.number(self, "g")
         if g is None or not _one_axis(ctx):
             return None
-        u = float(self._direction(1)[0])
+        u = -1.0 if self.params.raw("direction") is None else float(self._direction(1)[0])  # default: −x
         branches, load = [], {}
         for comp in ctx.components.values():
-            held = getattr(comp, "gravitational_mass", None)
-            if held is None:
-                continue
-            mass = held[1]
+            mass = ctx.number(comp, "m") if isinstance(comp, Mass) else None  # a point mass's, read as a number
+            if mass is None:
+                held = getattr(comp, "gravitational_mass", None)
+                if held is None:
+                    continue
+                mass = held[1]
             if not isinstance(mass, (int, float)) and not getattr(mass, "is_number", False):
                 return None
             load[len(branches)] = float(mass) * g * u

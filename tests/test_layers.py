@@ -162,3 +162,33 @@ def test_registering_the_plugins_and_adding_numbers_load_no_heavy_library_but_nu
     )
     kinds, loaded = fresh(code).strip().splitlines()[-1].split(" ", 1)
     assert int(kinds) > 40 and loaded == "[]"
+
+
+def test_constant_loads_in_numbers_run_exactly_without_sympy():
+    # a mass on a spring with a rest length, under gravity along −x, and a rotor on a torsion spring with a rest
+    # angle: their constant loads join the numeric assembly, so the exact run imports neither SymPy nor SciPy, and
+    # each oscillates about its equilibrium (x = ℓ₀ − m g / k, θ = θ₀) as the closed form says
+    m, k, rest, g, J, kt, angle = 0.3, 20.0, 0.1, 9.81, 0.01, 2.0, 0.3
+    code = (
+        "import json, sys, lagrangian as lg\n"
+        "m = lg.Model('loads')\n"
+        f"m.add('mass', 'm1', 'p', m={m})\n"
+        f"m.add('spring', 'k1', ('ground', 'p'), k={k}, rest_length={rest})\n"
+        f"m.add('gravity', 'g', g={g})\n"
+        f"m.add('inertia', 'J', 's', J={J})\n"
+        f"m.add('torsion_spring', 'ks', ('ground', 's'), k={kt}, rest_angle={angle})\n"
+        "res = m.simulate(1.0, initial={'x_p': 0.0, 'theta_s': 0.0}, velocity={'x_p': 0.0, 'theta_s': 0.0}, "
+        "points=11, method='auto')\n"
+        "print(json.dumps({'method': res.method, 'x': res['x_p'].tolist(), 'theta': res['theta_s'].tolist(), "
+        "'t': res.t.tolist(), 'loaded': sorted({n.split('.')[0] for n in sys.modules} & {'sympy', 'scipy', 'mpmath'})}))\n"
+    )
+    import json
+
+    import numpy as np
+
+    out = json.loads(fresh(code).strip().splitlines()[-1])
+    t = np.array(out["t"])
+    x_eq = rest - m * g / k
+    assert out["method"] == "exact" and out["loaded"] == []
+    np.testing.assert_allclose(out["x"], x_eq * (1 - np.cos(np.sqrt(k / m) * t)), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out["theta"], angle * (1 - np.cos(np.sqrt(kt / J) * t)), rtol=0, atol=1e-12)
