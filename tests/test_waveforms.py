@@ -112,3 +112,21 @@ def test_a_netlist_run_in_numbers_imports_neither_sympy_nor_scipy_and_is_the_clo
     w, tau = 2 * np.pi * 60, 2.2e3 * 4.7e-6
     exact = 1.7 / (1 + (w * tau) ** 2) * (np.sin(w * t) - w * tau * np.cos(w * t) + w * tau * np.exp(-t / tau))
     assert np.max(np.abs(v - exact)) <= 1e-9 * 1.7
+
+
+@pytest.mark.slow
+def test_a_netlists_ac_response_in_numbers_imports_neither_sympy_nor_scipy_and_is_the_closed_form(tmp_path):
+    # a fresh process: `lagrangian ac` of an RC low-pass whose source also has a SIN for transients writes
+    # H(jω) = 1 / (1 + jωτ) in dB and degrees, with no SymPy, mpmath or SciPy loaded
+    deck, out = tmp_path / "rc.cir", tmp_path / "h.csv"
+    deck.write_text("rc\nV1 in 0 AC 1 SIN(0 1.7 60)\nR1 in a 2.2k\nC1 a 0 4.7u\n.ac dec 10 1 100k\n.end\n")
+    code = ("import sys\nfrom lagrangian.cli import main\n"
+            f"status = main(['ac', {str(deck)!r}, '--output', 'v(a)', '--csv', {str(out)!r}])\n"
+            "print(status, sorted(m for m in ('sympy', 'mpmath', 'scipy') if m in sys.modules))\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.stdout.strip().splitlines()[-1] == "0 []", run.stdout + run.stderr
+    f, db, deg = np.loadtxt(out, delimiter=",", skiprows=1).T
+    h = 1 / (1 + 2j * np.pi * f * 2.2e3 * 4.7e-6)
+    assert f.size == 51
+    np.testing.assert_allclose(db, 20 * np.log10(np.abs(h)), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(deg, np.degrees(np.angle(h)), rtol=0, atol=1e-9)

@@ -79,8 +79,11 @@ class LinearModel:
     coefficient of ``u/s``, nonzero for a source whose integral fixes a
     coordinate (a voltage source in node fluxes), and ``Di`` the same in the
     outputs (an inductor's current there).  ``at`` is the
-    operating point (coordinate values), ``y0`` the outputs there, ``u0``
-    the inputs' operating values, ``time`` the instant ``t₀``.
+    operating point (coordinate values: floats where the model was
+    linearized in numbers), ``y0`` the outputs there, ``u0`` each input's
+    signal as its component holds it (a number, a netlist's waveform of
+    :mod:`lagrangian.base.waveforms`, an expression of ``t``), ``time`` the
+    instant ``t₀``.
     """
 
     model: str

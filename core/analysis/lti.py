@@ -201,7 +201,7 @@ def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
             if index is not None or pname != _signal_of(comp):
                 raise NotStampable(f"input {label!r} is not its component's one signal")
             col = len(channels)
-            channels[cname] = (label, col, comp.params[pname])
+            channels[cname] = (label, col, comp.params.raw(pname))  # as held: a number, a waveform, an expression
             if cname in asm.forces:
                 Bw[1][:, col] = asm.forces[cname]
         inertial = asm.inertial()
@@ -212,7 +212,7 @@ def numeric(model: Model, inputs, outputs, time: float) -> dict | None:
         rows = _numeric_outputs(model, asm, outputs, channels, signal, x, time)
     except NotStampable:
         return None
-    point = {nm: sp.Float(v) if v else sp.Integer(0) for nm, v in zip(asm.names, x)}
+    point = {nm: float(v) for nm, v in zip(asm.names, x)}
     return {"M": asm.M, "C": asm.C, "K": asm.K, "point": point, "names": asm.names, "Bw": Bw,
             "first_order": [nm for nm, m in zip(asm.names, inertial) if not m], "rows": rows, "channels": channels}
 
