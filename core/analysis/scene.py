@@ -339,7 +339,8 @@ class Scene:
         # every coordinate needed and no offers to weigh: a component is kept unless it contributes nothing or only
         # imposes a function of time, so only those are read (reading each contribution walks its energies)
         everything = len(needed) == len(names) and not self.offer
-        for name, c in model.assembly.contributions.items():
+        contributions = model.assembly.contributions  # each read fills in the model's values (see below)
+        for name in contributions:
             comp = model.component(name)
             zeros = [p for p, value in comp.params.items() if isinstance(value, (int, float, sp.Number)) and value == 0
                      and comp.parameters.get(p) is not None and comp.parameters[p].default != value]
@@ -348,6 +349,9 @@ class Scene:
             if everything and not zeros and name not in held:
                 kept.append(name)
                 continue
+            # the generic contribution (parameters as symbols) touches the coordinates the valued one does, or more
+            # where values would cancel (kept then): its values are filled in only to ask whether it vanishes
+            c = contributions[name] if zeros else model.assembly.generic[name]
             exprs = [eq.symbolic(sp.sympify(getattr(c, p))) for p in ("T", "V", "D", "G")] + list(shares.get(name, []))
             # whether a contribution vanishes is asked (a check at random points) only of a component given a zero;
             # of the others, what is not literally zero counts, and at worst keeps a component the outputs need not

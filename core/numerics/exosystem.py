@@ -78,12 +78,59 @@ def _exp_terms(expr: sp.Expr) -> dict[tuple[int, complex], complex]:
     """``expr`` as ``Σ c τ^k e^{λτ}`` (``t`` plays τ): a map ``(k, λ) → c``; raises :class:`_Unrepresentable`, or
     :class:`_TooLarge` when an input that is not flat does not expand within :data:`EXPAND_SECONDS`."""
     expr = sp.sympify(expr)
+    read = _read_off(expr)
+    if read is not None:
+        return read
     if _flat(expr):
         return _terms(expr)
     try:
         return interruptible(_terms, expr, seconds=EXPAND_SECONDS)
     except BudgetExceeded:
         raise _TooLarge(expr) from None
+
+
+def _read_off(expr: sp.Expr) -> dict[tuple[int, complex], complex] | None:
+    """:func:`_exp_terms` of a sum whose every term is a constant times a power of ``t`` and at most one ``sin``,
+    ``cos`` or ``exp`` of ``a t + b``, read off the expression as it stands: no rewriting into exponentials and no
+    expansion (for ``sin(300 t)``, 1 ms against 15 ms).  ``None`` for any other form, which :func:`_terms` expands.
+    """
+    out: dict[tuple[int, complex], complex] = {}
+    for term in sp.Add.make_args(expr):
+        constants, power, wave = [], 0, None
+        for factor in sp.Mul.make_args(term):
+            if t not in factor.free_symbols:
+                constants.append(factor)
+            elif factor == t:
+                power += 1
+            elif factor.is_Pow and factor.base == t and factor.exp.is_Integer and factor.exp > 0:
+                power += int(factor.exp)
+            elif wave is None and isinstance(factor, (sp.sin, sp.cos, sp.exp)):
+                offset, varying = factor.args[0].as_independent(t, as_Add=True)
+                slope, rest = varying.as_independent(t, as_Add=False)
+                if rest != t:
+                    return None
+                wave = (factor.func, slope, offset)
+            else:
+                return None
+        try:
+            c = complex(sp.Mul(*constants))
+            if wave is not None:
+                slope, offset = complex(wave[1]), complex(wave[2])
+        except (TypeError, ValueError):
+            return None
+        if wave is None:
+            parts = [(0j, c)]
+        elif wave[0] is sp.exp:
+            parts = [(slope, c * np.exp(offset))]
+        else:  # cos z = (e^{iz} + e^{−iz}) / 2, sin z = (e^{iz} − e^{−iz}) / 2i
+            plus, minus = c * np.exp(1j * offset) / 2, c * np.exp(-1j * offset) / 2
+            parts = [(1j * slope, plus), (-1j * slope, minus)] if wave[0] is sp.cos else \
+                [(1j * slope, plus / 1j), (-1j * slope, -minus / 1j)]
+        for lam, coeff in parts:
+            if not (np.isfinite(lam) and np.isfinite(coeff)):
+                return None
+            out[power, lam] = out.get((power, lam), 0) + coeff
+    return out
 
 
 def _terms(expr: sp.Expr) -> dict[tuple[int, complex], complex]:

@@ -24,6 +24,7 @@ springs and dampers (``benchmarks/scale.py``): the states at 101 times over
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -131,9 +132,11 @@ class SparseSpace:
             self.G = Sel @ lu.solve(B) if B.shape[1] else np.zeros((ny, 0))
         self._n = n
 
-    def velocities(self, Y: np.ndarray, S: np.ndarray) -> np.ndarray:
-        """Velocities of all coordinates from states ``Y`` (``len(states) × N``) and inputs ``S``."""
+    def velocities(self, Y: np.ndarray, S: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
+        """Velocities of all coordinates from states ``Y`` (``len(states) × N``) and inputs ``S`` (or what returns
+        them)."""
         n = self._n
+        S = S() if callable(S) else S
         if self._lu is None:
             out = self.F[:n] @ Y
             return out + self.G[:n] @ S if self.G.shape[1] else out

@@ -130,9 +130,10 @@ class StateSpace:
             return sp.zeros(len(self.states), 1)
         return sp.Matrix(self.G) * self.inputs
 
-    def velocities(self, y: np.ndarray, s: np.ndarray) -> np.ndarray:
-        """Velocities of all coordinates from states ``y`` (``len(states) × N``) and input values ``s`` (``len(inputs) × N``):
-        an inertial coordinate's is its state (``y`` holds it), the others' are ``F y + G s`` on their rows."""
+    def velocities(self, y: np.ndarray, s: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
+        """Velocities of all coordinates from states ``y`` (``len(states) × N``) and input values ``s`` (``len(inputs) × N``,
+        or what returns them, called only when needed): an inertial coordinate's is its state (``y`` holds it), the
+        others' are ``F y + G s`` on their rows."""
         n = len(self.names)
         index = {name: i for i, name in enumerate(self.names)}
         inertial = [index[name] for name in self.inertial]
@@ -142,7 +143,7 @@ class StateSpace:
         if rest:
             out[rest] = self.F[rest] @ y
             if self.G.shape[1]:
-                out[rest] += self.G[rest] @ s
+                out[rest] += self.G[rest] @ (s() if callable(s) else s)
         return out
 
     def input_values(self, times: np.ndarray) -> np.ndarray:
@@ -377,12 +378,16 @@ def _state_list(symbols: set, eq) -> str:
 #: states, 30 s, 3,001 points), a second thread saves no wall time (0.17–0.30 s against 0.19 s) and doubles the CPU
 #: time (0.32–0.58 s against 0.27 s); at 1,000 states it saves a fifth of the wall time for twice the CPU.
 SINGLE_THREAD_MAX = 600
+#: Below this many states nothing is set: OpenBLAS multiplies matrices smaller than 64³ on one thread anyway, and
+#: threadpoolctl's look at the loaded libraries costs more than a small model's whole solution (8 ms of a
+#: loudspeaker's 30 ms, with SciPy loaded).
+SINGLE_THREAD_MIN = 64
 
 
 def _blas_threads(st: Stamps | None):
-    """A context in which BLAS runs on one thread, for a stamped model of at most :data:`SINGLE_THREAD_MAX` states
-    (threadpoolctl); a context that changes nothing otherwise."""
-    if st is None or st.n + len(st.inertial) > SINGLE_THREAD_MAX:
+    """A context in which BLAS runs on one thread, for a stamped model of :data:`SINGLE_THREAD_MIN` to
+    :data:`SINGLE_THREAD_MAX` states (threadpoolctl); a context that changes nothing otherwise."""
+    if st is None or not SINGLE_THREAD_MIN <= st.n + len(st.inertial) <= SINGLE_THREAD_MAX:
         return contextlib.nullcontext()
     from threadpoolctl import threadpool_limits  # imported by what uses it: a process that never solves exactly
 
@@ -560,7 +565,7 @@ def simulate_exact(
 
         n = len(ss.names)
         q = Y[:n]
-        v = ss.velocities(Y, ss.input_values(grid))
+        v = ss.velocities(Y, lambda: ss.input_values(grid))  # the inputs on the grid only where a velocity reads them
         if st is not None:
             qv = np.vstack([q, v])
             T, V, D = (st.energies[part].values(grid, qv) for part in "TVD")
