@@ -468,6 +468,24 @@ class _Placed:
         out[at : at + n] = self.asm.dense(self.which) @ np.asarray(Z)[at : at + n]
         return out
 
+    def form(self, Z: np.ndarray) -> np.ndarray:
+        """``zᵀ H z`` for each column ``z`` of ``Z`` (``2n × N``): entry by entry where the matrix is sparse (a
+        200-section ladder's three forms over 3,001 times, one BLAS thread: 6 ms against 16 ms for dense
+        products), as a dense product otherwise."""
+        n, at = len(self.asm.names), self.at
+        r, c, v = self.asm.entries[self.which]
+        Z = np.asarray(Z)
+        if v.size > _SPARSE_FORMS * n:
+            return np.einsum("ij,ij->j", Z, self @ Z)
+        if Z.ndim == 1:
+            return v @ (Z[at + r] * Z[at + c])
+        out = np.empty(Z.shape[1])
+        step = max(1, 2**20 // max(v.size, 1))  # columns at a time: at most 2**20 products held (8 MiB)
+        for j in range(0, Z.shape[1], step):
+            block = Z[:, j : j + step]
+            out[j : j + step] = v @ (block[at + r] * block[at + c])
+        return out
+
     def _csr(self):
         made = self.__dict__.get("_made")
         if made is None:
@@ -487,3 +505,5 @@ class _Placed:
 #: Up to this many coordinates an energy's form multiplies states as a dense matrix (the dense exact solution's
 #: sizes); beyond, as a CSR matrix.
 _DENSE_FORMS = 1200
+#: Up to this many entries per coordinate an energy's form is evaluated entry by entry (:meth:`_Placed.form`).
+_SPARSE_FORMS = 4

@@ -83,7 +83,8 @@ class Quadratic:
 
     def values(self, times: np.ndarray, Z: np.ndarray) -> np.ndarray:
         """``E`` at ``times`` for states ``Z`` (``2n × len(times)``)."""
-        out = 0.5 * np.einsum("ij,ij->j", Z, self.H @ Z)
+        form = getattr(self.H, "form", None)  # a numeric assembly's form (derivation.numeric): entry by entry
+        out = 0.5 * (form(Z) if form is not None else np.einsum("ij,ij->j", Z, self.H @ Z))
         for i, expr in self.linear:
             out = out + _on_grid(expr, times) * Z[i]
         if self.constant != 0:
