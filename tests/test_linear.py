@@ -897,3 +897,32 @@ def test_an_input_read_off_as_it_stands_is_its_expression(terms):
         want = complex(expr.subs(t, tau).evalf(30))
         scale = sum(abs(c) * tau**k * np.exp(abs(a) * tau + abs(b)) for _, c, a, b, k in terms)
         assert abs(got - want) <= 1e-12 * max(scale, 1.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(1, 8), seed=st.integers(0, 2**16), skew=_decades(-2, 2), w=_decades(-2, 2),
+       horizon=_decades(-1, 3))
+def test_a_gap_shown_by_the_resolvent_is_there(n, seed, skew, w, horizon):
+    # whenever the resolvent's norm shows every exosystem eigenvalue farther than 1/horizon from F's spectrum
+    # (lagrangian.numerics.propagation._far), F's eigenvalues (LAPACK's) say so too: on damped, non-normal matrices
+    # (a random similarity of condition up to 1e2) and a sine's ±iω with a constant
+    from lagrangian.numerics.propagation import _far
+
+    rng = np.random.default_rng(seed)
+    D = np.diag(-rng.uniform(0.01, 3.0, n)) + np.diag(rng.normal(size=n - 1), 1) if n > 1 else -np.eye(1)
+    V = np.eye(n) + skew * rng.normal(size=(n, n)) / n
+    assume(np.linalg.cond(V) < 1e6)
+    F = V @ D @ np.linalg.inv(V)
+    lam_S = np.array([1j * w, -1j * w, 0.0])
+    if _far(F, lam_S, horizon):
+        assert np.min(np.abs(np.linalg.eigvals(F)[:, None] - lam_S[None, :])) > 1 / horizon
+
+
+def test_a_sine_without_offset_drives_no_constant_mode():
+    # SIN(0 1.7 60): the exosystem holds the rotation of the sine alone (a zero offset is no term), so a model with
+    # a slow mode near zero still gets the particular solution of the sine
+    from lagrangian.base.waveforms import Sine
+    from lagrangian.numerics.exosystem import numeric_exosystem
+
+    assert numeric_exosystem([Sine(0.0, 1.7, 60.0)], 0.0, 1.0).S.shape == (2, 2)
+    assert numeric_exosystem([Sine(0.3, 1.7, 60.0)], 0.0, 1.0).S.shape == (3, 3)

