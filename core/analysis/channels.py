@@ -273,9 +273,11 @@ def _in_numbers(model: Model, result: Any, label: str) -> Any:
         row_q += sign * rows[0]
         if len(rows) > 1:
             row_v += sign * rows[1]
-    q = np.array([result.q[nm] for nm in asm.names])
-    v = np.array([result.v[nm] for nm in asm.names])
-    return row_q @ q + row_v @ v
+    out = np.zeros(len(result.t))
+    for row, series in ((row_q, result.q), (row_v, result.v)):  # the coordinates the output reads, no others
+        for i in np.flatnonzero(row):
+            out += row[i] * series[asm.names[i]]
+    return out
 
 
 @dataclass(frozen=True)

@@ -480,7 +480,7 @@ class _Placed:
         if Z.ndim == 1:
             return v @ (Z[at + r] * Z[at + c])
         out = np.empty(Z.shape[1])
-        step = max(1, 2**20 // max(v.size, 1))  # columns at a time: at most 2**20 products held (8 MiB)
+        step = max(1, 2**16 // max(v.size, 1))  # columns at a time: 2**16 products (512 KiB), in cache, reused
         for j in range(0, Z.shape[1], step):
             block = Z[:, j : j + step]
             out[j : j + step] = v @ (block[at + r] * block[at + c])

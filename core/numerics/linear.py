@@ -137,6 +137,8 @@ class StateSpace:
         n = len(self.names)
         index = {name: i for i, name in enumerate(self.names)}
         inertial = [index[name] for name in self.inertial]
+        if inertial == list(range(n)) and len(y) == 2 * n:  # every coordinate inertial, in order: y's second half
+            return y[n:]
         rest = sorted(set(range(n)) - set(inertial))
         out = np.empty((n, *y.shape[1:]))
         out[inertial] = y[n : n + len(inertial)]
@@ -567,7 +569,7 @@ def simulate_exact(
         q = Y[:n]
         v = ss.velocities(Y, lambda: ss.input_values(grid))  # the inputs on the grid only where a velocity reads them
         if st is not None:
-            qv = np.vstack([q, v])
+            qv = Y if len(Y) == 2 * n and np.may_share_memory(v, Y) else np.vstack([q, v])  # (y = (q, q̇): itself)
             T, V, D = (st.energies[part].values(grid, qv) for part in "TVD")
             evaluator = _LazyEvaluator(model, params)
         else:
