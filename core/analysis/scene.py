@@ -460,7 +460,7 @@ class Scene:
                         "constant velocities, q = q₀ + q̇₀ (t − t₀)", sub, 0)
         skipped = None
         if cyclic and len(cyclic) < len(names):
-            skipped = reduction_skipped(self, sub, names, cyclic)
+            skipped = reduction_skipped(self, sub, names, cyclic, _ops(sub.eq))
         if cyclic and len(cyclic) < len(names) and skipped is None:
             try:
                 red = reduce(sub, cyclic)

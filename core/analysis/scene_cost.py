@@ -12,7 +12,6 @@ import warnings
 
 from ..errors import LagrangianError
 from ..model import Model
-from ..numerics.tape import size
 
 #: Cost model, measured on this project's benchmarks: a reduction's symbolic work takes about REDUCE_SECONDS ×
 #: (operations of the part) × (eliminated coordinates)² (0.04 s for Kepler's one angle on 39 operations, 0.95 s for
@@ -26,16 +25,15 @@ TAPE_SECONDS = 5e-9
 PILOT_FRACTION = 0.02
 
 
-def reduction_skipped(scene, sub: Model, names: list[str], cyclic: list[str]) -> str | None:
-    """Why the part of ``scene`` on ``names`` (the model ``sub``) is not reduced through the Routhian, or None to
-    eliminate its ignorable coordinates ``cyclic`` (``Scene(reduce=...)``)."""
+def reduction_skipped(scene, sub: Model, names: list[str], cyclic: list[str], ops: int) -> str | None:
+    """Why the part of ``scene`` on ``names`` (the model ``sub``, ``ops`` operations on the tape of its generic
+    equations: a model given numbers weighs as its symbolic twin does) is not reduced through the Routhian, or
+    None to eliminate its ignorable coordinates ``cyclic`` (``Scene(reduce=...)``)."""
     if scene.reduce is True:
         return None
     which = ", ".join(cyclic)
     if scene.reduce is False:
         return f"{which} ignorable, not eliminated (reduce=False)"
-    generic = sub.eq.generic()  # the structure: a model given numbers weighs as its symbolic twin does
-    ops = size(list(generic["A"]) + list(generic["b"]))
     symbolic = REDUCE_SECONDS * ops * len(cyclic) ** 2
     t0, t1 = scene.span
     window = (t1 - t0) * PILOT_FRACTION

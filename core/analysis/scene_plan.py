@@ -211,9 +211,13 @@ def _maybe_linear(eq: Equations) -> bool:
 
 def _ops(eq: Equations) -> int:
     """Operations to evaluate ``A`` and ``b`` once, every common subexpression once (the size of their tape), counted
-    on the generic equations: a model given numbers weighs as its symbolic twin does."""
-    g = eq.generic()
-    return size(list(g["A"]) + list(g["b"]))
+    on the generic equations: a model given numbers weighs as its symbolic twin does (counted once per
+    equations: a plan weighs a part, then reports it)."""
+    made = eq.__dict__.get("_tape_size")
+    if made is None:
+        g = eq.generic()
+        made = eq.__dict__["_tape_size"] = size(list(g["A"]) + list(g["b"]))
+    return made
 
 
 def _with_values(eq: Equations, params: dict, expr: sp.Expr) -> sp.Expr:
