@@ -79,7 +79,7 @@ from .channels import _BRANCH, _output_expr
 from .routh import _depends, _drop, ignorable, reduce
 from .scene_cost import reduction_skipped
 from .scene_graph import prune
-from .scene_plan import Offer, Part, ScenePlan, SceneResult, Sizes, _closure, _maybe_linear, _ops, _Output, _with_values
+from .scene_plan import Offer, Part, ScenePlan, SceneResult, Sizes, _closure, _maybe_linear, _ops, _Output, _rows, _with_values
 from ..numerics.simulation import InitialConditionWarning, Result, _lambdify
 from ..base import deferred as _deferred
 
@@ -316,11 +316,11 @@ class Scene:
         self._check_overrides(kept, dropped, held)
         parts = [self._part(sorted(g)) for g in groups]
         whole = self.full_model
-        before = Sizes(lambda: {"coordinates": len(whole.eq.names), "equations": whole.eq.A.shape[0],
+        before = Sizes(lambda: {"coordinates": len(whole.eq.names), "equations": _rows(whole.eq),
                                 "operations": _ops(whole.eq)})
         after = {
             "coordinates": sum(len(p.integrated) for p in parts),
-            "equations": sum(p.model.eq.A.shape[0] if p.integrated else 0 for p in parts),
+            "equations": sum(_rows(p.model.eq) if p.integrated else 0 for p in parts),
             "operations": sum(p.operations for p in parts),
         }
         plan = ScenePlan(model.name, [o.label for o in self._outputs], parts, kept, dropped, held, before, after,

@@ -209,6 +209,13 @@ def _maybe_linear(eq: Equations) -> bool:
     return all(e.is_polynomial(*state) for e in g["b"])
 
 
+def _rows(eq: Equations) -> int:
+    """The equations of the solve ``A u = b``: counted on the generic ``A`` where it is made (the one with the
+    values in is put together only when read, a matrix of large sums for a spatial chain)."""
+    g = eq.generic()
+    return g["A"].shape[0] if "A" in g else eq.A.shape[0]
+
+
 def _ops(eq: Equations) -> int:
     """Operations to evaluate ``A`` and ``b`` once, every common subexpression once (the size of their tape), counted
     on the generic equations: a model given numbers weighs as its symbolic twin does (counted once per

@@ -32,6 +32,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from .assembly import Assembly
 from ..base.component import t
@@ -260,6 +261,11 @@ class Equations:
     def values(self) -> dict:
         """The values of the parameters given as numbers, by the symbol that stands for each in the derivation."""
         return dict(self._values)
+
+    def generic_energy(self, name: str) -> Any:
+        """``T``, ``V``, ``D``, ``G`` or ``Q`` before the values given as numbers are put in (:attr:`values` holds
+        them): what a question about its structure reads without putting a large sum together."""
+        return self._lazy[name]
 
     def generic(self) -> dict:
         """The solve ``A u = b`` and the energies before the values given as numbers are put in (built on first use):

@@ -31,9 +31,10 @@ class Ignorability:
         return f"{self.coordinate}: {'ignorable' if self.ignorable else 'not ignorable'} — {self.reason}"
 
 
-def _depends(eq: Equations, expr: sp.Expr, symbol: sp.Symbol) -> bool:
-    """Whether ``expr`` really depends on ``symbol`` (a derivative that is not identically zero)."""
-    return depends_on(expr, symbol, diff=eq._derivation.calc.diff)
+def _depends(eq: Equations, expr: sp.Expr, symbol: sp.Symbol, values: dict | None = None) -> bool:
+    """Whether ``expr`` really depends on ``symbol`` (a derivative that is not identically zero; with the
+    parameters of ``values`` at their values)."""
+    return depends_on(expr, symbol, values, diff=eq._derivation.calc.diff)
 
 
 def _components(model: Model, part: str, symbol: sp.Symbol) -> list[str]:
@@ -86,6 +87,10 @@ def ignorability(model: Model, explain: bool = True) -> dict[str, Ignorability]:
     eq = model.eq
     q, v = eq.sym.q, eq.sym.v
     coupled = _coupling(model)
+    # the energies before the values are put in, read with those values: the same verdicts, without putting
+    # together the energies' large sums with the values (a spinning top's T: 2.3 ms of its scene's 12 ms plan)
+    T, V, G, D = (eq.generic_energy(part) for part in "TVGD")
+    values = eq.values
     out = {}
     for i, name in enumerate(eq.names):
         qi, vi = q[i], v[i]
@@ -96,16 +101,16 @@ def ignorability(model: Model, explain: bool = True) -> dict[str, Ignorability]:
         if i in eq.first_order:
             verdict("it has no inertia (a first-order coordinate): its rate follows from dissipation, there is no momentum to conserve")
             continue
-        if _depends(eq, eq.T, qi):
+        if _depends(eq, T, qi, values):
             verdict(lambda: f"the kinetic energy T depends on it (from {_named(_components(model, 'T', qi))})")
             continue
-        if _depends(eq, eq.V, qi):
+        if _depends(eq, V, qi, values):
             verdict(lambda: f"the potential energy V depends on it (from {_named(_components(model, 'V', qi))}): a force acts along it")
             continue
-        if _depends(eq, eq.G, qi):
+        if _depends(eq, G, qi, values):
             verdict(lambda: f"the velocity-coupling terms G depend on it (from {_named(_components(model, 'G', qi))})")
             continue
-        if _depends(eq, eq.D, vi) or _depends(eq, eq.D, qi):
+        if _depends(eq, D, vi, values) or _depends(eq, D, qi, values):
             verdict(lambda: f"dissipation acts on it (the Rayleigh function D depends on it, from "
                     f"{_named(_components(model, 'D', vi) or _components(model, 'D', qi))}): its momentum decays")
             continue
