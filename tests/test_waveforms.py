@@ -97,16 +97,21 @@ def test_a_netlists_source_solved_in_numbers_is_its_expression_solved_by_sympy(s
     assert np.max(np.abs(a["q_R1"] - b["q_R1"])) <= 1e-10 * scale
 
 
+def _fresh_cli(args: list[str], absent: tuple[str, ...]) -> None:
+    """``lagrangian ARGS`` in a fresh process, which must succeed with none of the libraries ``absent`` loaded."""
+    code = ("import sys\nfrom lagrangian.cli import main\n"
+            f"status = main({args!r})\n"
+            f"print(status, sorted(m for m in {absent!r} if m in sys.modules))\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.stdout.strip().splitlines()[-1] == "0 []", run.stdout + run.stderr
+
+
 @pytest.mark.slow
 def test_a_netlist_run_in_numbers_imports_neither_sympy_nor_scipy_and_is_the_closed_form(tmp_path):
     # a fresh process: the RC low-pass under VA sin(ωt) from rest, v(t) = VA/(1+(ωτ)²) (sin ωt − ωτ cos ωt + ωτ e^(−t/τ))
     deck, out = tmp_path / "rc.cir", tmp_path / "v.csv"
     deck.write_text("rc\nV1 in 0 SIN(0 1.7 60)\nR1 in a 2.2k\nC1 a 0 4.7u\n.tran 0.1m 40m\n.end\n")
-    code = ("import sys\nfrom lagrangian.cli import main\n"
-            f"status = main(['simulate', {str(deck)!r}, '--output', 'v(a)', '--out', {str(out)!r}])\n"
-            "print(status, sorted(m for m in ('sympy', 'mpmath', 'matplotlib', 'scipy') if m in sys.modules))\n")
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert run.stdout.strip().splitlines()[-1] == "0 []", run.stdout + run.stderr
+    _fresh_cli(["simulate", str(deck), "--output", "v(a)", "--out", str(out)], ("sympy", "mpmath", "matplotlib", "scipy"))
     table = np.loadtxt(out, delimiter=",", skiprows=1)
     t, v = table[:, 0], table[:, 1]
     w, tau = 2 * np.pi * 60, 2.2e3 * 4.7e-6
@@ -120,11 +125,7 @@ def test_a_netlists_ac_response_in_numbers_imports_neither_sympy_nor_scipy_and_i
     # H(jω) = 1 / (1 + jωτ) in dB and degrees, with no SymPy, mpmath or SciPy loaded
     deck, out = tmp_path / "rc.cir", tmp_path / "h.csv"
     deck.write_text("rc\nV1 in 0 AC 1 SIN(0 1.7 60)\nR1 in a 2.2k\nC1 a 0 4.7u\n.ac dec 10 1 100k\n.end\n")
-    code = ("import sys\nfrom lagrangian.cli import main\n"
-            f"status = main(['ac', {str(deck)!r}, '--output', 'v(a)', '--csv', {str(out)!r}])\n"
-            "print(status, sorted(m for m in ('sympy', 'mpmath', 'scipy') if m in sys.modules))\n")
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
-    assert run.stdout.strip().splitlines()[-1] == "0 []", run.stdout + run.stderr
+    _fresh_cli(["ac", str(deck), "--output", "v(a)", "--csv", str(out)], ("sympy", "mpmath", "scipy"))
     f, db, deg = np.loadtxt(out, delimiter=",", skiprows=1).T
     h = 1 / (1 + 2j * np.pi * f * 2.2e3 * 4.7e-6)
     assert f.size == 51
