@@ -966,3 +966,24 @@ def test_a_stiff_chain_under_a_constant_force_with_a_slow_mode_is_exact():
         ref = np.array([[float(rest[i] + (mp.expm(A * mp.mpf(float(s))) * y0)[i]) for s in times] for i in range(3)])
     got = np.array([res[f"x_p{i + 1}"] for i in range(3)])
     assert np.max(np.abs(got - ref)) <= 1e-10 * np.max(np.abs(ref))
+
+
+def test_an_input_past_a_floats_range_is_refused_naming_the_model():
+    # a force of 1e600·t (SymPy's floats hold it, a double does not): a clear error, not a ValueError from the
+    # matrix exponential
+    model = lg.Model("huge push")
+    model.add("mass", "m", "p", m=0.3)
+    model.add("spring", "k", ("ground", "p"), k=2.0)
+    model.add("force", "F", "p", F=sp.Float("1e600") * t)
+    with pytest.raises(lg.IntegrationError, match="'huge push'.*not finite in floating point"):
+        simulate_exact(model, 1.0, initial={"x_p": 0.0}, velocity={"x_p": 0.0}, points=5)
+
+
+def test_a_matrix_whose_powers_pass_a_floats_range_takes_scipys_scaling_first():
+    # a mass of 3e-90 kg on a spring and damper: the state matrix holds 1e90, whose fourth power overflows before
+    # any scaling; the exponential is SciPy's, which scales first, and no NaN reaches the norms of the powers
+    from lagrangian.numerics.propagation import expm
+
+    A = np.array([[0.0, 1.0], [-2.0 / 2.77e-90, -1.89 / 2.77e-90]]) * 1e-3
+    with np.errstate(all="ignore"):
+        np.testing.assert_array_equal(expm(A), scipy.linalg.expm(A))

@@ -353,9 +353,11 @@ def _space(st: Stamps) -> StateSpace | SparseSpace:
         raise NotStampable("the matrix of the unknowns is singular")
     U = np.linalg.solve(A, np.hstack([R, B]))
     ny = R.shape[1]
+    with np.errstate(invalid="ignore", over="ignore"):  # a number past a float's range: refused by the solution
+        F, G = Sel @ U[:, :ny] + E, Sel @ U[:, ny:]
     return StateSpace(
-        F=Sel @ U[:, :ny] + E,
-        G=Sel @ U[:, ny:],
+        F=F,
+        G=G,
         inputs=list(st.inputs),
         states=names + [f"{names[i]}'" for i in I],
         names=names,
@@ -527,10 +529,16 @@ def simulate_exact(
             if nw:
                 Z = np.zeros((ny + nw, ny + nw))
                 Z[:ny, :ny] = ss.F
-                Z[:ny, ny:] = ss.G @ exo.C
+                with np.errstate(invalid="ignore", over="ignore"):  # (not finite: refused below, naming the model)
+                    Z[:ny, ny:] = ss.G @ exo.C
                 Z[ny:, ny:] = exo.S
             else:
                 Z = ss.F
+            if not np.all(np.isfinite(Z)):
+                raise IntegrationError(
+                    f"the exact solution of model {model.name!r} cannot be computed on [{a:g}, {b:g}]: its state matrix "
+                    f"or an input's coefficient is not finite in floating point (a parameter or an input far past a "
+                    f"float's range): check the magnitudes of the values given.")
             key = Z.tobytes()
             prop = ss._propagators.get(key)
             if prop is None:

@@ -18,7 +18,7 @@ import numpy as np
 
 from .exosystem import _Exosystem
 
-__all__ = ["Propagator", "expm", "flush_tiny", "march", "spectral_states"]
+__all__ = ["NotFinite", "Propagator", "expm", "flush_tiny", "march", "spectral_states"]
 
 _EPS = np.finfo(float).eps
 
@@ -263,6 +263,10 @@ def _extra_squarings(A: np.ndarray, m: int) -> int:
     return max(0, int(np.ceil(np.log2(alpha / 2.0**-53) / (2 * m))))
 
 
+class NotFinite(ValueError):
+    """A matrix given to :func:`expm` holds an infinite or NaN entry (a model's number past a float's range)."""
+
+
 #: Most halvings of the scaling and squaring :func:`expm` does itself; past them it is SciPy's.
 OWN_SQUARINGS = 8
 
@@ -288,9 +292,13 @@ def expm(A: np.ndarray) -> np.ndarray:
     A = np.asarray(A, dtype=float)
     n = A.shape[0]
     if not np.all(np.isfinite(A)):
-        raise ValueError("the matrix holds a value that is not finite")
+        raise NotFinite("the matrix holds a value that is not finite")
     if n == 1:
         return np.exp(A)
+    if _norm1(A) > 2.0**64:  # its powers would pass a float's range before the scaling: SciPy's scales first
+        from scipy.linalg import expm as scipy_expm  # imported by what uses it (see above)
+
+        return scipy_expm(A)
     eye = np.eye(n)
     A2 = A @ A
     A4 = A2 @ A2
