@@ -112,6 +112,8 @@ def _read_off(expr: sp.Expr) -> dict[tuple[int, complex], complex] | None:
                 wave = (factor.func, slope, offset)
             else:
                 return None
+        if power > _FLAT_POWER:  # a high power of t: the expansion's path, with its budget and checks
+            return None
         try:
             c = complex(sp.Mul(*constants))
             if wave is not None:

@@ -198,9 +198,10 @@ def particular_solution(F: np.ndarray, S: np.ndarray, GC: np.ndarray, horizon: f
 def _far(F: np.ndarray, lam_S: np.ndarray, horizon: float) -> bool:
     """Whether every eigenvalue ``μ`` of the exosystem is shown farther than ``1/horizon`` from every eigenvalue of
     ``F`` without computing them: ``‖(F − μ)⁻¹‖ ≥ 1/dist(μ, λ(F))`` for any matrix, so a resolvent whose Frobenius
-    norm (at least its 2-norm) is below ``horizon`` proves the gap (called with ``horizon / GAP_HORIZON``).  One inverse per ``μ`` (a conjugate pair shares
-    its norm, ``F`` being real) against ``F``'s eigenvalues: 23 ms against 50 ms for a 200-section ladder's 402
-    states.  ``False`` decides nothing: the eigenvalues are computed then."""
+    norm (at least its 2-norm) is below ``horizon`` proves the gap (called with ``horizon / GAP_HORIZON``).  One
+    inverse per ``μ`` (a conjugate pair shares its norm, ``F`` being real) against ``F``'s eigenvalues: 23 ms
+    against 50 ms for a 200-section ladder's 402 states.  ``False`` decides nothing: the eigenvalues are computed
+    then."""
     eye = np.eye(F.shape[0])
     for mu in {complex(x.real, abs(x.imag)) for x in lam_S}:
         try:
