@@ -869,7 +869,7 @@ def test_a_propagators_jump_is_the_exponential_over_the_longer_step(n, scale, se
     h, count = 0.7 / 10**scale, 2**log_count
     with mp.workdps(40):
         exact = np.array(mp.expm(mp.matrix((Z * h * count).tolist())).tolist(), dtype=float)
-    norm = max(np.linalg.norm(exact, 1), np.finfo(float).tiny)
+    norm = np.linalg.norm(exact, 1)
     got = Propagator(Z).jump(h, count)
     assert np.linalg.norm(got - exact, 1) <= 1e-12 * norm
 
@@ -905,7 +905,7 @@ def test_an_input_read_off_as_it_stands_is_its_expression(terms):
 def test_a_gap_shown_by_the_resolvent_is_there(n, seed, skew, w, horizon):
     # whenever the resolvent's norm shows every exosystem eigenvalue farther than 1/horizon from F's spectrum
     # (lagrangian.numerics.propagation._far), F's eigenvalues (LAPACK's) say so too: on damped, non-normal matrices
-    # (a random similarity of condition up to 1e2) and a sine's ±iω with a constant
+    # (a random similarity of condition up to 1e6) and a sine's ±iω with a constant
     from lagrangian.numerics.propagation import _far
 
     rng = np.random.default_rng(seed)
