@@ -297,9 +297,7 @@ def expm(A: np.ndarray) -> np.ndarray:
     if n == 1:
         return np.exp(A)
     if _norm1(A) > 2.0**64:  # its powers would pass a float's range before the scaling: SciPy's scales first
-        from scipy.linalg import expm as scipy_expm  # imported by what uses it (see above)
-
-        return scipy_expm(A)
+        return _scipy_expm(A)
     eye = np.eye(n)
     A2 = A @ A
     A4 = A2 @ A2
@@ -320,9 +318,7 @@ def expm(A: np.ndarray) -> np.ndarray:
     s = max(0, int(np.ceil(np.log2(eta / _PADE[13][0])))) if eta else 0
     s += _extra_squarings(A / 2.0**s, 13)
     if s > OWN_SQUARINGS:
-        from scipy.linalg import expm as scipy_expm  # imported by what uses it (see above)
-
-        return scipy_expm(A)
+        return _scipy_expm(A)
     b = _PADE[13][1]
     c = 2.0**-s
     A, A2, A4, A6 = A * c, A2 * c**2, A4 * c**4, A6 * c**6
@@ -332,6 +328,13 @@ def expm(A: np.ndarray) -> np.ndarray:
     for _ in range(s):
         X = flush_tiny(X @ X)
     return X
+
+
+def _scipy_expm(A: np.ndarray) -> np.ndarray:
+    """SciPy's ``expm``, where :func:`expm` hands a matrix over (its module imported then, see :func:`expm`)."""
+    from scipy.linalg import expm as scipy_expm  # imported by what uses it
+
+    return scipy_expm(A)
 
 
 def _pade(A: np.ndarray, powers: tuple, b: tuple) -> np.ndarray:
