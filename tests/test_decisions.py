@@ -41,6 +41,24 @@ def test_round_off_between_float_coefficients_is_not_a_term(a, b, c):
     assert not equal(p, Mv * (1 + 1e-6))
 
 
+@settings(max_examples=60)
+@given(a=decades(1e-4, 1e4), b=decades(1e-3, 1e3), small=st.floats(-16, -12.5), large=st.floats(-6, -1))
+def test_floating_expressions_are_decided_in_double_precision_as_in_fifty_digits(a, b, small, large):
+    """An identity with float amplitudes (the angle-sum formula, a rotation's cos² + sin²) is zero, with a residue
+    far below FLOAT_TOLERANCE of its size too; a term above it is not, whatever precision decides.  The zero
+    verdicts come from double precision alone (the 50-digit context is not asked for)."""
+    identity = a * (sp.sin(x + y) - sp.sin(x) * sp.cos(y) - sp.cos(x) * sp.sin(y)) * v \
+        + b * ((v * sp.cos(x) - y * sp.sin(x)) ** 2 + (v * sp.sin(x) + y * sp.cos(x)) ** 2 - v ** 2 - y ** 2)
+    size = (a + b) * sp.sin(x) * sp.cos(y) * v
+    assert not is_zero(identity + 10 ** large * size)
+    import lagrangian.base.identity as identity_module
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(identity_module, "_context", lambda: pytest.fail("decided in 50 digits"))
+        assert is_zero(identity) and is_zero(identity + 10 ** small * size)
+        assert not depends_on(identity + b * y ** 2, x)
+
+
 @settings(max_examples=40)
 @given(a=decades(1e-4, 1e4), w=decades(1e-2, 1e2))
 @pytest.mark.slow

@@ -79,6 +79,12 @@ _POINTS = 3
 _TRIES = 12
 _SEED = 20261124
 _FAST_TOLERANCE = 1e-6  # a float evaluation this far from zero proves "not zero" at once
+#: A floating-point expression whose double-precision value is below _FLOAT_ZERO of its magnitude (a normal number,
+#: at least _FLOAT_NORMAL) at every point is zero without the 50-digit evaluation: the double evaluation errs by
+#: about its depth × 1.1e-16 of the magnitude (one rounding per operation, each bounded by the magnitude as the
+#: representation errors are), so its exact value is below FLOAT_TOLERANCE too for any expression less than
+#: 90,000 operations deep.  Above it (and for exact expressions, whose tolerance is 1e-35) the 50-digit test decides.
+_FLOAT_ZERO, _FLOAT_NORMAL = 1e-13, 1e-280
 #: Beyond these arguments tanh is ±1 to within the tolerance of the test: 1 − tanh², its derivative, is about
 #: 4·e^(−2x), below 1e-35 past 40 (exact expressions), below 1e-11 past 12 (floating-point ones) and below 1e-13
 #: in double precision past 15.  Such a point cannot tell an expression in tanh from a constant, and is drawn again.
@@ -432,16 +438,25 @@ def _zero_at_points(expr, values: Mapping, points: int, found: set | None = None
         return _zero_by_branches(expr, values, points)
     floating = _has_float(expr, values, found)
     gen = _points(expr, values, _SEED, found)
-    # fast path: one float evaluation far from zero proves it is not identically zero
-    for _ in range(_TRIES):
+    # fast path in double precision: one evaluation far from zero proves it is not identically zero; a floating-point
+    # expression far below its tolerance at every point is zero (below)
+    tested = 0
+    for _ in range(_TRIES + points):
         point = next(gen)
         try:
-            x, m = _Evaluator(_FLOAT, {k: float(v) for k, v in point.items()})(expr)
+            x, m = _Evaluator(_FLOAT, {k: float(v) for k, v in point.items()},
+                              _SATURATED_FLOATING if floating else None)(expr)
         except (_Inadmissible, TypeError, ValueError, OverflowError, ZeroDivisionError):
             continue
-        if math.isfinite(x) and math.isfinite(m) and abs(x) > _FAST_TOLERANCE * m:
+        if not (math.isfinite(x) and math.isfinite(m)):
+            break
+        if abs(x) > _FAST_TOLERANCE * m:
             return False
-        break
+        if not (floating and m >= _FLOAT_NORMAL and abs(x) <= _FLOAT_ZERO * m):
+            break
+        tested += 1
+        if tested >= points:
+            return True
     ctx = _context()
     tested = 0
     for _ in range(_TRIES + points):
