@@ -36,7 +36,7 @@ at rtol 1e-12).  Prints a table; the last line is
 ``{"scenes": N, "min_speedup": …, "min_speedup_after_import": …, "max_error": …, "scenes_reducing": …,
 "min_speedup_reducing": …, "min_speedup_declining": …}`` (the last two after the import); writes a PNG.
 
-Run: .venv/bin/python benchmarks/scenes.py [--repeat 3] [--out benchmarks/scenes.png]
+Run: .venv/bin/python benchmarks/scenes.py [--repeat 5] [--out benchmarks/scenes.png]
 """
 
 from __future__ import annotations
@@ -176,7 +176,8 @@ def fresh(name: str, which: str, tol: float) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeat", type=int, default=3, help="fresh-process runs per variant (median wall time)")
+    parser.add_argument("--repeat", type=int, default=5,
+                        help="fresh-process runs per variant (median wall time, least CPU time; the spread is printed)")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "scenes.png"), help="chart (PNG)")
     parser.add_argument("--one", nargs=3, metavar=("SCENE", "WHICH", "TOL"), help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -189,7 +190,10 @@ def main() -> None:
     bytecode()  # each fresh process reads the package compiled, as an installed one is
     rows = []
     for name in SCENES:
-        runs = {w: [fresh(name, w, TOL) for _ in range(args.repeat)] for w in ("full", "scene")}
+        runs = {"full": [], "scene": []}
+        for _ in range(args.repeat):  # interleaved: a machine that slows down slows both alike
+            for w in runs:
+                runs[w].append(fresh(name, w, TOL))
         ref = fresh(name, "full", 1e-12)
         wall = {w: statistics.median(r["wall"] for r in rs) for w, rs in runs.items()}
         work = {w: min(r["cpu"] for r in rs) for w, rs in runs.items()}
@@ -201,6 +205,9 @@ def main() -> None:
         rows.append({"scene": name, "full_s": wall["full"], "minimal_s": wall["scene"], "speedup": wall["full"] / wall["scene"],
                      "work_speedup": work["full"] / work["scene"], "full_work_s": work["full"], "minimal_work_s": work["scene"],
                      "difference": gap, "full_error": err_full, "minimal_error": err_min, **info})
+        spread = {w: (min(r["cpu"] for r in rs), max(r["cpu"] for r in rs)) for w, rs in runs.items()}
+        print(f"{name}: CPU after import, full {spread['full'][0]:.3f}–{spread['full'][1]:.3f} s, minimal "
+              f"{spread['scene'][0]:.3f}–{spread['scene'][1]:.3f} s over {args.repeat} runs each")
         print(f"{name}: full {wall['full']:.3f} s, minimal {wall['scene']:.3f} s; coordinates {info['before']['coordinates']} → "
               f"{info['after']['coordinates']}, operations {info['before']['operations']} → {info['after']['operations']}; "
               f"parts {info['parts']}, eliminated {info['eliminated']}", flush=True)

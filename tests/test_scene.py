@@ -10,6 +10,7 @@ import math
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -140,18 +141,29 @@ def test_ignorable_coordinates_not_asked_for_are_never_integrated():
 
 
 @pytest.mark.slow
-def test_a_reduction_is_done_only_when_it_pays_and_the_report_says_why():
+def test_a_reduction_is_done_only_when_it_pays_and_the_report_says_why(monkeypatch):
     """reduce="auto": over a few swings integrating φ costs less than eliminating it, so the part is integrated
-    as it is (the report gives both estimates); over many, φ is eliminated.  Both agree with the full model."""
+    as it is (the report gives both estimates) and that run, made while planning, is the scene's; over many, φ is
+    eliminated.  Both agree with the full model."""
     model = spherical()
     short = Scene(model, ["theta_tilt"], 5, tol=1e-11, **SPH)
     (part,) = short.plan.parts
     assert part.eliminated == [] and part.integrated == ["theta_turn", "theta_tilt"]
-    assert re.search(r"theta_turn ignorable, not eliminated: integrating the part as it is costs about [0-9.e-]+ s "
-                     r"\([0-9.e+]+ evaluations of \d+ operations, counted by a pilot run\), the Routhian about "
-                     r"[0-9.e-]+ s of symbolic work \(reduce=True forces it\)", short.report())
+    found = re.search(r"theta_turn ignorable, not eliminated: the part as it is ran in ([0-9.e+]+) evaluations of "
+                      r"(\d+) operations \(about [0-9.e-]+ s\), less than the Routhian's about ([0-9.e-]+) s of "
+                      r"symbolic work \(break-even 4e\+05 evaluations; reduce=True forces it\)", short.report())
+    assert found, short.report()
+    # the same run as the full model's at the scene's settings, step for step
+    same = model.simulate(5, initial=SPH["initial"], velocity=SPH["velocity"], t_eval=short.grid, rtol=1e-11, atol=1e-14)
+    assert float(found[1]) == pytest.approx(same.nfev, rel=1e-3)
+    assert float(found[3]) == pytest.approx(2e-3 * int(found[2]), rel=0.05)  # REDUCE_SECONDS · ops · 1²
+    with monkeypatch.context() as patch:  # run() returns the planning run: nothing is integrated again
+        patch.setattr(lg.Model, "simulate", lambda *a, **k: pytest.fail("integrated again"))
+        res = short.run()
+    assert np.array_equal(res["theta_tilt"], same["theta_tilt"])
     ref = full_run(model, 5, SPH)
-    assert np.max(np.abs(short.run()["theta_tilt"] - ref["theta_tilt"])) < 1e-9
+    assert np.max(np.abs(res["theta_tilt"] - ref["theta_tilt"])) < 1e-9
+    assert np.array_equal(short.run()["theta_tilt"], same["theta_tilt"])  # a second run integrates, to the same
     span = 3000.0
     long = Scene(model, ["theta_tilt"], span, tol=1e-11, points=301, **SPH)
     assert long.plan.parts[0].eliminated == ["theta_turn"]
@@ -162,6 +174,23 @@ def test_a_reduction_is_done_only_when_it_pays_and_the_report_says_why():
     assert never.plan.parts[0].eliminated == [] and "(reduce=False)" in never.report()
     with pytest.raises(lg.ModelError, match="reduce must be 'auto', True or False"):
         Scene(model, ["theta_tilt"], 5, reduce="yes", **SPH)
+
+
+def test_a_run_made_while_planning_warns_when_the_scene_runs():
+    """A part run as it is while planning (reduce="auto" declined) says what its run says when the scene runs:
+    here the velocity not given, set to zero, once."""
+    model = spherical()
+    scene = Scene(model, ["theta_tilt"], 2, tol=1e-9, initial=SPH["initial"], velocity={"theta_turn": 1.7})
+    with warnings.catch_warnings(record=True) as planning:
+        warnings.simplefilter("always")
+        assert scene.plan.parts[0].eliminated == []
+    assert not planning
+    with pytest.warns(lg.InitialConditionWarning, match="theta_tilt'") as running:
+        res = scene.run()
+    assert len([w for w in running if issubclass(w.category, lg.InitialConditionWarning)]) == 1
+    ref = model.simulate(2, initial=SPH["initial"], velocity={"theta_turn": 1.7, "theta_tilt": 0.0},
+                         t_eval=scene.grid, **TIGHT)
+    assert np.max(np.abs(res["theta_tilt"] - ref["theta_tilt"])) < 1e-7
 
 
 def test_ignorable_coordinates_asked_for_are_reconstructed():

@@ -56,6 +56,7 @@ True
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 import re
@@ -123,8 +124,10 @@ class Scene:
     (:func:`~lagrangian.impulse.simulate_with_impacts`: no reduction, no
     exact solve, as impulses change every momentum), an event on pruned
     coordinates is dropped with a note.  ``reduce``: eliminate ignorable
-    coordinates through the Routhian when it pays (``"auto"``; the report
-    gives the estimates: :mod:`lagrangian.analysis.scene_cost`), always
+    coordinates through the Routhian when it pays (``"auto"``: the part is
+    run as it is within the evaluations its reduction would cost, and a
+    run that ends within them is the scene's, returned by :meth:`run`; the
+    report gives both costs: :mod:`lagrangian.analysis.scene_cost`), always
     (``True``) or never (``False``).
     """
 
@@ -183,6 +186,7 @@ class Scene:
                 raise UnknownNameError("parameter", name, known)
         self._outputs = [self._parse(o) for o in self.requested]
         self._plan: ScenePlan | None = None
+        self._kept: dict[tuple[str, ...], tuple[Result, list]] = {}  # runs made while planning (_keep)
 
     # -- outputs -----------------------------------------------------------------------
     def _parse(self, spec: Any) -> _Output:
@@ -446,7 +450,6 @@ class Scene:
         names = [eq.names[i] for i in idx]
         sub = self._submodel(idx) if len(idx) < len(eq.names) else full
         requested_q = {eq.names[i] for o in self._outputs for i in o.depends if eq.sym.q[i] in o.expr.free_symbols}
-        part_model, eliminated, reconstructed = sub, [], []
         contacts = [c for c, touched in self._events.items() if touched & set(idx)]
         if contacts:
             return Part(names, names, [], [], "hybrid", f"impacts at {', '.join(c.name for c in contacts)}: integrated "
@@ -458,32 +461,37 @@ class Scene:
         if cyclic and len(cyclic) == len(names) and not _is_zero(sub.eq.L) and not sub.eq.L.has(t):
             return Part(names, [], cyclic, [], "uniform", "every coordinate is ignorable and L does not depend on t: "
                         "constant velocities, q = q₀ + q̇₀ (t − t₀)", sub, 0)
-        skipped = None
-        if cyclic and len(cyclic) < len(names):
-            skipped = reduction_skipped(self, sub, names, cyclic, _ops(sub.eq))
-        if cyclic and len(cyclic) < len(names) and skipped is None:
-            try:
-                red = reduce(sub, cyclic)
-                eliminated = list(cyclic)
-                reconstructed = [c for c in cyclic if c in requested_q]
-                part_model = red.reconstructing(reconstructed) if reconstructed else red
-            except ReductionError:
-                part_model, eliminated = sub, []
-        integrated = [nm for nm in part_model.coordinate_names if nm not in reconstructed]
-        values = self._part_params(part_model, eliminated, names)
+        if not (cyclic and len(cyclic) < len(names)):
+            return self._solved_by(names, sub)
+        as_is = None if self.reduce is True else self._solved_by(names, sub)
+        skipped = reduction_skipped(self, as_is, cyclic)
+        if skipped:
+            return dataclasses.replace(as_is, why=f"{as_is.why}; {skipped}")
+        try:
+            red = reduce(sub, cyclic)
+        except ReductionError:
+            return as_is or self._solved_by(names, sub)
+        reconstructed = [c for c in cyclic if c in requested_q]
+        return self._solved_by(names, red.reconstructing(reconstructed) if reconstructed else red, cyclic, reconstructed)
+
+    def _solved_by(self, names: list[str], model: Model, eliminated: Sequence[str] = (),
+                   reconstructed: Sequence[str] = ()) -> Part:
+        """The part on the coordinates ``names`` solved by ``model`` (the part as it is, or reduced with
+        ``eliminated`` ignorable coordinates, ``reconstructed`` of them by quadrature): exactly where it is linear
+        time-invariant, else integrated."""
+        integrated = [nm for nm in model.coordinate_names if nm not in reconstructed]
+        values = self._part_params(model, list(eliminated), names)
         exact = False
-        if _maybe_linear(part_model.eq):  # a cheap screen first: the full check differentiates every entry
+        if _maybe_linear(model.eq):  # a cheap screen first: the full check differentiates every entry
             try:
-                exact = part_model._linear(values)
+                exact = model._linear(values)
             except ModelError:
                 exact = False
         if exact:
             method, why = "exact", "linear time-invariant: matrix exponential, no integration error"
         else:
             method, why = self.method, f"nonlinear or time-varying: integrated at rtol {self.tol:g}"
-        if skipped:
-            why += f"; {skipped}"
-        return Part(names, integrated, eliminated, reconstructed, method, why, part_model, _ops(part_model.eq))
+        return Part(names, integrated, list(eliminated), list(reconstructed), method, why, model, _ops(model.eq))
 
     def _submodel(self, idx: list[int], minus: Mapping[str, sp.Expr] | None = None, share=None) -> DerivedModel:
         full = self.model
@@ -582,7 +590,18 @@ class Scene:
             results.append((part, self._solve(part)))
         return SceneResult(self, self.grid, results)
 
-    def _solve(self, part: Part) -> Result:
+    def _keep(self, part: Part, res: Result, caught: list) -> None:
+        """Keep ``res``, the run of ``part`` made while planning (:func:`~lagrangian.analysis.scene_cost.reduction_skipped`),
+        and the warnings it gave, for :meth:`run` to return once."""
+        self._kept[tuple(part.coordinates)] = (res, caught)
+
+    def _solve(self, part: Part, max_evaluations: float | None = None) -> Result:
+        kept = self._kept.pop(tuple(part.coordinates), None)
+        if kept is not None:  # the part ran while planning (reduction_skipped): its run, and what it warned
+            res, caught = kept
+            for w in caught:
+                warnings.warn(w.message, stacklevel=3)
+            return res
         initial, velocity = self._start(part)
         values, rates = self._needs(part)
         missing = [n for n in values if n not in initial] + [f"{n}'" for n in rates if n not in velocity]
@@ -622,7 +641,7 @@ class Scene:
         if part.method == "exact":
             return model.simulate(self.span, initial=initial, velocity=velocity, method="exact", **common)
         return model.simulate(self.span, initial=initial, velocity=velocity, method=self.method,
-                              rtol=self.tol, atol=self.tol * 1e-3, **common)
+                              rtol=self.tol, atol=self.tol * 1e-3, max_evaluations=max_evaluations, **common)
 
     def _inertial(self) -> set[str]:
         eq = self.model.eq

@@ -1,9 +1,18 @@
 """Whether a scene's Routhian reduction pays: the symbolic work estimated against integrating the part as it is.
 
-Used by :class:`lagrangian.scene.Scene` with ``reduce="auto"``: a pilot run over :data:`PILOT_FRACTION` of the span
-counts the unreduced part's evaluations; with the part's size (operations of its tape, counted on the structure, so
-that a model given numbers weighs as its symbolic twin does) that gives the cost of integrating it, against the
-cost of the reduction.  The reduction is done only when integrating costs more.
+Used by :class:`lagrangian.scene.Scene` with ``reduce="auto"``.  The reduction's symbolic work is estimated from
+the part's size (operations of its tape, counted on the structure, so that a model given numbers weighs as its
+symbolic twin does) and the coordinates it would eliminate; divided by the cost of one evaluation, that is the
+*break-even*: the evaluations of the part as it is that cost what its reduction would.  The part is then run as it
+is, over the whole span, with the break-even as its budget (``Model.simulate(max_evaluations=...)``, judged on the
+run's pace from 131,072 evaluations on):
+
+* a run that ends within it is the part's solution: the scene keeps it, and :meth:`Scene.run` returns it without
+  integrating again.  A scene that rightly declines the reduction costs what the full model costs, with no pilot
+  run on top (a pilot over 2 % of the span cost Kepler's orbit 2 % of its run; ``benchmarks/scenes.py``);
+* a run that at its pace would need more is stopped, and the part is reduced.  What it spent is at most about a
+  third of the break-even (131,072 of at least 400,000 evaluations), so deciding never costs more than a third of
+  the reduction it decides on; a long run is stopped after a small share of it.
 """
 
 from __future__ import annotations
@@ -11,7 +20,6 @@ from __future__ import annotations
 import warnings
 
 from ..errors import LagrangianError
-from ..model import Model
 
 #: Cost model, measured on this project's benchmarks: a reduction's symbolic work takes about REDUCE_SECONDS ×
 #: (operations of the part) × (eliminated coordinates)² (0.04 s for Kepler's one angle on 39 operations, 0.95 s for
@@ -21,36 +29,38 @@ from ..model import Model
 #: three bodies, more on short tapes, where the trigonometry and the solve weigh more).
 REDUCE_SECONDS = 2e-3
 TAPE_SECONDS = 5e-9
-#: The pilot run that counts the unreduced part's evaluations covers this fraction of the span.
-PILOT_FRACTION = 0.02
 
 
-def reduction_skipped(scene, sub: Model, names: list[str], cyclic: list[str], ops: int) -> str | None:
-    """Why the part of ``scene`` on ``names`` (the model ``sub``, ``ops`` operations on the tape of its generic
-    equations: a model given numbers weighs as its symbolic twin does) is not reduced through the Routhian, or
-    None to eliminate its ignorable coordinates ``cyclic`` (``Scene(reduce=...)``)."""
-    if scene.reduce is True:
-        return None
+def break_even(eliminated: int) -> float:
+    """Evaluations of a part that cost what eliminating ``eliminated`` of its coordinates would: the operations of
+    the part cancel (``REDUCE_SECONDS · ops · n² = evaluations · ops · TAPE_SECONDS``)."""
+    return REDUCE_SECONDS * eliminated ** 2 / TAPE_SECONDS
+
+
+def reduction_skipped(scene, part, cyclic: list[str]) -> str | None:
+    """Why ``part`` of ``scene`` (unreduced: the part as it is, ``part.operations`` on the tape of its generic
+    equations) is not reduced through the Routhian, or None to eliminate its ignorable coordinates ``cyclic``
+    (``Scene(reduce=...)``).  A part integrated within the break-even leaves its run with the scene
+    (``Scene._keep``), which :meth:`Scene.run` returns."""
     which = ", ".join(cyclic)
     if scene.reduce is False:
         return f"{which} ignorable, not eliminated (reduce=False)"
-    symbolic = REDUCE_SECONDS * ops * len(cyclic) ** 2
-    t0, t1 = scene.span
-    window = (t1 - t0) * PILOT_FRACTION
-    inertial = scene._inertial()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            pilot = sub.simulate((t0, t0 + window), initial={n: scene.initial.get(n, 0.0) for n in names},
-                                 velocity={n: scene.velocity.get(n, 0.0) for n in names if n in inertial},
-                                 params=scene._params_for(sub), method=scene.method, rtol=scene.tol,
-                                 atol=scene.tol * 1e-3, points=2, energy_tol=False)
-    except LagrangianError:
-        return None  # the unreduced part does not run: the reduced one may
-    evaluations = pilot.nfev / PILOT_FRACTION
-    integration = evaluations * ops * TAPE_SECONDS
-    if integration > symbolic:
+    if scene.reduce is True:
         return None
-    return (f"{which} ignorable, not eliminated: integrating the part as it is costs about {integration:.2g} s "
-            f"({evaluations:.2g} evaluations of {ops} operations, counted by a pilot run), the Routhian about "
-            f"{symbolic:.2g} s of symbolic work (reduce=True forces it)")
+    ops = part.operations
+    symbolic = REDUCE_SECONDS * ops * len(cyclic) ** 2
+    if part.method == "exact":
+        return (f"{which} ignorable, not eliminated: the part is linear time-invariant and solved exactly as it is, "
+                f"so the Routhian (about {symbolic:.2g} s of symbolic work) would save no integration (reduce=True "
+                f"forces it)")
+    budget = break_even(len(cyclic))
+    with warnings.catch_warnings(record=True) as caught:  # said again when the run is returned (Scene.run)
+        warnings.simplefilter("always")
+        try:
+            res = scene._solve(part, max_evaluations=budget)
+        except LagrangianError:
+            return None  # at its pace beyond the break-even, or the part as it is does not run: the reduced one may
+    scene._keep(part, res, caught)
+    return (f"{which} ignorable, not eliminated: the part as it is ran in {res.nfev:.3g} evaluations of {ops} "
+            f"operations (about {res.nfev * ops * TAPE_SECONDS:.2g} s), less than the Routhian's about "
+            f"{symbolic:.2g} s of symbolic work (break-even {budget:.3g} evaluations; reduce=True forces it)")
