@@ -23,8 +23,12 @@ Each variant runs in a fresh process (so derivation, code generation and
 integration are all timed, with no warm caches): the full model simulated
 with DOP853 at rtol = tol, and the scene (plan + run + outputs).  Times are
 given with the import (the wall time of the process's work) and after it
-(what the scene changes: the CPU time of the work, the least of the runs,
-which a busy machine disturbs less than wall time).  The import is that of
+(what the scene changes: the CPU time of the work, which a busy machine
+disturbs less than wall time; the median of the runs, full and scene
+interleaved so that a machine that slows down slows both alike, with the
+spread printed: a scene that declines every simplification costs what the
+full model costs within a few milliseconds, and the least of a few runs of
+either is decided by one lucky run, ±7 % here).  The import is that of
 the libraries either path needs (SymPy, SciPy, networkx, mpmath: the
 package itself imports them on first use) and of ``lagrangian.scene``.  The scene's report (the whole model's sizes among
 it) is read after the timing: a scene pruned by its component graph derives
@@ -177,7 +181,7 @@ def fresh(name: str, which: str, tol: float) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5,
-                        help="fresh-process runs per variant (median wall time, least CPU time; the spread is printed)")
+                        help="fresh-process runs per variant (median wall and CPU time; the spread is printed)")
     parser.add_argument("--out", default=str(Path(__file__).resolve().parent / "scenes.png"), help="chart (PNG)")
     parser.add_argument("--one", nargs=3, metavar=("SCENE", "WHICH", "TOL"), help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -196,7 +200,7 @@ def main() -> None:
                 runs[w].append(fresh(name, w, TOL))
         ref = fresh(name, "full", 1e-12)
         wall = {w: statistics.median(r["wall"] for r in rs) for w, rs in runs.items()}
-        work = {w: min(r["cpu"] for r in rs) for w, rs in runs.items()}
+        work = {w: statistics.median(r["cpu"] for r in rs) for w, rs in runs.items()}
         full, minimal = runs["full"][0]["values"], runs["scene"][0]["values"]
         gap = max(float(np.max(np.abs(np.array(minimal[o]) - np.array(full[o])))) for o in full)
         err_full = max(float(np.max(np.abs(np.array(full[o]) - np.array(ref["values"][o])))) for o in full)
