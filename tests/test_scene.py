@@ -614,3 +614,26 @@ def test_rotors_on_a_driven_shaft_are_pruned_by_the_graph_too():
     assert "dropped 'shaft2', 'Jb', 'load': joins only nodes" in scene.report()  # one line for one reason
     ref = full_run(m, 2.0, {**start, "points": 201})
     assert np.max(np.abs(scene.run()["theta_a'"] - ref.v["theta_a"])) < 1e-8
+
+
+def test_a_linear_part_solved_exactly_is_not_reduced_under_auto():
+    """A transformer whose primary loop holds only inductors: that loop's charge is ignorable (coupled through the
+    mutual inductance), and the part is linear time-invariant.  Solved exactly as it is, its reduction would save
+    no integration, however long the span: "auto" declines and says why; both agree with the model's exact run."""
+    m = lg.Model("transformer")
+    m.add("inductor", "L1", ("a", "0"), L=7e-3)
+    m.add("inductor", "L3", ("a", "0"), L=3e-3)
+    m.add("inductor", "L2", ("b", "0"), L=2.2e-3)
+    m.add("capacitor", "C2", ("b", "0"), C=1e-6)
+    m.add("coupling", "K1", inductor1="L1", inductor2="L2", k=0.6)
+    start = {"initial": {"q_L3": 0.0, "q_L2": 4.7e-7}, "velocity": {"q_L3": 1e-3, "q_L2": 0.0}}
+    span = 30.0  # some 10⁵ periods of the tank: integrated, millions of evaluations
+    scene = Scene(m, ["q_L2"], span, points=301, **start)
+    (part,) = scene.plan.parts
+    assert part.method == "exact" and part.eliminated == []
+    assert "q_L3 ignorable, not eliminated: the part is linear time-invariant and solved exactly as it is" in scene.report()
+    ref = m.simulate(span, method="exact", t_eval=scene.grid, **start)
+    assert np.max(np.abs(scene.run()["q_L2"] - ref["q_L2"])) < 1e-9 * 4.7e-7
+    forced = Scene(m, ["q_L2"], span, points=301, reduce=True, **start)
+    assert forced.plan.parts[0].eliminated == ["q_L3"]
+    assert np.max(np.abs(forced.run()["q_L2"] - ref["q_L2"])) < 1e-8 * 4.7e-7
