@@ -92,6 +92,7 @@ with warnings.catch_warnings():
     _scenes = lazy_loader.load("lagrangian.analysis.scene")
     _c_build = lazy_loader.load("lagrangian.numerics.c_build")
     _channels = lazy_loader.load("lagrangian.analysis.channels")
+    _result = lazy_loader.load("lagrangian.numerics.result")
 
 __all__ = ["main"]
 
@@ -524,7 +525,8 @@ def _simulation_chart(res, columns: dict | None, path: str) -> None:
         for label, values in columns.items():
             ax.plot(res.t, values, label=label)
         ax.set_xlabel("t (s)")
-        ax.legend()
+        if len(columns) <= _result.PLOT_SERIES:
+            ax.legend()
     else:
         ax = res.plot()
     ax.figure.savefig(path, dpi=110)
@@ -566,6 +568,9 @@ def _simulate(args) -> int:
     except OSError as exc:
         return _fail(_write_failure("--out", args.out, exc))
     names = list(shown)
+    if suffix == ".png" and columns is None and len(names) > _result.PLOT_SERIES:
+        print(f"the chart draws the first {_result.PLOT_SERIES} of {len(names)} coordinates: --output names the ones "
+              f"to draw")
     print(f"written: {args.out} ({kinds[suffix]}; final {', '.join(f'{n} = {shown[n][-1]:.6g}' for n in names[:4])}"
           f"{', …' if len(names) > 4 else ''}; max |x| {max(float(np.max(np.abs(v))) for v in shown.values()):.6g})")
     return 0

@@ -6,6 +6,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import numpy as np
+import pytest
 import sympy as sp
 
 import lagrangian as lg
@@ -73,3 +74,41 @@ def test_result_plots_coordinates_velocities_and_energies():
     labels = [l.get_label() for l in ax.get_lines()]
     assert labels == ["T", "V", "T+V"]
     np.testing.assert_allclose(ax.get_lines()[2].get_ydata(), 0.5, atol=1e-7)  # ½λ²/L + ½Cλ̇² = ½
+
+
+@pytest.mark.slow
+def test_a_chart_of_many_coordinates_draws_the_first_and_says_so(tmp_path):
+    """A 30-section ladder has 31 coordinates: the chart draws the first PLOT_SERIES with a legend and says how
+    many of how many; named coordinates are drawn as asked, without a legend past PLOT_SERIES; the command line
+    says what its chart holds."""
+    import subprocess
+    import sys
+
+    import matplotlib.pyplot as plt
+
+    from lagrangian.numerics.result import PLOT_SERIES
+
+    m = lg.Model("ladder")
+    m.add("voltage_source", "V1", ("n0", "0"), E=sp.sin(2 * lg.t))
+    for k in range(30):
+        m.add("inductor", f"L{k}", (f"n{k}", f"n{k + 1}"), L=0.3 + 0.01 * k)
+        m.add("capacitor", f"C{k}", (f"n{k + 1}", "0"), C=7e-3 * (1 + 0.1 * k))
+    m.add("resistor", "R", (f"n{30}", "0"), R=4.7)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", lg.InitialConditionWarning)
+        res = m.simulate(1, points=11)
+    assert len(res.names) == 31  # a charge per loop: the 30 inductors and the resistor
+    ax = res.plot()
+    assert [line.get_label() for line in ax.get_lines()] == res.names[:PLOT_SERIES]
+    assert ax.get_legend() is not None and f"the first {PLOT_SERIES} of 31 coordinates" in ax.get_title()
+    ax = res.plot(*res.names[:20])
+    assert len(ax.get_lines()) == 20 and ax.get_legend() is None and "20 series" in ax.get_title()
+    plt.close("all")
+    deck = tmp_path / "ladder.cir"
+    deck.write_text("ladder\nV1 n0 0 SIN(0 1 0.3)\n" + "".join(
+        f"L{k} n{k} n{k + 1} 0.3\nC{k} n{k + 1} 0 7m\n" for k in range(30)) + "R n30 0 4.7\n.end\n")
+    run = subprocess.run([sys.executable, "-m", "lagrangian", "simulate", str(deck), "--points", "21",
+                          "--out", str(tmp_path / "all.png")], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert f"the chart draws the first {PLOT_SERIES} of 31 coordinates" in run.stdout
+    assert (tmp_path / "all.png").stat().st_size > 10_000 and "constrained_layout" not in run.stderr

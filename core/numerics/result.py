@@ -18,6 +18,11 @@ from ..errors import ModelError, UnknownNameError
 
 __all__ = ["Result"]
 
+#: :meth:`Result.plot` without names draws at most this many coordinates (the first ones, and says so in its title),
+#: and an axes with more series than this has no legend: 200 entries do not fit a chart, nor do 200 lines read
+#: (ten: matplotlib's colours before they repeat).
+PLOT_SERIES = 10
+
 
 @dataclass(repr=False)
 class Result:
@@ -320,9 +325,11 @@ class Result:
 
     @charts.plain
     def plot(self, *names: str, velocity: bool = False, energy: bool = False, ax=None, label: str | None = None):
-        """Plot coordinates (all, or ``names``) against time, one axes per unit (a charge and a displacement are
-        not drawn on one scale), each labelled with its unit; return the matplotlib ``Axes``, or an array of them
-        (one per unit, top to bottom, sharing ``t``) when the series have several units and no ``ax`` is given.
+        """Plot coordinates (``names``, or all of them up to :data:`PLOT_SERIES`: the first ones, the title says
+        how many of how many) against time, one axes per unit (a charge and a displacement are not drawn on one
+        scale), each labelled with its unit and with a legend up to :data:`PLOT_SERIES` series; return the matplotlib
+        ``Axes``, or an array of them (one per unit, top to bottom, sharing ``t``) when the series have several units
+        and no ``ax`` is given.
 
         ``velocity=True`` plots velocities instead; ``energy=True`` plots T, V and T+V (J).
 
@@ -349,8 +356,9 @@ class Result:
             ax.grid(True, alpha=0.3)
             ax.legend()
             return ax
+        chosen = list(names) or self.names[:PLOT_SERIES]
         groups: dict[str, list[str]] = {}
-        for name in names or self.names:
+        for name in chosen:
             unit = coordinate_unit(name)
             groups.setdefault(f"{unit}/s" if velocity and unit else unit, []).append(name)
         what = "velocity" if velocity else "coordinate"
@@ -368,6 +376,12 @@ class Result:
                 axis.plot(self.t, series, label=prefix + (f"d{name}/dt" if velocity else name))
             axis.set_ylabel(f"{what} ({unit})" if unit else what)
             axis.grid(True, alpha=0.3)
-            axis.legend()
+            if len(members) <= PLOT_SERIES:
+                axis.legend()
+            else:
+                axis.set_title(f"{len(members)} series (a legend up to {PLOT_SERIES})", fontsize="small")
+        if len(chosen) < len(self.names) and not names:
+            axes[0].set_title(f"the first {len(chosen)} of {len(self.names)} coordinates: name others to draw them",
+                              fontsize="small")
         axes[-1].set_xlabel("t (s)")
         return axes[0] if len(axes) == 1 else axes
