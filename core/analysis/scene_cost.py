@@ -10,9 +10,10 @@ run's pace from 131,072 evaluations on):
 * a run that ends within it is the part's solution: the scene keeps it, and :meth:`Scene.run` returns it without
   integrating again.  A scene that rightly declines the reduction costs what the full model costs, with no pilot
   run on top (a pilot over 2 % of the span cost Kepler's orbit 2 % of its run; ``benchmarks/scenes.py``);
-* a run that at its pace would need more is stopped, and the part is reduced.  What it spent is at most about a
-  third of the break-even (131,072 of at least 400,000 evaluations), so deciding never costs more than a third of
-  the reduction it decides on; a long run is stopped after a small share of it.
+* a run that at its pace would need more is stopped, and the part is reduced.  What it spent is never more than
+  the break-even (its projection passes the budget before its count does), about a third of it for a run at a
+  steady pace (131,072 of at least 400,000 evaluations), so deciding costs at most what the reduction it decides
+  on costs, usually a third; a long run is stopped after a small share of it.
 """
 
 from __future__ import annotations
