@@ -14,6 +14,10 @@ run's pace from 131,072 evaluations on):
   the break-even (its projection passes the budget before its count does), about a third of it for a run at a
   steady pace (131,072 of at least 400,000 evaluations), so deciding costs at most what the reduction it decides
   on costs, usually a third; a long run is stopped after a small share of it.
+
+The plan is made when first read, so ``Scene.report()`` before ``Scene.run()`` makes that run (within the
+break-even); with ``progress``, a run stopped at the break-even reports part of the span before the reduced run
+reports its own.
 """
 
 from __future__ import annotations
