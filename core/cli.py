@@ -525,8 +525,7 @@ def _simulation_chart(res, columns: dict | None, path: str) -> None:
         for label, values in columns.items():
             ax.plot(res.t, values, label=label)
         ax.set_xlabel("t (s)")
-        if len(columns) <= _result.PLOT_SERIES:
-            ax.legend()
+        _result.legend(ax)
     else:
         ax = res.plot()
     ax.figure.savefig(path, dpi=110)

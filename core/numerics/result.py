@@ -24,6 +24,16 @@ __all__ = ["Result"]
 PLOT_SERIES = 10
 
 
+def legend(axis) -> None:
+    """A legend of the series drawn on ``axis``, up to :data:`PLOT_SERIES` of them; past that, their count in its
+    title."""
+    count = len(axis.get_lines())
+    if count <= PLOT_SERIES:
+        axis.legend()
+    else:
+        axis.set_title(f"{count} series (a legend up to {PLOT_SERIES})", fontsize="small")
+
+
 @dataclass(repr=False)
 class Result:
     """The outcome of :meth:`lagrangian.Model.simulate`.
@@ -376,10 +386,7 @@ class Result:
                 axis.plot(self.t, series, label=prefix + (f"d{name}/dt" if velocity else name))
             axis.set_ylabel(f"{what} ({unit})" if unit else what)
             axis.grid(True, alpha=0.3)
-            if len(members) <= PLOT_SERIES:
-                axis.legend()
-            else:
-                axis.set_title(f"{len(members)} series (a legend up to {PLOT_SERIES})", fontsize="small")
+            legend(axis)
         if len(chosen) < len(self.names) and not names:
             axes[0].set_title(f"the first {len(chosen)} of {len(self.names)} coordinates: name others to draw them",
                               fontsize="small")
